@@ -1,0 +1,213 @@
+"""The wire types, kept by hand to match ``idl/paramdds.idl`` exactly.
+
+``tests/test_idl_identity.py`` compiles the IDL and compares XTypes type
+identifiers with these classes, so the two cannot drift apart. Every struct is
+``@appendable``: members may be added at the end without breaking deployed
+nodes (see the README's wire-compatibility section).
+
+Values follow rcl_interfaces: a ``type`` byte and one member per type.
+"""
+
+
+from dataclasses import dataclass, field
+
+from cyclonedds.idl import IdlStruct
+from cyclonedds.idl.annotations import appendable, key
+from cyclonedds.idl.types import bounded_str, float64, int32, int64, sequence, uint8, uint32, uint64
+
+MAX_KEY_LEN = 255  # bytes of UTF-8, for node ids and parameter names
+
+# ParameterEvent.kind
+EVENT_PARAMETER = 0  # one parameter's current value and descriptor
+EVENT_PRESENCE = 1  # the node itself: host, pid, revision, parameter count; name is ""
+
+
+@dataclass
+@appendable
+class ParameterValue(IdlStruct, typename="paramdds.ParameterValue"):
+    type: uint8 = 0
+    bool_value: bool = False
+    integer_value: int64 = 0
+    double_value: float64 = 0.0
+    string_value: str = ""
+    byte_array_value: sequence[uint8] = field(default_factory=list)
+    bool_array_value: sequence[bool] = field(default_factory=list)
+    integer_array_value: sequence[int64] = field(default_factory=list)
+    double_array_value: sequence[float64] = field(default_factory=list)
+    string_array_value: sequence[str] = field(default_factory=list)
+
+
+@dataclass
+@appendable
+class IntegerRange(IdlStruct, typename="paramdds.IntegerRange"):
+    from_value: int64 = 0
+    to_value: int64 = 0
+    step: uint64 = 0
+
+
+@dataclass
+@appendable
+class FloatingPointRange(IdlStruct, typename="paramdds.FloatingPointRange"):
+    from_value: float64 = 0.0
+    to_value: float64 = 0.0
+    step: float64 = 0.0
+
+
+@dataclass
+@appendable
+class Validator(IdlStruct, typename="paramdds.Validator"):
+    kind: str = ""
+    args: sequence[ParameterValue] = field(default_factory=list)
+
+
+@dataclass
+@appendable
+class ParameterDescriptor(IdlStruct, typename="paramdds.ParameterDescriptor"):
+    name: str = ""
+    type: uint8 = 0
+    description: str = ""
+    additional_constraints: str = ""
+    read_only: bool = False
+    dynamic_typing: bool = False
+    integer_range: sequence[IntegerRange, 1] = field(default_factory=list)
+    floating_point_range: sequence[FloatingPointRange, 1] = field(default_factory=list)
+    validators: sequence[Validator] = field(default_factory=list)
+
+
+@dataclass
+@appendable
+class Parameter(IdlStruct, typename="paramdds.Parameter"):
+    name: str = ""
+    value: ParameterValue = field(default_factory=ParameterValue)
+
+
+@dataclass
+@appendable
+class Time(IdlStruct, typename="paramdds.Time"):
+    sec: int32 = 0
+    nanosec: uint32 = 0
+
+
+@dataclass
+@appendable
+class ParameterEvent(IdlStruct, typename="paramdds.ParameterEvent"):
+    """State of one parameter of one node (kind 0), or the node's presence (kind 1)."""
+
+    node_id: bounded_str[MAX_KEY_LEN] = ""
+    key("node_id")
+    name: bounded_str[MAX_KEY_LEN] = ""
+    key("name")
+    kind: uint8 = EVENT_PARAMETER
+    revision: int64 = 0
+    stamp: Time = field(default_factory=Time)
+    value: ParameterValue = field(default_factory=ParameterValue)
+    descriptor: ParameterDescriptor = field(default_factory=ParameterDescriptor)
+    host: str = ""
+    pid: int32 = 0
+    parameter_count: uint32 = 0
+
+
+@dataclass
+@appendable
+class SetParametersRequest(IdlStruct, typename="paramdds.SetParametersRequest"):
+    node_id: bounded_str[MAX_KEY_LEN] = ""
+    key("node_id")
+    client_id: uint64 = 0
+    request_id: uint64 = 0
+    atomic: bool = False
+    expected_revision: int64 = -1  # -1: no compare-and-set
+    retained: bool = False  # an assignment (TRANSIENT_LOCAL, never on the interactive path)
+    parameters: sequence[Parameter] = field(default_factory=list)
+
+
+@dataclass
+@appendable
+class SetParameterResult(IdlStruct, typename="paramdds.SetParameterResult"):
+    name: str = ""
+    successful: bool = False
+    reason: str = ""
+    code: str = ""  # an ErrorCode name, "" on success
+
+
+@dataclass
+@appendable
+class SetParametersResponse(IdlStruct, typename="paramdds.SetParametersResponse"):
+    node_id: bounded_str[MAX_KEY_LEN] = ""
+    key("node_id")
+    client_id: uint64 = 0
+    request_id: uint64 = 0
+    revision: int64 = 0
+    code: str = ""  # a failure of the whole request (TOO_LARGE, INVALID_VALUE…), "" otherwise
+    reason: str = ""
+    results: sequence[SetParameterResult] = field(default_factory=list)
+
+
+@dataclass
+@appendable
+class GetParametersRequest(IdlStruct, typename="paramdds.GetParametersRequest"):
+    node_id: bounded_str[MAX_KEY_LEN] = ""
+    key("node_id")
+    client_id: uint64 = 0
+    request_id: uint64 = 0
+    with_descriptors: bool = False
+    names: sequence[str] = field(default_factory=list)
+
+
+@dataclass
+@appendable
+class GetParameterResult(IdlStruct, typename="paramdds.GetParameterResult"):
+    name: str = ""
+    code: str = ""  # "" when found, else NOT_FOUND / INVALID_NAME
+    reason: str = ""
+    value: ParameterValue = field(default_factory=ParameterValue)
+    descriptor: sequence[ParameterDescriptor, 1] = field(default_factory=list)
+
+
+@dataclass
+@appendable
+class GetParametersResponse(IdlStruct, typename="paramdds.GetParametersResponse"):
+    node_id: bounded_str[MAX_KEY_LEN] = ""
+    key("node_id")
+    client_id: uint64 = 0
+    request_id: uint64 = 0
+    revision: int64 = 0
+    code: str = ""
+    reason: str = ""
+    results: sequence[GetParameterResult] = field(default_factory=list)
+
+
+@dataclass
+@appendable
+class ListParametersRequest(IdlStruct, typename="paramdds.ListParametersRequest"):
+    node_id: bounded_str[MAX_KEY_LEN] = ""
+    key("node_id")
+    client_id: uint64 = 0
+    request_id: uint64 = 0
+    depth: uint64 = 0
+    prefixes: sequence[str] = field(default_factory=list)
+
+
+@dataclass
+@appendable
+class ListParametersResponse(IdlStruct, typename="paramdds.ListParametersResponse"):
+    node_id: bounded_str[MAX_KEY_LEN] = ""
+    key("node_id")
+    client_id: uint64 = 0
+    request_id: uint64 = 0
+    revision: int64 = 0
+    code: str = ""
+    reason: str = ""
+    names: sequence[str] = field(default_factory=list)
+    prefixes: sequence[str] = field(default_factory=list)
+
+
+# topic name -> type, in the order of design.md's table
+TOPICS: dict[str, type[IdlStruct]] = {
+    "ParameterEvents": ParameterEvent,
+    "SetParametersRequest": SetParametersRequest,
+    "SetParametersResponse": SetParametersResponse,
+    "GetParametersRequest": GetParametersRequest,
+    "GetParametersResponse": GetParametersResponse,
+    "ListParametersRequest": ListParametersRequest,
+    "ListParametersResponse": ListParametersResponse,
+}

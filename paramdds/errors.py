@@ -1,0 +1,160 @@
+"""The one exception tree of paramdds.
+
+Every failure a user can meet is a :class:`ParamddsError` with a machine-readable
+``code`` (an :class:`ErrorCode`), so the CLI, the Python API and any future web layer
+map errors without matching on message text::
+
+    ParamddsError                      code
+    ├── ParameterError                 the node's rules refused something
+    │   ├── NotFoundError              NOT_FOUND (unknown parameter or node)
+    │   ├── ReadOnlyError              READ_ONLY
+    │   ├── TypeMismatchError          TYPE_MISMATCH
+    │   ├── OutOfRangeError            OUT_OF_RANGE
+    │   ├── InvalidValueError          INVALID_VALUE
+    │   ├── InvalidNameError           INVALID_NAME
+    │   ├── AlreadyDeclaredError       ALREADY_DECLARED
+    │   ├── ConflictError              CONFLICT (compare-and-set lost)
+    │   └── CallbackError              IN_CALLBACK (parameters changed from a callback)
+    ├── FileFormatError                FILE_FORMAT (YAML file; carries file and line)
+    ├── TooLargeError                  TOO_LARGE (a request or value over our limits)
+    └── TransportError                 the node could not be reached
+        ├── TimeoutError_              TIMEOUT (no answer within the timeout)
+        └── UnavailableError           UNAVAILABLE (the node is not present)
+
+Lower-level errors (PyYAML, Cyclone) are mapped to these at exactly one boundary,
+with ``raise … from``.
+"""
+
+from __future__ import annotations
+
+from enum import Enum
+
+
+class ErrorCode(str, Enum):
+    NOT_FOUND = "NOT_FOUND"
+    READ_ONLY = "READ_ONLY"
+    TYPE_MISMATCH = "TYPE_MISMATCH"
+    OUT_OF_RANGE = "OUT_OF_RANGE"
+    INVALID_VALUE = "INVALID_VALUE"
+    INVALID_NAME = "INVALID_NAME"
+    ALREADY_DECLARED = "ALREADY_DECLARED"
+    CONFLICT = "CONFLICT"
+    IN_CALLBACK = "IN_CALLBACK"
+    FILE_FORMAT = "FILE_FORMAT"
+    TOO_LARGE = "TOO_LARGE"
+    TIMEOUT = "TIMEOUT"
+    UNAVAILABLE = "UNAVAILABLE"
+
+
+class ParamddsError(Exception):
+    """Base of every error paramdds raises on purpose."""
+
+    code: ErrorCode = ErrorCode.INVALID_VALUE
+
+    def __init__(self, message: str, *, code: ErrorCode | None = None) -> None:
+        super().__init__(message)
+        self.message = message
+        if code is not None:
+            self.code = code
+
+
+class ParameterError(ParamddsError):
+    """A node's rules refused a request (the node itself is fine)."""
+
+
+class NotFoundError(ParameterError):
+    code = ErrorCode.NOT_FOUND
+
+
+class ReadOnlyError(ParameterError):
+    code = ErrorCode.READ_ONLY
+
+
+class TypeMismatchError(ParameterError):
+    code = ErrorCode.TYPE_MISMATCH
+
+
+class OutOfRangeError(ParameterError):
+    code = ErrorCode.OUT_OF_RANGE
+
+
+class InvalidValueError(ParameterError):
+    code = ErrorCode.INVALID_VALUE
+
+
+class InvalidNameError(ParameterError):
+    code = ErrorCode.INVALID_NAME
+
+
+class AlreadyDeclaredError(ParameterError):
+    code = ErrorCode.ALREADY_DECLARED
+
+
+class ConflictError(ParameterError):
+    code = ErrorCode.CONFLICT
+
+
+class CallbackError(ParameterError):
+    code = ErrorCode.IN_CALLBACK
+
+
+class FileFormatError(ParamddsError):
+    """A parameter file could not be used. ``str()`` reads ``file:line: message``."""
+
+    code = ErrorCode.FILE_FORMAT
+
+    def __init__(self, message: str, *, file: str | None = None, line: int | None = None) -> None:
+        self.file = file
+        self.line = line
+        where = file or "<string>"
+        if line is not None:
+            where = f"{where}:{line}"
+        super().__init__(f"{where}: {message}")
+        self.detail = message
+
+
+class TooLargeError(ParamddsError):
+    code = ErrorCode.TOO_LARGE
+
+
+class TransportError(ParamddsError):
+    """The node could not be reached."""
+
+
+class TimeoutError_(TransportError):
+    code = ErrorCode.TIMEOUT
+
+
+class UnavailableError(TransportError):
+    code = ErrorCode.UNAVAILABLE
+
+
+_BY_CODE: dict[ErrorCode, type[ParamddsError]] = {
+    cls.code: cls
+    for cls in (
+        NotFoundError,
+        ReadOnlyError,
+        TypeMismatchError,
+        OutOfRangeError,
+        InvalidValueError,
+        InvalidNameError,
+        AlreadyDeclaredError,
+        ConflictError,
+        CallbackError,
+        FileFormatError,
+        TooLargeError,
+        TimeoutError_,
+        UnavailableError,
+    )
+}
+
+
+def error_for(code: ErrorCode | str, message: str) -> ParamddsError:
+    """The exception a remote ``code`` stands for (used where a reply carries a code)."""
+    try:
+        cls = _BY_CODE[ErrorCode(code)]
+    except ValueError:
+        return ParamddsError(message)
+    if cls is FileFormatError:
+        return FileFormatError(message)
+    return cls(message)
