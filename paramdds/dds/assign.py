@@ -1,0 +1,47 @@
+"""Retained assignments: desired values that reach a node whenever it starts.
+
+An :class:`Assigner` writes one ``SetParametersRequest`` per node with
+``retained=True`` through a TRANSIENT_LOCAL writer (the Assignment profile,
+KEEP_LAST 1 per node). A server applies it through the same validation as any
+set, when it starts or when the assignment changes. It never rides the
+interactive path: interactive readers are VOLATILE and skip retained samples, and
+a VOLATILE request writer does not match the TRANSIENT_LOCAL assignment reader.
+TRANSIENT_LOCAL data lives as long as its writer, so the assigner stays up.
+"""
+
+from __future__ import annotations
+
+import itertools
+import secrets
+from typing import Any
+
+from cyclonedds.pub import DataWriter
+from cyclonedds.topic import Topic
+
+from ..core.names import canonical_node_id
+from . import types as wire
+from .client import ParamsArg, _to_parameters
+from .convert import parameter_to_wire
+from .qos import QosProfiles
+
+
+class Assigner:
+    def __init__(self, participant: Any, qos: QosProfiles | None = None) -> None:
+        qos = qos or QosProfiles.load()
+        topic = Topic(participant, "SetParametersRequest", wire.SetParametersRequest)
+        self._writer = DataWriter(participant, topic, qos.assignment_writer())
+        self.client_id = secrets.randbits(64) or 1
+        self._ids = itertools.count(1)
+
+    def assign(self, node: str, params: ParamsArg) -> None:
+        """Retain ``params`` for ``node`` (replacing what this assigner held for it)."""
+        node = canonical_node_id(node)
+        self._writer.write(
+            wire.SetParametersRequest(
+                node_id=node,
+                client_id=self.client_id,
+                request_id=next(self._ids),
+                retained=True,
+                parameters=[parameter_to_wire(p) for p in _to_parameters(params)],
+            )
+        )

@@ -1,0 +1,217 @@
+"""The monitor: one reader on ``ParameterEvents`` watches every node in the system.
+
+Because ``ParameterEvents`` is keyed by (node_id, name) and TRANSIENT_LOCAL, a
+monitor that starts late receives each node's whole current table, not the last
+change (design.md, trap 1). From the instance states it derives:
+
+* a parameter sample whose name is new to the node → ``added``, else ``modified``;
+* a parameter instance disposed → ``deleted``;
+* the presence instance (name ``""``) alive → ``online``; no writers (graceful
+  stop, or a killed server after its 1 s liveliness lease) → ``offline``. An
+  offline node keeps its last values.
+
+``synced`` is emitted once, when every node seen holds as many parameters as its
+presence announces and no sample has arrived for :data:`QUIET` seconds.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field, replace
+from enum import Enum
+from typing import Any
+
+from cyclonedds.core import InstanceState
+from cyclonedds.sub import DataReader
+from cyclonedds.topic import Topic
+
+from ..core.descriptors import ParameterDescriptor
+from ..core.names import canonical_node_id
+from ..core.values import ParameterValue
+from . import types as wire
+from .convert import descriptor_from_wire, value_from_wire
+from .dispatch import Dispatcher
+from .qos import QosProfiles
+
+QUIET = 0.1  # seconds without new samples before the initial state counts as received
+
+
+class EventKind(str, Enum):
+    ADDED = "added"
+    MODIFIED = "modified"
+    DELETED = "deleted"
+    ONLINE = "online"
+    OFFLINE = "offline"
+    SYNCED = "synced"
+
+
+@dataclass(frozen=True)
+class MonitorEvent:
+    event: EventKind
+    node: str = ""
+    name: str = ""
+    value: ParameterValue | None = None
+    descriptor: ParameterDescriptor | None = None
+    revision: int = 0
+    stamp: float = 0.0  # seconds since the epoch, from the writer
+
+
+@dataclass
+class NodeState:
+    node: str
+    online: bool = False
+    host: str = ""
+    pid: int = 0
+    revision: int = 0
+    announced: int = -1  # parameter count from the presence instance; -1 before it is seen
+    parameters: dict[str, tuple[ParameterValue, ParameterDescriptor]] = field(default_factory=dict)
+
+    @property
+    def complete(self) -> bool:
+        """True when this monitor holds every parameter the node announced."""
+        return self.announced == len(self.parameters)
+
+
+EventCallback = Callable[[MonitorEvent], None]
+
+
+class ParameterMonitor:
+    def __init__(
+        self,
+        participant: Any,
+        qos: QosProfiles | None = None,
+        *,
+        nodes: Iterable[str] | None = None,
+        on_event: EventCallback | None = None,
+    ) -> None:
+        self._states: dict[str, NodeState] = {}
+        self._cond = threading.Condition()
+        self._callbacks: list[EventCallback] = [on_event] if on_event else []
+        self._last_sample = time.monotonic()
+        self._synced = False
+        self._only = {canonical_node_id(n) for n in nodes} if nodes else None
+        qos = qos or QosProfiles.load()
+        topic = Topic(participant, "ParameterEvents", wire.ParameterEvent)
+        if self._only is not None:
+            only = self._only
+            topic.set_topic_filter(lambda _t, s: s.node_id in only)
+        self._dispatcher = Dispatcher(participant, "paramdds-monitor")
+        self._dispatcher.add(DataReader(participant, topic, qos.reader("ParameterEvents")), self._on_samples)
+        self._dispatcher.start()
+        self._closed = False
+        self._sync_thread = threading.Thread(target=self._watch_sync, name="paramdds-sync", daemon=True)
+        self._sync_thread.start()
+
+    def add_callback(self, fn: EventCallback) -> None:
+        self._callbacks.append(fn)
+
+    def close(self) -> None:
+        self._closed = True
+        with self._cond:
+            self._cond.notify_all()
+        self._dispatcher.close()
+
+    def __enter__(self) -> ParameterMonitor:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- queries ----------------------------------------------------------------------
+
+    def snapshot(self) -> dict[str, NodeState]:
+        """A copy of every node's state as this monitor holds it now."""
+        with self._cond:
+            return {n: replace(s, parameters=dict(s.parameters)) for n, s in self._states.items()}
+
+    @property
+    def synced(self) -> bool:
+        return self._synced
+
+    def wait_until(self, predicate: Callable[[dict[str, NodeState]], bool], timeout: float) -> bool:
+        """Wait until ``predicate(states)`` holds (it sees the live dict; do not keep it)."""
+        deadline = time.monotonic() + timeout
+        with self._cond:
+            while not predicate(self._states):
+                remaining = deadline - time.monotonic()
+                if remaining <= 0 or self._closed:
+                    return False
+                self._cond.wait(remaining)
+            return True
+
+    def wait_complete(self, nodes: Iterable[str], timeout: float) -> bool:
+        """Wait until the full state of every node in ``nodes`` is here."""
+        wanted = [canonical_node_id(n) for n in nodes]
+        return self.wait_until(lambda s: all(n in s and s[n].complete for n in wanted), timeout)
+
+    def wait_synced(self, timeout: float) -> bool:
+        return self.wait_until(lambda _s: self._synced, timeout)
+
+    # -- samples → state and events -------------------------------------------------------
+
+    def _on_samples(self, samples: Sequence[Any]) -> None:
+        events: list[MonitorEvent] = []
+        with self._cond:
+            self._last_sample = time.monotonic()
+            for s in samples:
+                event = self._apply(s)
+                if event is not None:
+                    events.append(event)
+            self._cond.notify_all()
+        self._emit(events)
+
+    def _apply(self, s: Any) -> MonitorEvent | None:
+        info = s.sample_info
+        key = s if info.valid_data else s.key_sample
+        if self._only is not None and key.node_id not in self._only:
+            return None
+        state = self._states.get(key.node_id)
+        if state is None:
+            state = self._states[key.node_id] = NodeState(key.node_id)
+        if key.name == "" and (not info.valid_data or s.kind == wire.EVENT_PRESENCE):
+            return self._apply_presence(state, s, info)
+        if not info.valid_data:
+            if info.instance_state == InstanceState.NotAliveDisposed and key.name in state.parameters:
+                value, descriptor = state.parameters.pop(key.name)
+                return MonitorEvent(EventKind.DELETED, state.node, key.name, value, descriptor, state.revision)
+            return None  # "no writers" on a parameter: the node is offline, keep its value
+        value, descriptor = value_from_wire(s.value), descriptor_from_wire(s.descriptor)
+        kind = EventKind.MODIFIED if key.name in state.parameters else EventKind.ADDED
+        state.parameters[key.name] = (value, descriptor)
+        return MonitorEvent(kind, state.node, key.name, value, descriptor, s.revision, _seconds(s.stamp))
+
+    def _apply_presence(self, state: NodeState, s: Any, info: Any) -> MonitorEvent | None:
+        was_online = state.online
+        if info.valid_data:
+            state.online = info.instance_state == InstanceState.Alive
+            state.host, state.pid = s.host, s.pid
+            state.revision, state.announced = s.revision, s.parameter_count
+        else:
+            state.online = False
+        if state.online == was_online:
+            return None
+        kind = EventKind.ONLINE if state.online else EventKind.OFFLINE
+        return MonitorEvent(kind, state.node, revision=state.revision, stamp=time.time())
+
+    def _emit(self, events: list[MonitorEvent]) -> None:
+        for event in events:
+            for fn in self._callbacks:
+                fn(event)
+
+    def _watch_sync(self) -> None:
+        with self._cond:
+            while not self._closed:
+                quiet_for = time.monotonic() - self._last_sample
+                if quiet_for >= QUIET and all(s.complete or not s.online for s in self._states.values()):
+                    self._synced = True
+                    self._cond.notify_all()
+                    break
+                self._cond.wait(max(0.005, QUIET - quiet_for))
+        if self._synced:
+            self._emit([MonitorEvent(EventKind.SYNCED, stamp=time.time())])
+
+
+def _seconds(stamp: Any) -> float:
+    return float(stamp.sec) + stamp.nanosec / 1e9

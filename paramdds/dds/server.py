@@ -1,0 +1,367 @@
+"""The parameter server: hosts one or many node ids behind seven global topics.
+
+How it works:
+
+* Each request topic is read through a reader whose Topic object carries a filter
+  that passes only the hosted node ids (a separate Topic object from the reply
+  writers': a filter on a writer's Topic would drop that writer's own samples).
+* One dispatch thread wakes on a WaitSet, applies each request atomically through
+  the node's :class:`~paramdds.core.table.ParameterTable`, and answers with the
+  requester's ``client_id`` and ``request_id``.
+* Parameter state goes to ``ParameterEvents`` keyed by (node_id, name): declare and
+  change write, delete disposes, a graceful stop unregisters (the State profile
+  turns autodispose off, so readers see "no writers", not "deleted"). Each node
+  also keeps a presence instance (name ``""``) with host, pid, revision and count.
+* A set's reply is written before its state samples, so publishing state does not
+  add to the round trip. With ``before_reply`` hooks (persistence) a change is on
+  disk before it is acknowledged.
+* Retained assignments arrive on ``SetParametersRequest`` with ``retained=True``
+  from a TRANSIENT_LOCAL writer; a second, TRANSIENT_LOCAL reader takes them. The
+  interactive (VOLATILE) reader ignores them and the assignment reader never sees
+  interactive requests (a VOLATILE writer does not match a TRANSIENT_LOCAL reader).
+* Retried requests (same client_id and request_id) get the cached reply again
+  and are never applied twice.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import socket
+import threading
+import time
+from collections import OrderedDict
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from cyclonedds.pub import DataWriter
+from cyclonedds.sub import DataReader
+from cyclonedds.topic import Topic
+
+from ..core.limits import MAX_PARAMETERS_PER_REQUEST
+from ..core.names import canonical_node_id
+from ..core.table import ChangeKind, ChangeSet, ParameterTable, SetResult
+from ..core.values import Parameter
+from ..errors import ErrorCode, ParamddsError
+from . import types as wire
+from .convert import descriptor_to_wire, parameter_from_wire, value_to_wire
+from .dispatch import Dispatcher
+from .qos import QosProfiles
+
+log = logging.getLogger(__name__)
+
+DEDUP_WINDOW = 4096  # replies kept for retried requests, per server
+BeforeReply = Callable[[str, ParameterTable, ChangeSet], None]
+
+
+def now_stamp() -> wire.Time:
+    ns = time.time_ns()
+    return wire.Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+
+
+class ParameterServer:
+    """Serves the tables it hosts. ``start()`` begins serving, ``close()`` stops gracefully."""
+
+    def __init__(self, participant: Any, qos: QosProfiles | None = None) -> None:
+        self._dp = participant
+        self._qos = qos or QosProfiles.load()
+        self._tables: dict[str, ParameterTable] = {}
+        self._listener_handles: dict[str, object] = {}
+        self._host = socket.gethostname()
+        self._pid = os.getpid()
+        self._lock = threading.Lock()
+        self._deferred: list[ChangeSet] | None = None
+        self._replies: OrderedDict[tuple[str, int, int], Any] = OrderedDict()
+        self._logged_bad: set[str] = set()
+        self.before_reply: list[BeforeReply] = []
+        self._closed = False
+
+        self._state_writer = DataWriter(
+            participant, Topic(participant, "ParameterEvents", wire.ParameterEvent),
+            self._qos.writer("ParameterEvents"),
+        )
+        self._reply_writers = {
+            name: DataWriter(participant, Topic(participant, name, wire.TOPICS[name]), self._qos.writer(name))
+            for name in ("SetParametersResponse", "GetParametersResponse", "ListParametersResponse")
+        }
+        self._dispatcher = Dispatcher(participant, "paramdds-server")
+        handlers = {
+            "SetParametersRequest": self._on_set,
+            "GetParametersRequest": self._on_get,
+            "ListParametersRequest": self._on_list,
+        }
+        for name, handler in handlers.items():
+            reader = DataReader(participant, self._filtered_topic(name), self._qos.reader(name))
+            self._dispatcher.add(reader, handler)
+
+    def _filtered_topic(self, name: str) -> Any:
+        topic = Topic(self._dp, name, wire.TOPICS[name])
+        tables = self._tables
+
+        def hosted(_topic: Any, sample: Any) -> bool:
+            node_id = sample.node_id
+            return node_id in tables or node_id.lstrip("/") in tables
+
+        topic.set_topic_filter(hosted)
+        return topic
+
+    # -- hosting -----------------------------------------------------------------
+
+    def add_node(self, table: ParameterTable) -> None:
+        """Host ``table``: publish its state and presence and serve its requests."""
+        node_id = table.node_id
+        if node_id in self._tables:
+            raise ParamddsError(f"node {node_id!r} is already hosted by this server")
+        self._tables[node_id] = table
+        self._listener_handles[node_id] = table.add_change_listener(self._on_change)
+        for name, value, descriptor in table.snapshot():
+            self._state_writer.write(self._state_sample(table, name, value, descriptor, table.revision))
+        self._write_presence(table)
+
+    def remove_node(self, node_id: str) -> None:
+        """Stop hosting ``node_id`` gracefully: its instances become "no writers", not deleted."""
+        table = self._tables.pop(node_id)
+        table.remove_change_listener(self._listener_handles.pop(node_id))
+        for name in [*table.names(), ""]:
+            self._state_writer.unregister_instance(wire.ParameterEvent(node_id=node_id, name=name))
+
+    @property
+    def nodes(self) -> dict[str, ParameterTable]:
+        return dict(self._tables)
+
+    def start(self) -> ParameterServer:
+        """Serve. Retained assignments for the nodes hosted now are applied from here on.
+
+        The assignment reader is created here, after the nodes are added, because its
+        topic filter sees the retained samples once, when they are delivered.
+        """
+        reader = DataReader(self._dp, self._filtered_topic("SetParametersRequest"), self._qos.assignment_reader())
+        self._dispatcher.add(reader, self._on_assignment)
+        self._dispatcher.start()
+        return self
+
+    def close(self) -> None:
+        """Graceful stop: unregister every instance (readers see the nodes offline)."""
+        if self._closed:
+            return
+        self._closed = True
+        self._dispatcher.close()
+        for node_id in list(self._tables):
+            self.remove_node(node_id)
+
+    def __enter__(self) -> ParameterServer:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- state publication ---------------------------------------------------------
+
+    def _state_sample(self, table: ParameterTable, name: str, value: Any, descriptor: Any, revision: int) -> Any:
+        return wire.ParameterEvent(
+            node_id=table.node_id,
+            name=name,
+            kind=wire.EVENT_PARAMETER,
+            revision=revision,
+            stamp=now_stamp(),
+            value=value_to_wire(value),
+            descriptor=descriptor_to_wire(descriptor),
+        )
+
+    def _write_presence(self, table: ParameterTable) -> None:
+        self._state_writer.write(
+            wire.ParameterEvent(
+                node_id=table.node_id,
+                name="",
+                kind=wire.EVENT_PRESENCE,
+                revision=table.revision,
+                stamp=now_stamp(),
+                host=self._host,
+                pid=self._pid,
+                parameter_count=len(table),
+            )
+        )
+
+    def _on_change(self, change: ChangeSet) -> None:
+        if self._deferred is not None and threading.get_ident() == self._dispatcher.thread_ident:
+            self._deferred.append(change)
+        else:
+            self._publish(change)
+
+    def _publish(self, change: ChangeSet) -> None:
+        table = self._tables.get(change.node_id)
+        if table is None:
+            return
+        for item in change.changes:
+            if item.kind is ChangeKind.DELETED:
+                self._state_writer.dispose(wire.ParameterEvent(node_id=change.node_id, name=item.name))
+            else:
+                self._state_writer.write(
+                    self._state_sample(table, item.name, item.value, item.descriptor, change.revision)
+                )
+        self._write_presence(table)
+
+    def _flush_deferred(self) -> None:
+        deferred, self._deferred = self._deferred or [], None
+        for change in deferred:
+            self._publish(change)
+
+    # -- requests -------------------------------------------------------------------
+
+    def _table_for(self, node_id: str) -> ParameterTable | None:
+        table = self._tables.get(node_id)
+        if table is None:
+            try:
+                table = self._tables.get(canonical_node_id(node_id))
+            except ParamddsError:
+                return None
+        return table
+
+    def _on_set(self, samples: Sequence[Any]) -> None:
+        for request in samples:
+            # assignments (retained) are taken by the assignment reader
+            if request.sample_info.valid_data and not request.retained:
+                self._handle_set(request, reply=True)
+
+    def _on_assignment(self, samples: Sequence[Any]) -> None:
+        for request in samples:
+            if request.sample_info.valid_data and request.retained:
+                self._handle_set(request, reply=False)
+
+    def _handle_set(self, request: Any, *, reply: bool) -> None:
+        table = self._table_for(request.node_id)
+        if table is None:
+            return
+        key = (table.node_id, request.client_id, request.request_id)
+        if reply and key in self._replies:
+            self._reply_writers["SetParametersResponse"].write(self._replies[key])
+            return
+        response = wire.SetParametersResponse(
+            node_id=table.node_id, client_id=request.client_id, request_id=request.request_id
+        )
+        self._deferred = []
+        try:
+            response.results, response.revision = self._apply_set(table, request)
+        except ParamddsError as exc:
+            response.code, response.reason, response.revision = exc.code.value, exc.message, table.revision
+        except Exception as exc:  # never let a bad request take the server down
+            log.exception("set request on %s failed", table.node_id)
+            response.code, response.reason = ErrorCode.INVALID_VALUE.value, f"internal error: {exc}"
+            response.revision = table.revision
+        try:
+            if reply:
+                self._remember(key, response)
+                self._reply_writers["SetParametersResponse"].write(response)
+            elif not all(r.successful for r in response.results) or response.code:
+                log.warning("assignment for %s partly refused: %s", table.node_id, _summary(response))
+        finally:
+            self._flush_deferred()
+
+    def _apply_set(self, table: ParameterTable, request: Any) -> tuple[list[Any], int]:
+        count = len(request.parameters)
+        if count > MAX_PARAMETERS_PER_REQUEST:
+            raise ParamddsError(
+                f"a set of {count} parameters exceeds the limit of {MAX_PARAMETERS_PER_REQUEST}",
+                code=ErrorCode.TOO_LARGE,
+            )
+        params: list[Parameter | None] = []
+        bad: dict[int, SetResult] = {}
+        for i, p in enumerate(request.parameters):
+            try:
+                params.append(parameter_from_wire(p))
+            except ParamddsError as exc:
+                params.append(None)
+                bad[i] = SetResult(p.name, False, exc.message, exc.code)
+        expected = None if request.expected_revision < 0 else int(request.expected_revision)
+        good = [p for p in params if p is not None]
+        if bad and request.atomic:
+            first = next(iter(bad.values())).name
+            refused = [
+                bad.get(i)
+                or SetResult(p.name, False, f"not applied: the atomic set failed on {first!r}",
+                             ErrorCode.INVALID_VALUE)
+                for i, p in enumerate(request.parameters)
+            ]
+            return [_result_to_wire(r) for r in refused], table.revision
+        outcome = (table.set_atomically if request.atomic else table.set)(good, expected_revision=expected)
+        if outcome.change is not None:
+            for hook in self.before_reply:
+                hook(table.node_id, table, outcome.change)
+        merged = iter(outcome.results)
+        results = [bad[i] if i in bad else next(merged) for i in range(len(params))]
+        return [_result_to_wire(r) for r in results], outcome.revision
+
+    def _remember(self, key: tuple[str, int, int], response: Any) -> None:
+        self._replies[key] = response
+        while len(self._replies) > DEDUP_WINDOW:
+            self._replies.popitem(last=False)
+
+    def _on_get(self, samples: Sequence[Any]) -> None:
+        writer = self._reply_writers["GetParametersResponse"]
+        for request in samples:
+            if not request.sample_info.valid_data:
+                continue
+            table = self._table_for(request.node_id)
+            if table is None:
+                continue
+            response = wire.GetParametersResponse(
+                node_id=table.node_id, client_id=request.client_id, request_id=request.request_id
+            )
+            try:
+                if len(request.names) > MAX_PARAMETERS_PER_REQUEST:
+                    raise ParamddsError(
+                        f"a get of {len(request.names)} names exceeds the limit of "
+                        f"{MAX_PARAMETERS_PER_REQUEST}", code=ErrorCode.TOO_LARGE,
+                    )
+                results = table.get_many(list(request.names), with_descriptors=request.with_descriptors)
+                response.revision = table.revision
+                response.results = [
+                    wire.GetParameterResult(
+                        name=r.name,
+                        code=r.code.value if r.code else "",
+                        reason=r.reason,
+                        value=value_to_wire(r.value) if r.value is not None else wire.ParameterValue(),
+                        descriptor=[descriptor_to_wire(r.descriptor)] if r.descriptor is not None else [],
+                    )
+                    for r in results
+                ]
+            except ParamddsError as exc:
+                response.code, response.reason = exc.code.value, exc.message
+            except Exception as exc:
+                log.exception("get request on %s failed", table.node_id)
+                response.code, response.reason = ErrorCode.INVALID_VALUE.value, f"internal error: {exc}"
+            writer.write(response)
+
+    def _on_list(self, samples: Sequence[Any]) -> None:
+        writer = self._reply_writers["ListParametersResponse"]
+        for request in samples:
+            if not request.sample_info.valid_data:
+                continue
+            table = self._table_for(request.node_id)
+            if table is None:
+                continue
+            response = wire.ListParametersResponse(
+                node_id=table.node_id, client_id=request.client_id, request_id=request.request_id
+            )
+            try:
+                result = table.list(list(request.prefixes), int(request.depth))
+                response.revision = table.revision
+                response.names, response.prefixes = list(result.names), list(result.prefixes)
+            except ParamddsError as exc:
+                response.code, response.reason = exc.code.value, exc.message
+            except Exception as exc:
+                log.exception("list request on %s failed", table.node_id)
+                response.code, response.reason = ErrorCode.INVALID_VALUE.value, f"internal error: {exc}"
+            writer.write(response)
+
+
+def _result_to_wire(r: SetResult) -> Any:
+    return wire.SetParameterResult(
+        name=r.name, successful=r.successful, reason=r.reason, code=r.code.value if r.code else ""
+    )
+
+
+def _summary(response: Any) -> str:
+    if response.code:
+        return f"{response.code}: {response.reason}"
+    return "; ".join(f"{r.name}: {r.reason}" for r in response.results if not r.successful)
