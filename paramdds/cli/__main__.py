@@ -1,0 +1,5 @@
+"""``python -m paramdds.cli``."""
+
+from . import console
+
+console()

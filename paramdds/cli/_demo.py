@@ -1,0 +1,126 @@
+"""``paramdds client``: the seed's demo client, printing what the seed's README shows.
+
+1. wait (bounded) until the target is present; exit 3 naming it if it never is;
+2. print the events of the target as they arrive, grouped per revision::
+
+       [PARAM_EVENT] From node: robot1
+         NEW: robot.max_velocity
+
+3. ``=== LIST PARAMETERS ===``, ``=== GET PARAMETERS ===`` and, with a params
+   file, ``=== SET PARAMETERS ===`` setting every parameter of the file on the
+   target in file order;
+4. keep printing events until Ctrl-C (exit 130), or with ``--once`` exit after
+   the events of the set have been printed (exit 0, or 1 if a set failed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import threading
+from typing import TYPE_CHECKING
+
+from ._errors import Exit
+from ._live import wait_until_interrupted
+from ._output import typed
+from ._requests import node_arg
+from ._session import Session
+
+if TYPE_CHECKING:
+    from ..core.values import Parameter
+    from ..dds.client import ParameterClient
+    from ..dds.monitor import MonitorEvent, ParameterMonitor
+
+SETTLE = 2.0  # seconds --once waits at most for the events of its own set
+
+
+class DemoPrinter:
+    """Prints events and demo sections without interleaving them line by line."""
+
+    LABELS = {"added": "NEW", "modified": "CHANGED", "deleted": "DELETED"}
+
+    def __init__(self) -> None:
+        self.lock = threading.RLock()
+        self._group: tuple[str, int] | None = None
+        self._synced = False
+
+    def event(self, e: MonitorEvent) -> None:
+        kind = e.event.value
+        with self.lock:
+            if kind == "synced":
+                self._synced = True
+                return
+            if kind in ("online", "offline"):
+                if self._synced:
+                    self._lines(f"[NODE] {e.node} is {kind}")
+                    self._group = None
+                return
+            if self._group != (e.node, e.revision):
+                self._group = (e.node, e.revision)
+                self._lines(f"[PARAM_EVENT] From node: {e.node}")
+            self._lines(f"  {self.LABELS.get(kind, kind.upper())}: {e.name}")
+
+    def section(self, *lines: str) -> None:
+        with self.lock:
+            self._group = None
+            self._lines("", *lines)
+
+    @staticmethod
+    def _lines(*lines: str) -> None:
+        sys.stdout.write("".join(line + "\n" for line in lines))
+        sys.stdout.flush()
+
+
+def run_client(args: argparse.Namespace) -> int:
+    from ..runtime import read_values
+
+    target = node_arg(args.target)
+    params = read_values(args.params_file, target) if args.params_file else []
+    printer = DemoPrinter()
+    with Session(args, app_name="paramdds-client") as session:
+        client = session.client()
+        monitor = session.monitor([target], on_event=printer.event)
+        client.wait_for_node(target, timeout=args.wait)
+        monitor.wait_complete([target], timeout=args.timeout)
+        ok = _demo(client, monitor, printer, target, params, args.timeout)
+        if args.once:
+            return Exit.OK if ok else Exit.REFUSED
+        wait_until_interrupted()
+    return Exit.OK
+
+
+def _demo(
+    client: ParameterClient,
+    monitor: ParameterMonitor,
+    printer: DemoPrinter,
+    target: str,
+    params: list[Parameter],
+    timeout: float,
+) -> bool:
+    """The LIST, GET and SET sections; True when every set succeeded."""
+    names = sorted(client.list(target).names)
+    printer.section(
+        "=== LIST PARAMETERS ===",
+        f"[LIST] Found {len(names)} parameters on {target}:",
+        *(f"  - {n}" for n in names),
+    )
+    reply = client.get(target, names)
+    found = [r for r in reply.results if r.value is not None]
+    printer.section(
+        "=== GET PARAMETERS ===",
+        f"[GET] Retrieved {len(found)} parameters:",
+        *(f"  {r.name} = {typed(r.value)}" for r in found),
+    )
+    if not params:
+        printer.section("=== SET PARAMETERS ===", "[SET] nothing to set (no --params-file)")
+        return True
+    with printer.lock:  # the events of this set print after its section
+        result = client.set(target, params)
+        lines = [f"[SET] Response from: {result.node}"]
+        for i, r in enumerate(result.results):
+            lines.append(f"  Result[{i}]: SUCCESS" if r.successful else f"  Result[{i}]: FAILED: {r.reason}")
+        printer.section("=== SET PARAMETERS ===", *lines)
+    # the monitor's dispatcher prints a batch's events before it can be closed
+    revision = result.revision
+    monitor.wait_until(lambda s: target in s and s[target].revision >= revision, min(timeout, SETTLE))
+    return result.successful

@@ -1,0 +1,69 @@
+"""Exit codes of the ``paramdds`` command and the one place errors are mapped to them.
+
+=====  ==========================================================================
+code   when
+=====  ==========================================================================
+0      everything asked for succeeded
+1      the node answered and refused or lacked something (validation, read-only,
+       type, unknown parameter, compare-and-set conflict, a failed parameter of a
+       non-atomic set)
+2      usage error or bad local input (unknown flag, unparsable value, unreadable
+       or invalid YAML with file and line)
+3      node not present, or no answer within the timeout
+130    interrupted by Ctrl-C
+=====  ==========================================================================
+
+Errors are mapped by their :class:`~paramdds.errors.ErrorCode`, never by message text.
+"""
+
+from __future__ import annotations
+
+from enum import IntEnum
+
+from ..errors import ErrorCode, ParamddsError
+
+
+class Exit(IntEnum):
+    OK = 0
+    REFUSED = 1
+    USAGE = 2
+    UNREACHABLE = 3
+    INTERRUPTED = 130
+
+
+class UsageError(Exception):
+    """Bad command-line usage or bad local input: exit 2."""
+
+
+class Refused(Exception):
+    """The node answered and refused something; already reported in detail: exit 1."""
+
+
+class Terminated(Exception):
+    """Raised in the main thread by the SIGTERM handler: a graceful stop, exit 0."""
+
+
+_UNREACHABLE = {ErrorCode.TIMEOUT, ErrorCode.UNAVAILABLE}
+_LOCAL = {ErrorCode.FILE_FORMAT}
+
+
+def exit_code(exc: BaseException) -> Exit:
+    """The exit code for an exception that ended a verb."""
+    if isinstance(exc, KeyboardInterrupt):
+        return Exit.INTERRUPTED
+    if isinstance(exc, Terminated):
+        return Exit.OK
+    if isinstance(exc, UsageError):
+        return Exit.USAGE
+    if isinstance(exc, ParamddsError):
+        if exc.code in _UNREACHABLE:
+            return Exit.UNREACHABLE
+        if exc.code in _LOCAL:
+            return Exit.USAGE
+        return Exit.REFUSED
+    return Exit.REFUSED
+
+
+def one_line(text: str) -> str:
+    """``text`` folded onto one line (errors are one line on stderr)."""
+    return "; ".join(part.strip() for part in str(text).splitlines() if part.strip())

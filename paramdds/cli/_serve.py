@@ -1,0 +1,50 @@
+"""``paramdds server``: host nodes until Ctrl-C (exit 130) or SIGTERM (exit 0).
+
+Everything local is read and checked before DDS starts: a bad parameter file,
+spec or persistence file ends the command with exit 2 and one line naming the
+file, and nothing is published.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ._errors import Exit
+from ._live import wait_until_interrupted
+from ._parser import DEFAULT_NODE
+from ._requests import node_arg
+from ._session import Session
+
+
+def run_server(args: argparse.Namespace) -> int:
+    from ..runtime import ServerOptions, ServerProcess, prepare
+
+    names = [node_arg(n) for n in (args.node_names or [DEFAULT_NODE])]
+    options = ServerOptions(
+        node_names=list(dict.fromkeys(names)),
+        params_files=list(args.params_files),
+        spec=args.spec,
+        persist=args.persist,
+        allow_undeclared=args.allow_undeclared,
+        strict_types=args.strict_types,
+        read_only=args.read_only,
+        use_sim_time=args.use_sim_time,
+    )
+    tables, lines, store = prepare(options)
+    session = Session(args, app_name="paramdds-server")
+    process = ServerProcess(tables, store, lambda: session.participant, session.qos)
+    try:
+        process.start()
+        for line in lines:
+            sys.stdout.write(line + "\n")
+        for node, table in tables.items():
+            sys.stdout.write(
+                f"[SERVER] Serving node {node} with {len(table)} parameters on domain {args.domain}\n"
+            )
+        sys.stdout.flush()
+        wait_until_interrupted()
+    finally:
+        process.close()
+        session.close()
+    return Exit.OK

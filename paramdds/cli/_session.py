@@ -1,0 +1,86 @@
+"""A verb's DDS session: one participant, created on first use, closed in order.
+
+Cyclone and the DDS layer are imported here, when a verb first needs them, so
+parsing and ``--help`` stay light. Entities are closed in reverse order of
+creation (monitor and clients before the participant), which keeps exit prompt.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from ..dds.assign import Assigner
+    from ..dds.client import ParameterClient
+    from ..dds.monitor import EventCallback, ParameterMonitor
+    from ..dds.qos import QosProfiles
+
+log = logging.getLogger(__name__)
+
+
+class Session:
+    """Lazily built DDS objects for one command run; use as a context manager."""
+
+    def __init__(self, args: argparse.Namespace, app_name: str = "paramdds-cli") -> None:
+        self.args = args
+        self._app_name = app_name
+        self._participant: Any = None
+        self._qos: QosProfiles | None = None
+        self._closers: list[Any] = []
+
+    @property
+    def participant(self) -> Any:
+        if self._participant is None:
+            from ..dds.participant import make_participant
+
+            self._participant = make_participant(
+                self.args.domain, localhost=self.args.localhost, app_name=self._app_name
+            )
+        return self._participant
+
+    @property
+    def qos(self) -> QosProfiles:
+        if self._qos is None:
+            from ..dds.qos import QosProfiles
+
+            path = self.args.qos_file
+            self._qos = QosProfiles.load(path) if path else QosProfiles.load()
+        return self._qos
+
+    def client(self) -> ParameterClient:
+        from ..dds.client import ParameterClient
+
+        client = ParameterClient(self.participant, self.qos, timeout=self.args.timeout)
+        self._closers.append(client)
+        return client
+
+    def monitor(
+        self, nodes: list[str] | None = None, on_event: EventCallback | None = None
+    ) -> ParameterMonitor:
+        from ..dds.monitor import ParameterMonitor
+
+        monitor = ParameterMonitor(self.participant, self.qos, nodes=nodes or None, on_event=on_event)
+        self._closers.append(monitor)
+        return monitor
+
+    def assigner(self) -> Assigner:
+        from ..dds.assign import Assigner
+
+        return Assigner(self.participant, self.qos)
+
+    def close(self) -> None:
+        """Close what was opened, newest first; errors here are logged, never raised."""
+        while self._closers:
+            obj = self._closers.pop()
+            try:
+                obj.close()
+            except Exception:
+                log.debug("closing %r failed", obj, exc_info=True)
+
+    def __enter__(self) -> Session:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -1,0 +1,99 @@
+"""``NAME=VALUE`` arguments: split, typed from YAML scalars, checked before anything is sent.
+
+Values are typed by the same resolver as parameter files (it mirrors rcl):
+``1`` is an integer, ``1.5`` a double, ``true`` a bool, ``[1, 2]`` an integer
+array, ``"on"`` quoted stays a string. Where that is ambiguous the node decides:
+``50`` for a double parameter widens there (unless the node uses strict types).
+
+Two cases need the node's descriptor first and are resolved by
+:func:`needs_descriptor` / :func:`fit_to_type`: an empty list ``[]`` (no element
+type of its own) and an integer list for a byte_array parameter.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from ..core.values import ParameterType, ParameterValue
+from ..errors import NotFoundError, ParamddsError, TypeMismatchError
+from ._errors import UsageError
+
+_EMPTY_LIST = re.compile(r"^\s*\[\s*\]\s*$")
+
+
+@dataclass(frozen=True)
+class Assignment:
+    """One parsed ``NAME=VALUE``; ``value`` is None for an empty list awaiting its type."""
+
+    name: str
+    text: str
+    value: ParameterValue | None
+
+
+def parse_value(text: str) -> ParameterValue:
+    """A command-line value typed like a YAML scalar (UsageError when unparsable)."""
+    from ..core.yaml_scalar import parse_cli_value
+
+    try:
+        return parse_cli_value(text)
+    except ParamddsError as exc:
+        raise UsageError(f"cannot parse value {text!r}: {exc.message}") from exc
+
+
+def parse_assignment(arg: str) -> Assignment:
+    """``NAME=VALUE`` → :class:`Assignment` (UsageError with the argument when malformed)."""
+    from ..core.names import validate_name
+
+    name, sep, text = arg.partition("=")
+    name = name.strip()
+    if not sep or not name:
+        raise UsageError(f"expected NAME=VALUE, got {arg!r}")
+    try:
+        validate_name(name)
+    except ParamddsError as exc:
+        raise UsageError(f"invalid parameter name in {arg!r}: {exc.message}") from exc
+    if _EMPTY_LIST.match(text):
+        return Assignment(name, text, None)
+    try:
+        value = parse_value(text)
+    except UsageError as exc:
+        raise UsageError(f"{name}: {exc}") from exc
+    return Assignment(name, text, value)
+
+
+def parse_assignments(args: Sequence[str]) -> list[Assignment]:
+    """Every argument parsed; a name given twice is a usage error."""
+    parsed = [parse_assignment(a) for a in args]
+    seen: set[str] = set()
+    for a in parsed:
+        if a.name in seen:
+            raise UsageError(f"parameter {a.name!r} is given twice")
+        seen.add(a.name)
+    return parsed
+
+
+def needs_descriptor(a: Assignment) -> bool:
+    """True when the node's type decides this value (empty list, integer list)."""
+    return a.value is None or a.value.type is ParameterType.INTEGER_ARRAY
+
+
+def fit_to_type(a: Assignment, target: ParameterType | None) -> ParameterValue:
+    """The value of ``a`` for a parameter of type ``target`` (None: the node lacks it).
+
+    An empty list takes the parameter's array type; an integer list becomes a byte
+    array for a byte_array parameter. Everything else is left to the node.
+    """
+    if a.value is None:
+        if target is None:
+            raise NotFoundError(f"cannot type the empty list for {a.name!r}: the node does not declare it")
+        if not target.is_array:
+            raise TypeMismatchError(f"parameter {a.name!r} is a {target.label}; an empty list needs an array")
+        return ParameterValue.of(target, ())
+    if a.value.type is ParameterType.INTEGER_ARRAY and target is ParameterType.BYTE_ARRAY:
+        try:
+            return ParameterValue.of(ParameterType.BYTE_ARRAY, a.value.value)
+        except ParamddsError as exc:
+            raise UsageError(f"{a.name}: {exc.message}") from exc
+    return a.value

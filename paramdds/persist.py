@@ -1,0 +1,168 @@
+"""``server --persist FILE``: runtime changes survive a restart.
+
+The file is a ROS 2 parameter file in the dump format (with descriptors, so it
+reloads without loss), one section per hosted node, framed by two comment lines::
+
+    # paramdds persisted state: written by the server, do not edit while it runs
+    robot1:
+      ros__parameters:
+        ...
+    # paramdds end sha256=<hex of every byte above this line>
+
+Guarantees:
+
+* **Written before the reply.** :meth:`PersistStore.hook` is a
+  ``ParameterServer.before_reply`` hook: a change is on disk before the client
+  hears it was applied, so a restart loses nothing that was acknowledged.
+* **Never half written.** Each write goes to a temporary file in the same
+  directory, is fsynced, renamed over the old file and the directory fsynced.
+* **Never silently replaced.** A file that starts with the header but lacks the
+  end line or whose checksum does not match (truncated, damaged), that is not
+  YAML, or whose values do not fit the node refuses the start with a
+  :class:`PersistError` naming the file and the problem, and is left untouched.
+  A file without the header is accepted as a hand-written ROS 2 parameter file.
+  An empty file is refused (a truncation to zero bytes looks exactly like it).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import logging
+import os
+import tempfile
+import threading
+from collections.abc import Callable, Mapping
+from pathlib import Path
+
+from .core.descriptors import ParameterDescriptor
+from .core.table import ChangeSet, ParameterTable
+from .core.values import ParameterValue
+from .errors import FileFormatError
+
+log = logging.getLogger(__name__)
+
+HEADER = "# paramdds persisted state: written by the server, do not edit while it runs\n"
+TRAILER_PREFIX = "# paramdds end sha256="
+
+Entry = tuple[str, ParameterValue, ParameterDescriptor | None]
+Snapshot = list[tuple[str, ParameterValue, ParameterDescriptor]]
+Dumper = Callable[[Mapping[str, Snapshot]], str]
+Parser = Callable[[str, str, str], list[Entry]]  # (text, file name, node id) -> entries
+
+
+class PersistError(FileFormatError):
+    """The persistence file cannot be used; the server must not start."""
+
+
+def _checksum(body: bytes) -> str:
+    return hashlib.sha256(body).hexdigest()
+
+
+def frame(body: str) -> str:
+    """``body`` between the header and a trailer carrying its checksum."""
+    content = HEADER + body
+    if not content.endswith("\n"):
+        content += "\n"
+    return content + TRAILER_PREFIX + _checksum(content.encode("utf-8")) + "\n"
+
+
+def unframe(raw: bytes, path: str) -> str:
+    """The YAML text of a persisted file, after checking its frame (PersistError if damaged)."""
+    if not raw:
+        raise PersistError(
+            "the file is empty (truncated?); remove it to start from the parameter files", file=path
+        )
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise PersistError(f"not UTF-8 text (byte {exc.start}); the file is damaged", file=path) from None
+    if not text.startswith(HEADER):
+        return text  # a hand-written ROS 2 parameter file
+    body, _, last = text.rstrip("\n").rpartition("\n")
+    if not last.startswith(TRAILER_PREFIX):
+        raise PersistError("the end line is missing: the file was truncated or damaged", file=path)
+    expected = last[len(TRAILER_PREFIX) :].strip()
+    if len(expected) != 64:
+        raise PersistError("the end line is incomplete: the file was truncated", file=path)
+    if _checksum((body + "\n").encode("utf-8")) != expected:
+        raise PersistError("the content does not match its checksum: the file is damaged", file=path)
+    return body + "\n"
+
+
+def atomic_write(path: Path, text: str) -> None:
+    """Replace ``path`` with ``text``: temp file in the same directory, fsync, rename, fsync dir."""
+    directory = path.parent
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+        raise
+    dir_fd = os.open(directory, os.O_RDONLY)
+    try:
+        os.fsync(dir_fd)
+    finally:
+        os.close(dir_fd)
+
+
+class PersistStore:
+    """One persistence file for the nodes of one server process."""
+
+    def __init__(self, path: str | os.PathLike[str], *, dumper: Dumper, parser: Parser) -> None:
+        self.path = Path(path)
+        self._dump = dumper
+        self._parse = parser
+        self._lock = threading.Lock()
+        self._tables: dict[str, ParameterTable] = {}
+        self._text: str | None = None
+
+    @property
+    def exists(self) -> bool:
+        return self.path.exists()
+
+    def check_writable(self) -> None:
+        """Fail early (PersistError) when the file's directory cannot take our writes."""
+        directory = self.path.parent
+        if not directory.is_dir():
+            raise PersistError(f"the directory {str(directory)!r} does not exist", file=str(self.path))
+        if not os.access(directory, os.W_OK | os.X_OK):
+            raise PersistError(f"cannot write in the directory {str(directory)!r}", file=str(self.path))
+
+    def read(self, node_id: str) -> list[Entry]:
+        """The persisted entries of ``node_id`` ([] when the file does not exist yet)."""
+        if self._text is None:
+            if not self.path.exists():
+                return []
+            try:
+                raw = self.path.read_bytes()
+            except OSError as exc:
+                raise PersistError(f"cannot read: {exc.strerror}", file=str(self.path)) from exc
+            self._text = unframe(raw, str(self.path))
+        try:
+            return self._parse(self._text, str(self.path), node_id)
+        except PersistError:
+            raise
+        except FileFormatError as exc:
+            raise PersistError(exc.detail, file=str(self.path), line=exc.line) from exc
+
+    def attach(self, tables: Mapping[str, ParameterTable]) -> None:
+        """Persist these tables from now on, and write their current state at once."""
+        self._tables = dict(tables)
+        self.write()
+
+    def write(self) -> None:
+        """Write the state of every attached table (atomically)."""
+        with self._lock:
+            state = {node: table.snapshot() for node, table in self._tables.items()}
+            atomic_write(self.path, frame(self._dump(state)))
+
+    def hook(self, node_id: str, table: ParameterTable, change: ChangeSet) -> None:
+        """The ``before_reply`` hook: the change reaches the disk before the reply is sent."""
+        log.debug("persisting %s at revision %d", node_id, change.revision)
+        self.write()

@@ -1,0 +1,255 @@
+"""Building a node's parameter table from its sources, and running a server process.
+
+Sources, lowest precedence first (each later one overrides the values before it):
+
+1. the spec's defaults (``--spec``, a generate_parameter_library file): it
+   declares the parameters, with their descriptors and validators;
+2. the parameter files (``--params-file``), in order: a file with a top-level
+   ``parameters:`` list is in the seed format and applies to every hosted node;
+   any other file is a ROS 2 parameter file and only the sections matching the
+   node apply;
+3. the persisted runtime values (``--persist``);
+4. retained assignments, applied by the server once it runs.
+
+Without a spec, the values of 2 and 3 declare the parameters (their type is the
+type of the value; a persisted descriptor is kept). With a spec, a value for a
+name the spec does not declare is declared only with ``--allow-undeclared``;
+otherwise it is skipped with a warning naming it and the file.
+
+A problem in a source is a :class:`~paramdds.errors.FileFormatError` naming the
+file (and the line when the format knows it); the server does not start.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from .core.descriptors import ParameterDescriptor
+from .core.table import ParameterTable
+from .core.values import Parameter, ParameterValue
+from .errors import FileFormatError, ParamddsError
+from .persist import PersistError, PersistStore
+
+log = logging.getLogger(__name__)
+
+Entry = tuple[str, ParameterValue, ParameterDescriptor | None]
+Snapshot = list[tuple[str, ParameterValue, ParameterDescriptor]]
+
+
+# -- the YAML formats (paramdds.core), in one place ------------------------------------------
+
+
+def _entries(items: Sequence[Any]) -> list[Entry]:
+    """Normalise the loaders' entries to ``(name, value, descriptor or None)``."""
+    out: list[Entry] = []
+    for item in items:
+        if isinstance(item, tuple):
+            name, value, *rest = item
+            out.append((name, value, rest[0] if rest else None))
+        else:
+            out.append((item.name, item.value, getattr(item, "descriptor", None)))
+    return out
+
+
+def is_seed_format(text: str, source: str) -> bool:
+    """True when the document is a map with a top-level ``parameters:`` list (the seed format)."""
+    import yaml
+
+    from .core.yaml_base import Source, compose
+
+    node = compose(text, Source(source))
+    if not isinstance(node, yaml.MappingNode):
+        return False
+    return any(k.value == "parameters" and isinstance(v, yaml.SequenceNode) for k, v in node.value)
+
+
+def read_entries(path: str, node_id: str) -> list[Entry]:
+    """The entries a parameter file gives ``node_id``: every one of a seed file, in file
+    order, or those of the matching sections of a ROS 2 file."""
+    from .core.yaml_base import read_file
+
+    text = read_file(path)
+    if is_seed_format(text, path):
+        from .core import yaml_seed
+
+        return _entries(yaml_seed.load_seed_text(text, source=path))
+    return parse_ros_text(text, path, node_id)
+
+
+def parse_ros_text(text: str, source: str, node_id: str) -> list[Entry]:
+    """The entries for ``node_id`` in a ROS 2 parameter file's text."""
+    from .core.yaml_ros import load_ros_text_full
+
+    return _entries(load_ros_text_full(text, node_id, source=source))
+
+
+def read_values(path: str, node_id: str) -> list[Parameter]:
+    """A parameter file as parameters to set on ``node_id``, in file order."""
+    return [Parameter(name, value) for name, value, _ in read_entries(path, node_id)]
+
+
+def dump_text(state: Mapping[str, Snapshot], *, with_descriptors: bool = True) -> str:
+    """A ROS 2 parameter file holding every node of ``state`` (the dump format)."""
+    from .core import yaml_files
+
+    return "".join(
+        yaml_files.dump_ros_params(node, snapshot, with_descriptors=with_descriptors)
+        for node, snapshot in state.items()
+    )
+
+
+def _load_spec(path: str) -> Any:
+    from .core import yaml_spec
+
+    return yaml_spec.load_spec(path)
+
+
+def _declare_spec(table: ParameterTable, spec: Any) -> None:
+    from .core import yaml_spec
+
+    yaml_spec.declare_spec(table, spec)
+
+
+# -- building tables -------------------------------------------------------------------------
+
+
+@dataclass
+class ServerOptions:
+    node_names: list[str]
+    params_files: list[str] = field(default_factory=list)
+    spec: str | None = None
+    persist: str | None = None
+    allow_undeclared: bool = False
+    strict_types: bool = False
+    read_only: bool = False
+    use_sim_time: bool = False
+
+
+@dataclass
+class NodeSources:
+    """Everything one node is built from, read and checked before anything starts."""
+
+    node_id: str
+    files: list[tuple[str, list[Entry]]]
+    persisted: list[Entry]
+
+
+def build_table(
+    sources: NodeSources,
+    options: ServerOptions,
+    spec: Any = None,
+    *,
+    with_persisted: bool = True,
+) -> ParameterTable:
+    """The node's table, its values layered as the module docstring says."""
+    layers = [(path, entries) for path, entries in sources.files]
+    if with_persisted and sources.persisted:
+        layers.append((options.persist or "<persisted>", sources.persisted))
+    values: dict[str, ParameterValue] = {}
+    descriptors: dict[str, ParameterDescriptor | None] = {}
+    origin: dict[str, str] = {}
+    for path, entries in layers:
+        for name, value, descriptor in entries:
+            values[name] = value
+            if descriptor is not None or name not in descriptors:
+                descriptors[name] = descriptor
+            origin[name] = path
+    table = ParameterTable(
+        sources.node_id,
+        allow_undeclared=options.allow_undeclared,
+        strict_types=options.strict_types,
+        read_only=options.read_only,
+        use_sim_time=options.use_sim_time,
+        overrides=values,
+    )
+    if spec is not None:
+        _declare_spec(table, spec)
+    for name, value in values.items():
+        if table.has(name):
+            continue
+        if spec is not None and not options.allow_undeclared:
+            log.warning(
+                "%s: %r is not declared by the spec %s; skipped (use --allow-undeclared)",
+                origin[name],
+                name,
+                options.spec,
+            )
+            continue
+        try:
+            table.declare(name, value, descriptors.get(name))
+        except ParamddsError as exc:
+            raise FileFormatError(f"parameter {name!r}: {exc.message}", file=origin[name]) from exc
+    return table
+
+
+def _persist_store(path: str) -> PersistStore:
+    return PersistStore(
+        path, dumper=lambda state: dump_text(state, with_descriptors=True), parser=parse_ros_text
+    )
+
+
+def prepare(options: ServerOptions) -> tuple[dict[str, ParameterTable], list[str], PersistStore | None]:
+    """Read every source and build every table; nothing touches DDS or the disk (but reads).
+
+    Returns the tables, the ``[SERVER] Loaded ...`` lines and the persistence store.
+    """
+    spec = _load_spec(options.spec) if options.spec else None
+    store = _persist_store(options.persist) if options.persist else None
+    if store is not None:
+        store.check_writable()
+    tables: dict[str, ParameterTable] = {}
+    loaded: dict[str, int] = {path: 0 for path in options.params_files}
+    for node_id in options.node_names:
+        files = [(path, read_entries(path, node_id)) for path in options.params_files]
+        for path, entries in files:
+            loaded[path] = max(loaded[path], len(entries))
+        sources = NodeSources(node_id, files, store.read(node_id) if store else [])
+        build_table(sources, options, spec, with_persisted=False)  # blame the files first
+        try:
+            tables[node_id] = build_table(sources, options, spec)
+        except FileFormatError as exc:
+            if store is None:
+                raise
+            raise PersistError(f"does not fit node {node_id!r}: {exc.detail}", file=str(store.path)) from exc
+    lines = [f"[SERVER] Loaded {count} parameters from {path}" for path, count in loaded.items()]
+    return tables, lines, store
+
+
+class ServerProcess:
+    """The DDS side of ``paramdds server``: one participant hosting every table."""
+
+    def __init__(
+        self,
+        tables: Mapping[str, ParameterTable],
+        store: PersistStore | None,
+        participant_factory: Callable[[], Any],
+        qos: Any = None,
+    ) -> None:
+        self.tables = dict(tables)
+        self.store = store
+        self._participant_factory = participant_factory
+        self._qos = qos
+        self._server: Any = None
+
+    def start(self) -> None:
+        """Write the persistence file (so it exists), then host and serve every table."""
+        from .dds.server import ParameterServer
+
+        if self.store is not None:
+            self.store.attach(self.tables)
+        participant = self._participant_factory()
+        server = ParameterServer(participant, self._qos)
+        if self.store is not None:
+            server.before_reply.append(self.store.hook)
+        for table in self.tables.values():
+            server.add_node(table)
+        self._server = server.start()
+
+    def close(self) -> None:
+        """Graceful stop: monitors see the nodes offline, not their parameters deleted."""
+        if self._server is not None:
+            self._server.close()
+            self._server = None
