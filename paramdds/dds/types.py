@@ -15,7 +15,8 @@ from cyclonedds.idl import IdlStruct
 from cyclonedds.idl.annotations import appendable, key
 from cyclonedds.idl.types import bounded_str, float64, int32, int64, sequence, uint8, uint32, uint64
 
-MAX_KEY_LEN = 255  # bytes of UTF-8, for node ids and parameter names
+MAX_KEY_LEN = 255  # bytes of UTF-8, for node ids and parameter names (written as a literal
+# in the annotations below: the cyclonedds mypy plugin needs `bounded_str[<int literal>]`)
 
 # ParameterEvent.kind
 EVENT_PARAMETER = 0  # one parameter's current value and descriptor
@@ -93,9 +94,9 @@ class Time(IdlStruct, typename="paramdds.Time"):
 class ParameterEvent(IdlStruct, typename="paramdds.ParameterEvent"):
     """State of one parameter of one node (kind 0), or the node's presence (kind 1)."""
 
-    node_id: bounded_str[MAX_KEY_LEN] = ""
+    node_id: bounded_str[255] = ""
     key("node_id")
-    name: bounded_str[MAX_KEY_LEN] = ""
+    name: bounded_str[255] = ""
     key("name")
     kind: uint8 = EVENT_PARAMETER
     revision: int64 = 0
@@ -110,7 +111,7 @@ class ParameterEvent(IdlStruct, typename="paramdds.ParameterEvent"):
 @dataclass
 @appendable
 class SetParametersRequest(IdlStruct, typename="paramdds.SetParametersRequest"):
-    node_id: bounded_str[MAX_KEY_LEN] = ""
+    node_id: bounded_str[255] = ""
     key("node_id")
     client_id: uint64 = 0
     request_id: uint64 = 0
@@ -132,7 +133,7 @@ class SetParameterResult(IdlStruct, typename="paramdds.SetParameterResult"):
 @dataclass
 @appendable
 class SetParametersResponse(IdlStruct, typename="paramdds.SetParametersResponse"):
-    node_id: bounded_str[MAX_KEY_LEN] = ""
+    node_id: bounded_str[255] = ""
     key("node_id")
     client_id: uint64 = 0
     request_id: uint64 = 0
@@ -145,7 +146,7 @@ class SetParametersResponse(IdlStruct, typename="paramdds.SetParametersResponse"
 @dataclass
 @appendable
 class GetParametersRequest(IdlStruct, typename="paramdds.GetParametersRequest"):
-    node_id: bounded_str[MAX_KEY_LEN] = ""
+    node_id: bounded_str[255] = ""
     key("node_id")
     client_id: uint64 = 0
     request_id: uint64 = 0
@@ -166,7 +167,7 @@ class GetParameterResult(IdlStruct, typename="paramdds.GetParameterResult"):
 @dataclass
 @appendable
 class GetParametersResponse(IdlStruct, typename="paramdds.GetParametersResponse"):
-    node_id: bounded_str[MAX_KEY_LEN] = ""
+    node_id: bounded_str[255] = ""
     key("node_id")
     client_id: uint64 = 0
     request_id: uint64 = 0
@@ -179,7 +180,7 @@ class GetParametersResponse(IdlStruct, typename="paramdds.GetParametersResponse"
 @dataclass
 @appendable
 class ListParametersRequest(IdlStruct, typename="paramdds.ListParametersRequest"):
-    node_id: bounded_str[MAX_KEY_LEN] = ""
+    node_id: bounded_str[255] = ""
     key("node_id")
     client_id: uint64 = 0
     request_id: uint64 = 0
@@ -190,7 +191,7 @@ class ListParametersRequest(IdlStruct, typename="paramdds.ListParametersRequest"
 @dataclass
 @appendable
 class ListParametersResponse(IdlStruct, typename="paramdds.ListParametersResponse"):
-    node_id: bounded_str[MAX_KEY_LEN] = ""
+    node_id: bounded_str[255] = ""
     key("node_id")
     client_id: uint64 = 0
     request_id: uint64 = 0

@@ -176,4 +176,3 @@ def test_same_type_identifier(compiled: dict[str, list[str]], typename: str) -> 
     assert typename in compiled, f"{typename} is in types.py but not in {IDL_FILE.name}"
     assert compiled[typename][0] == complete, f"{typename}: complete type id differs from the IDL"
     assert compiled[typename][1] == minimal, f"{typename}: minimal type id differs from the IDL"
-

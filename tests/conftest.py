@@ -1,0 +1,69 @@
+"""Shared fixtures for tests that use real Cyclone DDS.
+
+Isolation: every test that asks for ``domain_id`` gets a DDS domain id of its
+own, from a counter whose start is derived from this pytest process's pid, so
+repeated and parallel runs on one host do not meet. Cyclone's default port
+mapping allows domain ids up to 232; we use 100..230 and wrap.
+
+``PARAMDDS_LOCALHOST=1`` is set for the whole session (and so inherited by
+every subprocess): nothing a test starts talks to the LAN or depends on
+multicast.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+from collections.abc import Callable
+
+import pytest
+
+os.environ["PARAMDDS_LOCALHOST"] = "1"
+
+DOMAIN_FIRST = 100
+DOMAIN_LAST = 230
+_SPAN = DOMAIN_LAST - DOMAIN_FIRST + 1
+
+
+class _DomainCounter:
+    """Hands out domain ids DOMAIN_FIRST..DOMAIN_LAST, starting at a pid-derived offset."""
+
+    def __init__(self, seed: int) -> None:
+        self._next = seed % _SPAN
+        self._lock = threading.Lock()
+
+    def take(self) -> int:
+        with self._lock:
+            value = DOMAIN_FIRST + self._next
+            self._next = (self._next + 1) % _SPAN
+        return value
+
+
+# Multiplying the pid by a number coprime to the span spreads neighbouring pids apart.
+_domains = _DomainCounter(os.getpid() * 37)
+
+
+def next_domain_id() -> int:
+    """A fresh domain id (for code that needs more than one per test)."""
+    return _domains.take()
+
+
+@pytest.fixture
+def domain_id() -> int:
+    """A DDS domain id no other test of this run uses at the same time."""
+    return _domains.take()
+
+
+def make_dds_env(domain_id: int, **extra: str) -> dict[str, str]:
+    """Environment for a paramdds subprocess on ``domain_id``, loopback only."""
+    env = dict(os.environ)
+    env["PARAMDDS_DOMAIN"] = str(domain_id)
+    env["PARAMDDS_LOCALHOST"] = "1"
+    env.update(extra)
+    return env
+
+
+@pytest.fixture
+def dds_env() -> Callable[..., dict[str, str]]:
+    """``dds_env(domain_id, **extra)`` -> environment dict for a subprocess."""
+    return make_dds_env
