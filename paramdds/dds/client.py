@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import asyncio
 import itertools
-
 import secrets
 import threading
 import time
@@ -180,8 +179,12 @@ class ParameterClient:
                 info = s.sample_info
                 if info.valid_data:
                     self._nodes[s.node_id] = NodeInfo(
-                        s.node_id, info.instance_state == InstanceState.Alive, s.host, s.pid,
-                        s.revision, s.parameter_count,
+                        s.node_id,
+                        info.instance_state == InstanceState.Alive,
+                        s.host,
+                        s.pid,
+                        s.revision,
+                        s.parameter_count,
                     )
                 else:
                     old = self._nodes.get(s.key_sample.node_id)
@@ -279,18 +282,26 @@ class ParameterClient:
         if depth < 0:
             raise ParamddsError(f"depth must be 0 (recursive) or positive, got {depth}")
         sample = wire.ListParametersRequest(
-            node_id=node, client_id=self.client_id, request_id=self._next_id(),
-            depth=depth, prefixes=list(prefixes),
+            node_id=node,
+            client_id=self.client_id,
+            request_id=self._next_id(),
+            depth=depth,
+            prefixes=list(prefixes),
         )
         return self._send("ListParametersRequest", node, sample)
 
     def _send_get(self, node: str, names: Sequence[str], with_descriptors: bool) -> tuple[str, int, _Pending]:
         node = canonical_node_id(node)
         if len(names) > MAX_PARAMETERS_PER_REQUEST:
-            raise TooLargeError(f"a get of {len(names)} names exceeds the limit of {MAX_PARAMETERS_PER_REQUEST}")
+            raise TooLargeError(
+                f"a get of {len(names)} names exceeds the limit of {MAX_PARAMETERS_PER_REQUEST}"
+            )
         sample = wire.GetParametersRequest(
-            node_id=node, client_id=self.client_id, request_id=self._next_id(),
-            with_descriptors=with_descriptors, names=list(names),
+            node_id=node,
+            client_id=self.client_id,
+            request_id=self._next_id(),
+            with_descriptors=with_descriptors,
+            names=list(names),
         )
         return self._send("GetParametersRequest", node, sample)
 
@@ -299,7 +310,10 @@ class ParameterClient:
     ) -> tuple[str, int, _Pending]:
         node = canonical_node_id(node)
         sample = wire.SetParametersRequest(
-            node_id=node, client_id=self.client_id, request_id=self._next_id(), atomic=atomic,
+            node_id=node,
+            client_id=self.client_id,
+            request_id=self._next_id(),
+            atomic=atomic,
             expected_revision=-1 if if_revision is None else if_revision,
             parameters=[parameter_to_wire(p) for p in _to_parameters(params)],
         )
@@ -428,5 +442,3 @@ class AsyncParameterClient:
 
     async def wait_for_node(self, node: str, timeout: float | None = None) -> NodeInfo:
         return await asyncio.to_thread(self.sync.wait_for_node, node, timeout)
-
-

@@ -175,7 +175,9 @@ class ParameterMonitor:
         if not info.valid_data:
             if info.instance_state == InstanceState.NotAliveDisposed and key.name in state.parameters:
                 value, descriptor = state.parameters.pop(key.name)
-                return MonitorEvent(EventKind.DELETED, state.node, key.name, value, descriptor, state.revision)
+                return MonitorEvent(
+                    EventKind.DELETED, state.node, key.name, value, descriptor, state.revision
+                )
             return None  # "no writers" on a parameter: the node is offline, keep its value
         value, descriptor = value_from_wire(s.value), descriptor_from_wire(s.descriptor)
         kind = EventKind.MODIFIED if key.name in state.parameters else EventKind.ADDED
@@ -214,4 +216,4 @@ class ParameterMonitor:
 
 
 def _seconds(stamp: Any) -> float:
-    return float(stamp.sec) + stamp.nanosec / 1e9
+    return float(stamp.sec) + float(stamp.nanosec) / 1e9

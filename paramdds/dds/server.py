@@ -77,7 +77,8 @@ class ParameterServer:
         self._closed = False
 
         self._state_writer = DataWriter(
-            participant, Topic(participant, "ParameterEvents", wire.ParameterEvent),
+            participant,
+            Topic(participant, "ParameterEvents", wire.ParameterEvent),
             self._qos.writer("ParameterEvents"),
         )
         self._reply_writers = {
@@ -135,7 +136,9 @@ class ParameterServer:
         The assignment reader is created here, after the nodes are added, because its
         topic filter sees the retained samples once, when they are delivered.
         """
-        reader = DataReader(self._dp, self._filtered_topic("SetParametersRequest"), self._qos.assignment_reader())
+        reader = DataReader(
+            self._dp, self._filtered_topic("SetParametersRequest"), self._qos.assignment_reader()
+        )
         self._dispatcher.add(reader, self._on_assignment)
         self._dispatcher.start()
         return self
@@ -157,7 +160,9 @@ class ParameterServer:
 
     # -- state publication ---------------------------------------------------------
 
-    def _state_sample(self, table: ParameterTable, name: str, value: Any, descriptor: Any, revision: int) -> Any:
+    def _state_sample(
+        self, table: ParameterTable, name: str, value: Any, descriptor: Any, revision: int
+    ) -> Any:
         return wire.ParameterEvent(
             node_id=table.node_id,
             name=name,
@@ -278,8 +283,9 @@ class ParameterServer:
             first = next(iter(bad.values())).name
             refused = [
                 bad.get(i)
-                or SetResult(p.name, False, f"not applied: the atomic set failed on {first!r}",
-                             ErrorCode.INVALID_VALUE)
+                or SetResult(
+                    p.name, False, f"not applied: the atomic set failed on {first!r}", ErrorCode.INVALID_VALUE
+                )
                 for i, p in enumerate(request.parameters)
             ]
             return [_result_to_wire(r) for r in refused], table.revision
@@ -311,7 +317,8 @@ class ParameterServer:
                 if len(request.names) > MAX_PARAMETERS_PER_REQUEST:
                     raise ParamddsError(
                         f"a get of {len(request.names)} names exceeds the limit of "
-                        f"{MAX_PARAMETERS_PER_REQUEST}", code=ErrorCode.TOO_LARGE,
+                        f"{MAX_PARAMETERS_PER_REQUEST}",
+                        code=ErrorCode.TOO_LARGE,
                     )
                 results = table.get_many(list(request.names), with_descriptors=request.with_descriptors)
                 response.revision = table.revision
