@@ -12,18 +12,25 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from enum import IntEnum
-from typing import Union
 
 from ..errors import InvalidValueError, TypeMismatchError
 
 INT64_MIN = -(2**63)
 INT64_MAX = 2**63 - 1
 
-Scalar = Union[bool, int, float, str]
-PyValue = Union[
-    None, bool, int, float, str, bytes,
-    tuple[bool, ...], tuple[int, ...], tuple[float, ...], tuple[str, ...],
-]
+Scalar = bool | int | float | str
+PyValue = (
+    None
+    | bool
+    | int
+    | float
+    | str
+    | bytes
+    | tuple[bool, ...]
+    | tuple[int, ...]
+    | tuple[float, ...]
+    | tuple[str, ...]
+)
 
 
 class ParameterType(IntEnum):
@@ -48,7 +55,7 @@ class ParameterType(IntEnum):
     @classmethod
     def from_label(cls, label: str) -> ParameterType:
         try:
-            return cls[label.strip().upper()]
+            return cls[str(label).strip().upper()]
         except KeyError:
             known = ", ".join(t.label for t in cls if t is not cls.NOT_SET)
             raise InvalidValueError(f"unknown parameter type {label!r} (known: {known})") from None
@@ -92,14 +99,29 @@ def _scalar_type(obj: object) -> ParameterType | None:
 
 def _check_int(v: int) -> int:
     if not INT64_MIN <= v <= INT64_MAX:
-        raise InvalidValueError(f"integer {v} does not fit in 64 bits")
+        shown = str(v) if v.bit_length() < 200 else f"of {v.bit_length()} bits"
+        raise InvalidValueError(f"integer {shown} does not fit in 64 bits (int64)")
     return v
 
 
 def _describe(obj: object) -> str:
     if isinstance(obj, (list, tuple)):
         return "a mixed or nested list" if obj else "an empty list"
-    return f"{type(obj).__name__} {obj!r}"
+    try:
+        text = repr(obj)
+    except Exception:  # a user object whose repr fails still gets a clear message
+        text = "<unprintable>"
+    if len(text) > 60:
+        text = text[:57] + "..."
+    return f"{type(obj).__name__} {text}"
+
+
+def _type_of(ptype: object) -> ParameterType:
+    if isinstance(ptype, ParameterType):
+        return ptype
+    if isinstance(ptype, int) and not isinstance(ptype, bool) and 0 <= ptype <= 9:
+        return ParameterType(ptype)
+    raise InvalidValueError(f"unknown parameter type {_describe(ptype)}")
 
 
 @dataclass(frozen=True, slots=True)
@@ -112,7 +134,7 @@ class ParameterValue:
     @classmethod
     def of(cls, ptype: ParameterType, value: object) -> ParameterValue:
         """A value of exactly ``ptype``; lists become tuples. No widening here."""
-        ptype = ParameterType(ptype)
+        ptype = _type_of(ptype)
         if ptype is ParameterType.NOT_SET:
             if value is not None:
                 raise TypeMismatchError(f"a not_set value carries nothing, got {_describe(value)}")
@@ -158,6 +180,7 @@ class ParameterValue:
 
         ``strict`` refuses the widening. A double is never narrowed to an integer.
         """
+        target = _type_of(target)
         if self.type is target:
             return self
         widen = {
@@ -168,13 +191,11 @@ class ParameterValue:
         if (self.type, target) in widen:
             if strict:
                 raise TypeMismatchError(
-                    f"{who} expects a {target.label} but got {self.type.label} {self.show()}; "
+                    f"{who} expects a {target.label} but got {self.type.label} {brief(self)}; "
                     f"write it as a double (for example {_as_double_text(self)})"
                 )
             return ParameterValue.of(target, _widen(self.value))
-        raise TypeMismatchError(
-            f"{who} expects a {target.label} but got {self.type.label} {self.show()}"
-        )
+        raise TypeMismatchError(f"{who} expects a {target.label} but got {self.type.label} {brief(self)}")
 
     def show(self) -> str:
         """The value as a user would write it: ``1.5``, ``'abc'``, ``[1, 2]``."""
@@ -197,7 +218,7 @@ class ParameterValue:
             return False
         a, b = self.value, other.value
         if isinstance(a, tuple) and isinstance(b, tuple):
-            return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+            return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
         return _same(a, b)
 
 
@@ -234,8 +255,16 @@ def _widen_one(v: object) -> float:
 def _as_double_text(value: ParameterValue) -> str:
     v = value.value
     if isinstance(v, tuple):
-        return "[" + ", ".join(f"{x}.0" for x in v) + "]"
+        head = ", ".join(f"{x}.0" for x in v[:5])
+        return f"[{head}, ...]" if len(v) > 5 else f"[{head}]"
+    assert isinstance(v, int)
     return f"{v}.0"
+
+
+def brief(value: ParameterValue, limit: int = 200) -> str:
+    """:meth:`ParameterValue.show`, cut to ``limit`` characters (for messages)."""
+    text = value.show()
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _scalar(ptype: ParameterType, v: object) -> Scalar:
@@ -244,8 +273,24 @@ def _scalar(ptype: ParameterType, v: object) -> Scalar:
         raise TypeMismatchError(f"expected a {ptype.label}, got {_describe(v)}")
     if ptype is ParameterType.INTEGER:
         assert isinstance(v, int)
-        return _check_int(v)
-    assert isinstance(v, (bool, float, str))
+        return _check_int(int.__int__(v))  # drops subclasses such as IntEnum
+    if ptype is ParameterType.DOUBLE:
+        assert isinstance(v, float)
+        return float.__float__(v)
+    if ptype is ParameterType.STRING:
+        assert isinstance(v, str)
+        return _check_str(str.__str__(v))
+    assert isinstance(v, bool)
+    return v
+
+
+def _check_str(v: str) -> str:
+    # A lone surrogate has no UTF-8 encoding: it could never be sent.
+    if not v.isascii():
+        try:
+            v.encode("utf-8")
+        except UnicodeEncodeError:
+            raise InvalidValueError("a string value must be valid Unicode (not a lone surrogate)") from None
     return v
 
 
