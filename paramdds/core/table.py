@@ -1,18 +1,91 @@
-"""CONTRACT STUB — the helper building the core replaces the bodies, keeping every
-public name and signature (extending is fine). The DDS layer codes against this.
+"""The parameter table of one node: declare, get, set, list — ROS 2 semantics, pure Python.
 
-The parameter table of one node.
+One :class:`ParameterTable` holds the parameters of one node. It knows nothing of
+DDS: the DDS layer turns requests into calls here and the :class:`ChangeSet` s this
+table emits into samples.
+
+How a set request is applied
+    1. **Refusals of the whole request**: a stale ``expected_revision``
+       (compare-and-set) fails every parameter with CONFLICT; more than
+       ``MAX_PARAMETERS_PER_REQUEST`` parameters fail with TOO_LARGE. Nothing runs.
+    2. **Pre-set callbacks** get the list and return a new one (they may change
+       values, drop or add parameters).
+    3. **Validation** of each parameter: its name (INVALID_NAME), the table's
+       ``read_only`` flag and the parameter's (READ_ONLY), its size (TOO_LARGE),
+       whether it is declared (NOT_FOUND, unless ``allow_undeclared``), its type
+       (TYPE_MISMATCH; an integer widens to a double unless ``strict_types``), its
+       range and validators (OUT_OF_RANGE / INVALID_VALUE).
+    4. **On-set callbacks** may veto with ``SetVeto(False, reason)``. A reason
+       given with ``SetVeto(True, reason)`` is kept in the results.
+    5. **Commit**: everything that passed is written under one new revision and
+       described by one :class:`ChangeSet`.
+    6. **Change listeners** get that ChangeSet.
+    7. **Post-set callbacks** get the parameters that were applied.
+
+:meth:`ParameterTable.set` follows rclcpp, whose ``set_parameters`` runs
+``set_parameters_atomically`` once per parameter: steps 2-4 run for each
+parameter on its own (the pre-set callbacks get a one-element list, the on-set
+callbacks get what came out of it), so a veto or an error fails only that
+parameter. Unlike rclcpp, everything that passed is then committed together in
+one revision, and each parameter is checked against the state left by the ones
+before it in the same request. :meth:`ParameterTable.set_atomically` runs steps
+2-4 once for the whole list; any failure fails every parameter (the failing ones
+say why, the others ``not applied: the atomic set failed on 'x'``). Either way
+there is one result per requested parameter, in request order, and a request that
+commits nothing changes nothing (same snapshot, same revision).
+
+Callbacks of one kind run in ROS 2 order: the last registered runs first. On-set
+and post-set callbacks see the values as they will be stored (an integer already
+widened to a double); a deletion is a parameter whose value is ``NOT_SET``.
+:meth:`ParameterTable.declare` runs the on-set callbacks (a veto refuses the
+declaration) and the post-set callbacks, as rclcpp does; it does not run pre-set
+callbacks.
+
+Callbacks and listeners must not change parameters: ``set``, ``declare``,
+``undeclare`` (and adding or removing callbacks) from inside one raise
+:class:`~paramdds.errors.CallbackError` (IN_CALLBACK) at once — no deadlock, no
+recursion. An exception raised by a pre-set or on-set callback fails the request
+with its message, and nothing changes; one raised by a post-set callback or a
+change listener (after the commit) is logged, and a post-set failure is added to
+the reasons of the results.
+
+Deleting: setting a parameter to ``NOT_SET`` deletes it when it is dynamically
+typed (ChangeKind.DELETED); a statically typed one cannot be deleted
+(TYPE_MISMATCH), a read-only one cannot be changed at all (READ_ONLY).
+
+Threads: every request runs under one re-entrant lock, so it is applied atomically
+with respect to other threads; reads take the same lock. Callbacks and listeners
+run under it too, so keep them short.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass
+import logging
+import threading
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, replace
 from enum import Enum
 
-from ..errors import ErrorCode
+from ..errors import (
+    AlreadyDeclaredError,
+    CallbackError,
+    ErrorCode,
+    InvalidValueError,
+    NotFoundError,
+    ParamddsError,
+    ReadOnlyError,
+    TypeMismatchError,
+    error_for,
+)
 from .descriptors import ParameterDescriptor
-from .values import Parameter, ParameterType, ParameterValue
+from .limits import MAX_PARAMETERS_PER_REQUEST, check_text, check_value
+from .listing import list_names
+from .names import is_valid_name, validate_name
+from .validation import check_descriptor, validate
+from .values import NOT_SET, Parameter, ParameterType, ParameterValue
+
+log = logging.getLogger(__name__)
 
 
 class ChangeKind(str, Enum):
@@ -81,8 +154,82 @@ OnSetCallback = Callable[[list[Parameter]], SetVeto]
 PostSetCallback = Callable[[list[Parameter]], None]
 ChangeListener = Callable[[ChangeSet], None]
 
+_Entry = tuple[ParameterValue, ParameterDescriptor]
+
+
+class _Handle:
+    """What ``add_*_callback`` returns; pass it to ``remove_callback``."""
+
+    __slots__ = ("fn", "kind")
+
+    def __init__(self, kind: str, fn: Callable[..., object]) -> None:
+        self.kind = kind
+        self.fn = fn
+
+    def __repr__(self) -> str:
+        return f"<{self.kind} callback {getattr(self.fn, '__qualname__', self.fn)!r}>"
+
+
+class _UnitFailed(Exception):
+    """Steps 2-4 refused a unit: ``name`` is the parameter at fault (None: all of them)."""
+
+    def __init__(self, name: str | None, error: ParamddsError) -> None:
+        super().__init__(error.message)
+        self.name = name
+        self.error = error
+
+
+class _Stage:
+    """The table as a request would leave it: pending writes over the committed entries."""
+
+    def __init__(self, base: Mapping[str, _Entry], parent: _Stage | None = None) -> None:
+        self.base = base
+        self.parent = parent
+        self.pending: dict[str, _Entry | None] = {}  # None: deleted; insertion = first touch
+
+    def get(self, name: str) -> _Entry | None:
+        if name in self.pending:
+            return self.pending[name]
+        if self.parent is not None:
+            return self.parent.get(name)
+        return self.base.get(name)
+
+    def trial(self) -> _Stage:
+        """A layer over this stage for one unit; :meth:`keep` it when the unit passes."""
+        return _Stage(self.base, self)
+
+    def keep(self) -> None:
+        assert self.parent is not None
+        self.parent.pending.update(self.pending)
+
+
+# Aliases: inside ParameterTable, ``list`` names the method.
+_Objects = list[object]
+_Params = list[Parameter]
+_Results = list[SetResult]
+_Handles = list[_Handle]
+_Strings = list[str]
+_Changes = list[ParameterChange]
+_Snapshot = list[tuple[str, ParameterValue, ParameterDescriptor]]
+
+
+def _text(name: object) -> str:
+    return name if isinstance(name, str) else repr(name)[:80]
+
+
+def _name_of(p: object) -> str:
+    return _text(getattr(p, "name", ""))
+
+
+def _callback_error(stage: str, exc: Exception) -> ParamddsError:
+    if isinstance(exc, ParamddsError):
+        return error_for(exc.code, f"{stage} callback failed: {exc.message}")
+    return InvalidValueError(f"{stage} callback failed: {type(exc).__name__}: {exc}")
+
 
 class ParameterTable:
+    """The parameters of one node (see the module docstring for the rules)."""
+
     def __init__(
         self,
         node_id: str,
@@ -92,10 +239,107 @@ class ParameterTable:
         read_only: bool = False,
         use_sim_time: bool = False,
         overrides: Mapping[str, ParameterValue] | None = None,
-    ) -> None: ...
+    ) -> None:
+        self.node_id: str = node_id
+        self.revision: int = 0
+        self.allow_undeclared = allow_undeclared
+        self.strict_types = strict_types
+        self.read_only = read_only
+        self._params: dict[str, _Entry] = {}
+        self._sorted: list[str] | None = None
+        self._lock = threading.RLock()
+        self._local = threading.local()
+        self._pre: list[_Handle] = []
+        self._on: list[_Handle] = []
+        self._post: list[_Handle] = []
+        self._listeners: list[_Handle] = []
+        self._overrides: dict[str, ParameterValue] = {}
+        for name, value in (overrides or {}).items():
+            v = value if isinstance(value, ParameterValue) else ParameterValue.from_python(value)
+            self._overrides[validate_name(name)] = v
+        if use_sim_time:
+            self.declare("use_sim_time", False)
 
-    node_id: str
-    revision: int
+    # --- reading ---------------------------------------------------------------------------
+
+    def has(self, name: str) -> bool:
+        with self._lock:
+            return isinstance(name, str) and name in self._params
+
+    def get(self, name: str) -> ParameterValue:
+        """The value of ``name``; NotFoundError when it is not declared."""
+        return self._entry(name)[0]
+
+    def describe_one(self, name: str) -> ParameterDescriptor:
+        """The descriptor of ``name``; NotFoundError when it is not declared."""
+        return self._entry(name)[1]
+
+    def _entry(self, name: str) -> _Entry:
+        with self._lock:
+            entry = self._params.get(name) if isinstance(name, str) else None
+        if entry is None:
+            validate_name(name)
+            raise NotFoundError(f"parameter {name!r} is not declared on node {self.node_id!r}")
+        return entry
+
+    def get_many(self, names: Sequence[str], *, with_descriptors: bool = False) -> list[GetResult]:
+        """One result per name, in order: a value, or a NOT_FOUND / INVALID_NAME status."""
+        out: list[GetResult] = []
+        with self._lock:
+            for name in names:
+                entry = self._params.get(name) if isinstance(name, str) else None
+                if entry is not None:
+                    out.append(GetResult(name, entry[0], entry[1] if with_descriptors else None))
+                elif not is_valid_name(name):
+                    try:
+                        validate_name(name)
+                        reason = f"invalid parameter name {name!r}"  # pragma: no cover
+                    except ParamddsError as exc:
+                        reason = exc.message
+                    out.append(GetResult(_text(name), None, None, ErrorCode.INVALID_NAME, reason))
+                else:
+                    reason = f"parameter {name!r} is not declared on node {self.node_id!r}"
+                    out.append(GetResult(name, None, None, ErrorCode.NOT_FOUND, reason))
+        return out
+
+    def get_types(self, names: Sequence[str]) -> list[ParameterType]:
+        """The type of each name; NOT_SET for an unknown one (as ROS 2 does)."""
+        with self._lock:
+            return [
+                self._params[n][0].type if isinstance(n, str) and n in self._params else ParameterType.NOT_SET
+                for n in names
+            ]
+
+    def list(self, prefixes: Sequence[str] = (), depth: int = 0) -> ListResult:
+        """Names and prefixes by rclcpp's algorithm (see :mod:`paramdds.core.listing`)."""
+        if isinstance(depth, bool) or not isinstance(depth, int) or depth < 0:
+            raise InvalidValueError(f"list depth must be an integer >= 0 (0 = recursive), got {depth!r}")
+        if isinstance(prefixes, str) or not all(isinstance(p, str) for p in prefixes):
+            raise InvalidValueError("list prefixes must be a list of strings")
+        with self._lock:
+            names, found = list_names(self._sorted_names(), list(prefixes), depth)
+        return ListResult(tuple(names), tuple(found))
+
+    def names(self) -> _Strings:
+        """Every declared name, sorted."""
+        with self._lock:
+            return list(self._sorted_names())
+
+    def snapshot(self) -> _Snapshot:
+        """``(name, value, descriptor)`` for every parameter, sorted by name."""
+        with self._lock:
+            params = self._params
+            return [(n, *params[n]) for n in self._sorted_names()]
+
+    def __len__(self) -> int:
+        return len(self._params)
+
+    def _sorted_names(self) -> _Strings:
+        if self._sorted is None:
+            self._sorted = sorted(self._params)
+        return self._sorted
+
+    # --- declaring -------------------------------------------------------------------------
 
     def declare(
         self,
@@ -104,25 +348,394 @@ class ParameterTable:
         descriptor: ParameterDescriptor | None = None,
         *,
         ignore_override: bool = False,
-    ) -> ParameterValue: ...
-    def undeclare(self, name: str) -> None: ...
-    def has(self, name: str) -> bool: ...
-    def get(self, name: str) -> ParameterValue: ...
-    def describe_one(self, name: str) -> ParameterDescriptor: ...
-    def get_many(self, names: Sequence[str], *, with_descriptors: bool = False) -> list[GetResult]: ...
-    def get_types(self, names: Sequence[str]) -> list[ParameterType]: ...
-    def set(self, params: Sequence[Parameter], *, expected_revision: int | None = None) -> SetOutcome: ...
+    ) -> ParameterValue:
+        """Declare ``name`` and return its value (the override when one is given, else the default).
+
+        The type is ``descriptor.type``, or the default's (or override's) type when that
+        is NOT_SET and the parameter is not dynamically typed. A typed parameter without
+        any value is *required*: InvalidValueError. Raises InvalidNameError,
+        AlreadyDeclaredError, TypeMismatchError, OutOfRangeError, InvalidValueError,
+        TooLargeError; nothing changes when it raises.
+        """
+        with self._lock:
+            self._guard("declare parameters")
+            stage = _Stage(self._params)
+            entry = self._plan_declare(name, default, descriptor, ignore_override, stage)
+            self._commit_declared(stage)
+            return entry[0]
+
+    def declare_from(self, items: Iterable[tuple[str, ParameterValue, ParameterDescriptor | None]]) -> None:
+        """Declare many parameters in one revision, all or nothing (same rules as :meth:`declare`)."""
+        with self._lock:
+            self._guard("declare parameters")
+            stage = _Stage(self._params)
+            for item in items:
+                try:
+                    name, default, descriptor = item
+                except (TypeError, ValueError):
+                    raise InvalidValueError(
+                        f"declare_from takes (name, value, descriptor) triples, got {type(item).__name__}"
+                    ) from None
+                self._plan_declare(name, default, descriptor, False, stage)
+            if stage.pending:
+                self._commit_declared(stage)
+
+    def _plan_declare(
+        self,
+        name: object,
+        default: object,
+        descriptor: object,
+        ignore_override: bool,
+        stage: _Stage,
+    ) -> _Entry:
+        name = validate_name(name)
+        if stage.get(name) is not None:
+            raise AlreadyDeclaredError(f"parameter {name!r} is already declared on node {self.node_id!r}")
+        if descriptor is None:
+            descriptor = ParameterDescriptor(name)
+        if not isinstance(descriptor, ParameterDescriptor):
+            raise InvalidValueError(f"Parameter {name!r}: expected a ParameterDescriptor")
+        desc = replace(descriptor, name=name)
+        check_text(name, "description", desc.description)
+        check_text(name, "additional_constraints", desc.additional_constraints)
+        value = default if isinstance(default, ParameterValue) else ParameterValue.from_python(default)
+        override = None if ignore_override else self._overrides.get(name)
+        chosen = override if override is not None else value
+        if desc.dynamic_typing:
+            check_descriptor(desc)
+            if desc.type is not ParameterType.NOT_SET and chosen.type is ParameterType.NOT_SET:
+                raise InvalidValueError(f"Parameter {name!r} is required but has no value")
+            desc = replace(desc, type=chosen.type)
+        else:
+            declared = desc.type
+            if declared is ParameterType.NOT_SET:
+                declared = value.type if value.type is not ParameterType.NOT_SET else chosen.type
+            if declared is ParameterType.NOT_SET:
+                raise InvalidValueError(
+                    f"Parameter {name!r} has no type: give a default value, a descriptor type, "
+                    "or dynamic_typing=True"
+                )
+            if chosen.type is ParameterType.NOT_SET:
+                raise InvalidValueError(
+                    f"Parameter {name!r} is required but has no value (no default and no override)"
+                )
+            desc = replace(desc, type=declared)
+            check_descriptor(desc)
+            chosen = chosen.coerce(declared, strict=self.strict_types, name=name)
+        check_value(name, chosen)
+        validate(name, chosen, desc)
+        stage.pending[name] = (chosen, desc)
+        return chosen, desc
+
+    def _commit_declared(self, stage: _Stage) -> None:
+        params = [Parameter(n, e[0]) for n, e in stage.pending.items() if e is not None]
+        try:
+            self._run_on_set(params)
+        except _UnitFailed as failed:
+            raise failed.error from None
+        self._commit(stage, params)
+
+    def undeclare(self, name: str) -> None:
+        """Remove ``name``: NotFoundError, ReadOnlyError, or TypeMismatchError for a static type."""
+        with self._lock:
+            self._guard("undeclare parameters")
+            _, desc = self._entry(name)
+            if desc.read_only:
+                raise ReadOnlyError(f"parameter {name!r} is read-only and cannot be undeclared")
+            if not desc.dynamic_typing:
+                raise TypeMismatchError(
+                    f"parameter {name!r} is statically typed ({desc.type.label}) and cannot be "
+                    "undeclared; declare it with dynamic_typing to allow that"
+                )
+            stage = _Stage(self._params)
+            stage.pending[name] = None
+            self._commit(stage, [Parameter(name, NOT_SET)])
+
+    # --- setting ---------------------------------------------------------------------------
+
+    def set(self, params: Sequence[Parameter], *, expected_revision: int | None = None) -> SetOutcome:
+        """Set each parameter on its own; the ones that pass are committed in one revision."""
+        request = self._request(params)
+        with self._lock:
+            self._guard("set parameters")
+            refused = self._refuse_all(request, expected_revision)
+            if refused is not None:
+                return refused
+            stage = _Stage(self._params)
+            results: list[SetResult] = []
+            applied: list[Parameter] = []
+            for p in request:
+                trial = stage.trial()
+                try:
+                    unit, reason = self._attempt([p], trial)
+                except _UnitFailed as failed:
+                    results.append(SetResult(_name_of(p), False, failed.error.message, failed.error.code))
+                    continue
+                trial.keep()
+                applied.extend(unit)
+                results.append(SetResult(_name_of(p), True, reason))
+            return self._finish(stage, applied, results)
+
     def set_atomically(
         self, params: Sequence[Parameter], *, expected_revision: int | None = None
-    ) -> SetOutcome: ...
-    def list(self, prefixes: Sequence[str] = (), depth: int = 0) -> ListResult: ...
-    def names(self) -> list[str]: ...
-    def snapshot(self) -> list[tuple[str, ParameterValue, ParameterDescriptor]]: ...
-    def __len__(self) -> int: ...
-    def add_pre_set_callback(self, cb: PreSetCallback) -> object: ...
-    def add_on_set_callback(self, cb: OnSetCallback) -> object: ...
-    def add_post_set_callback(self, cb: PostSetCallback) -> object: ...
-    def remove_callback(self, handle: object) -> None: ...
-    def add_change_listener(self, fn: ChangeListener) -> object: ...
-    def remove_change_listener(self, handle: object) -> None: ...
-    def declare_from(self, items: Iterable[tuple[str, ParameterValue, ParameterDescriptor | None]]) -> None: ...
+    ) -> SetOutcome:
+        """Set all the parameters or none of them."""
+        request = self._request(params)
+        with self._lock:
+            self._guard("set parameters")
+            refused = self._refuse_all(request, expected_revision)
+            if refused is not None:
+                return refused
+            stage = _Stage(self._params)
+            try:
+                applied, reason = self._attempt(list(request), stage)
+            except _UnitFailed as failed:
+                return SetOutcome(self._atomic_failure(request, failed), self.revision, None)
+            results = [SetResult(_name_of(p), True, reason) for p in request]
+            return self._finish(stage, applied, results)
+
+    @staticmethod
+    def _request(params: object) -> _Objects:
+        if isinstance(params, (str, bytes, Mapping)) or not isinstance(params, Iterable):
+            raise InvalidValueError(f"a set takes a list of Parameter, got {type(params).__name__}")
+        return list(params)
+
+    def _refuse_all(self, request: _Objects, expected_revision: int | None) -> SetOutcome | None:
+        if expected_revision is not None and expected_revision != self.revision:
+            reason = (
+                f"not applied: node {self.node_id!r} is at revision {self.revision}, "
+                f"not the expected {expected_revision}"
+            )
+            code: ErrorCode = ErrorCode.CONFLICT
+        elif len(request) > MAX_PARAMETERS_PER_REQUEST:
+            reason = (
+                f"not applied: a set of {len(request)} parameters exceeds the limit of "
+                f"{MAX_PARAMETERS_PER_REQUEST}"
+            )
+            code = ErrorCode.TOO_LARGE
+        else:
+            return None
+        results = tuple(SetResult(_name_of(p), False, reason, code) for p in request)
+        return SetOutcome(results, self.revision, None)
+
+    def _atomic_failure(self, request: _Objects, failed: _UnitFailed) -> tuple[SetResult, ...]:
+        error = failed.error
+        names = [_name_of(p) for p in request]
+        if failed.name is None:  # a veto or a callback error: it concerns them all
+            return tuple(SetResult(n, False, error.message, error.code) for n in names)
+        other = f"not applied: the atomic set failed on {failed.name!r}"
+        if failed.name not in names:
+            other += f" ({error.message})"
+        return tuple(
+            SetResult(n, False, error.message, error.code)
+            if n == failed.name
+            else SetResult(n, False, other, ErrorCode.INVALID_VALUE)
+            for n in names
+        )
+
+    def _attempt(self, params: _Objects, stage: _Stage) -> tuple[_Params, str]:
+        """Steps 2-4 for one unit, writing into ``stage``. Raises _UnitFailed."""
+        unit = self._run_pre_set(params)
+        planned: _Params = []
+        for p in unit:
+            try:
+                name, entry = self._plan_set(p, stage)
+            except ParamddsError as exc:
+                raise _UnitFailed(_name_of(p), exc) from None
+            stage.pending[name] = entry
+            planned.append(Parameter(name, entry[0] if entry is not None else NOT_SET))
+        return planned, self._run_on_set(planned)
+
+    def _plan_set(self, p: object, stage: _Stage) -> tuple[str, _Entry | None]:
+        """Step 3 for one parameter: the entry it would leave (None: deleted), or raise."""
+        if not isinstance(p, Parameter):
+            raise InvalidValueError(f"expected a Parameter, got {type(p).__name__}")
+        name = validate_name(p.name)
+        if self.read_only:
+            raise ReadOnlyError(f"node {self.node_id!r} is read-only")
+        value = p.value if isinstance(p.value, ParameterValue) else ParameterValue.from_python(p.value)
+        check_value(name, value)
+        current = stage.get(name)
+        if current is None:
+            if not self.allow_undeclared:
+                raise NotFoundError(
+                    f"parameter {name!r} is not declared (start the node with --allow-undeclared "
+                    "to accept new names)"
+                )
+            if value.type is ParameterType.NOT_SET:
+                raise NotFoundError(f"parameter {name!r} is not declared, so it cannot be deleted")
+            return name, (value, ParameterDescriptor(name, value.type, dynamic_typing=True))
+        desc = current[1]
+        if desc.read_only:
+            raise ReadOnlyError(f"parameter {name!r} is read-only")
+        if value.type is ParameterType.NOT_SET:
+            if not desc.dynamic_typing:
+                raise TypeMismatchError(
+                    f"parameter {name!r} is statically typed ({desc.type.label}) and cannot be "
+                    "deleted; declare it with dynamic_typing to allow that"
+                )
+            return name, None
+        if desc.dynamic_typing:
+            if value.type is not desc.type:
+                desc = replace(desc, type=value.type)
+        else:
+            value = value.coerce(desc.type, strict=self.strict_types, name=name)
+        validate(name, value, desc)
+        return name, (value, desc)
+
+    # --- callbacks -------------------------------------------------------------------------
+
+    def _run_pre_set(self, params: _Objects) -> _Objects:
+        for handle in self._pre:
+            typed = [p for p in params if isinstance(p, Parameter)]
+            if len(typed) != len(params):
+                return params  # malformed entries fail in validation, with a clear reason
+            try:
+                with self._in_callback():
+                    out = handle.fn(typed)
+            except Exception as exc:
+                raise _UnitFailed(None, _callback_error("pre-set", exc)) from None
+            if not isinstance(out, list) or not all(isinstance(p, Parameter) for p in out):
+                raise _UnitFailed(
+                    None,
+                    InvalidValueError(
+                        f"pre-set callback returned {type(out).__name__}, expected a list of Parameter"
+                    ),
+                )
+            params = list(out)
+        if not params:
+            raise _UnitFailed(
+                None, InvalidValueError("not applied: a pre-set callback removed every parameter")
+            )
+        return params
+
+    def _run_on_set(self, params: _Params) -> str:
+        reasons: _Strings = []
+        for handle in self._on:
+            try:
+                with self._in_callback():
+                    veto = handle.fn(list(params))
+            except Exception as exc:
+                raise _UnitFailed(None, _callback_error("on-set", exc)) from None
+            if not isinstance(veto, SetVeto):
+                raise _UnitFailed(
+                    None,
+                    InvalidValueError(f"on-set callback returned {type(veto).__name__}, expected a SetVeto"),
+                )
+            if not veto.successful:
+                reason = veto.reason or "rejected by an on-set callback"
+                raise _UnitFailed(None, InvalidValueError(reason))
+            if veto.reason:
+                reasons.append(veto.reason)
+        return "; ".join(reasons)
+
+    @contextmanager
+    def _in_callback(self) -> Iterator[None]:
+        self._local.depth = getattr(self._local, "depth", 0) + 1
+        try:
+            yield
+        finally:
+            self._local.depth -= 1
+
+    def _guard(self, action: str) -> None:
+        if getattr(self._local, "depth", 0):
+            raise CallbackError(
+                f"cannot {action} of node {self.node_id!r} from inside a parameter callback or change "
+                "listener; do it after the callback returns"
+            )
+
+    # --- committing ------------------------------------------------------------------------
+
+    def _finish(self, stage: _Stage, applied: _Params, results: _Results) -> SetOutcome:
+        change, post_failure = self._commit(stage, applied)
+        if post_failure:
+            note = f"applied, but {post_failure}"
+            results = [
+                replace(r, reason=f"{r.reason}; {note}" if r.reason else note) if r.successful else r
+                for r in results
+            ]
+        return SetOutcome(tuple(results), self.revision, change)
+
+    def _commit(self, stage: _Stage, applied: _Params) -> tuple[ChangeSet | None, str]:
+        """Steps 5-7: write ``stage``, tell the listeners, run post-set.
+
+        Returns the ChangeSet (None if nothing changed) and what a failing post-set said.
+        """
+        post_failure = ""
+        changes: _Changes = []
+        for name, entry in stage.pending.items():
+            before = self._params.get(name)
+            if entry is not None:
+                kind = ChangeKind.NEW if before is None else ChangeKind.CHANGED
+                changes.append(ParameterChange(kind, name, entry[0], entry[1]))
+            elif before is not None:
+                changes.append(ParameterChange(ChangeKind.DELETED, name, NOT_SET, before[1]))
+        if not changes:
+            return None, ""
+        for c in changes:
+            if c.kind is ChangeKind.DELETED:
+                del self._params[c.name]
+            else:
+                self._params[c.name] = (c.value, c.descriptor)
+            if c.kind is not ChangeKind.CHANGED:
+                self._sorted = None
+        self.revision += 1
+        change = ChangeSet(self.node_id, self.revision, tuple(changes))
+        with self._in_callback():
+            for handle in list(self._listeners):
+                try:
+                    handle.fn(change)
+                except Exception:
+                    log.exception("change listener %r of node %r failed", handle, self.node_id)
+            for handle in list(self._post):
+                try:
+                    handle.fn(list(applied))
+                except Exception as exc:
+                    log.exception("post-set callback %r of node %r failed", handle, self.node_id)
+                    post_failure = f"a post-set callback failed: {type(exc).__name__}: {exc}"
+        return change, post_failure
+
+    # --- registering callbacks -------------------------------------------------------------
+
+    def _add(self, where: _Handles, kind: str, fn: Callable[..., object]) -> object:
+        if not callable(fn):
+            raise InvalidValueError(f"a {kind} callback must be callable, got {type(fn).__name__}")
+        with self._lock:
+            self._guard(f"add a {kind} callback")
+            handle = _Handle(kind, fn)
+            where.insert(0, handle)  # ROS 2: the last registered runs first
+            return handle
+
+    def add_pre_set_callback(self, cb: PreSetCallback) -> object:
+        return self._add(self._pre, "pre-set", cb)
+
+    def add_on_set_callback(self, cb: OnSetCallback) -> object:
+        return self._add(self._on, "on-set", cb)
+
+    def add_post_set_callback(self, cb: PostSetCallback) -> object:
+        return self._add(self._post, "post-set", cb)
+
+    def add_change_listener(self, fn: ChangeListener) -> object:
+        """``fn`` gets every committed ChangeSet, in revision order (under the table's lock)."""
+        with self._lock:
+            self._guard("add a change listener")
+            handle = _Handle("change listener", fn)
+            self._listeners.append(handle)
+            return handle
+
+    def remove_callback(self, handle: object) -> None:
+        with self._lock:
+            self._guard("remove a callback")
+            for where in (self._pre, self._on, self._post):
+                if handle in where:
+                    where.remove(handle)  # type: ignore[arg-type]
+                    return
+        raise NotFoundError(f"no such callback on node {self.node_id!r}: {handle!r}")
+
+    def remove_change_listener(self, handle: object) -> None:
+        with self._lock:
+            self._guard("remove a change listener")
+            if handle in self._listeners:
+                self._listeners.remove(handle)  # type: ignore[arg-type]
+                return
+        raise NotFoundError(f"no such change listener on node {self.node_id!r}: {handle!r}")
