@@ -158,12 +158,12 @@ def _who(name: str) -> str:
 def _scalar(node: yaml.ScalarNode, source: Source, name: str, etype: ParameterType | None) -> ParameterValue:
     tag, text = node.tag, str(node.value)
     if tag == STR_TAG or (tag == NONPLAIN_TAG and node.style in ("'", '"')):
-        value = ParameterValue(ParameterType.STRING, text)
+        value = ParameterValue.of(ParameterType.STRING, text)
     elif tag in (PLAIN_TAG, NONPLAIN_TAG):
         if not text:
             raise source.error(f'{_who(name)}: no value (write "" for an empty string)', node)
         if etype is ParameterType.STRING:
-            value = ParameterValue(ParameterType.STRING, text)
+            value = ParameterValue.of(ParameterType.STRING, text)
         else:
             value = resolve_plain(text)
     else:
@@ -196,6 +196,17 @@ def node_value(
     empty list; ``name`` is used in messages. Returns :class:`UntypedEmptyList`
     for an untagged ``[]`` when no type is expected.
     """
+    try:
+        return _node_value(node, source, name, expected)
+    except FileFormatError:
+        raise
+    except ParamddsError as exc:  # a value the value types refuse (a NUL, a lone surrogate...)
+        raise source.error(f"{_who(name)}: {exc.message}", node) from exc
+
+
+def _node_value(
+    node: yaml.Node, source: Source, name: str, expected: ParameterType | None
+) -> ParameterValue | UntypedEmptyList:
     if isinstance(node, yaml.ScalarNode):
         if node.tag == NOT_SET_TAG:
             if node.value != "" or expected not in (None, ParameterType.NOT_SET):
