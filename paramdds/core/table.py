@@ -39,7 +39,8 @@ and post-set callbacks see the values as they will be stored (an integer already
 widened to a double); a deletion is a parameter whose value is ``NOT_SET``.
 :meth:`ParameterTable.declare` runs the on-set callbacks (a veto refuses the
 declaration) and the post-set callbacks, as rclcpp does; it does not run pre-set
-callbacks.
+callbacks. :meth:`ParameterTable.undeclare` runs no callbacks (as rclcpp), only
+the change listeners.
 
 Callbacks and listeners must not change parameters: ``set``, ``declare``,
 ``undeclare`` (and adding or removing callbacks) from inside one raise
@@ -104,7 +105,11 @@ class ParameterChange:
 
 @dataclass(frozen=True, slots=True)
 class ChangeSet:
-    """What one committed request changed. ``revision`` goes up by one per commit."""
+    """What one committed request changed. ``revision`` goes up by one per commit.
+
+    One change per parameter touched, carrying its final state, in the order the
+    request first applied them.
+    """
 
     node_id: str
     revision: int
@@ -221,6 +226,11 @@ def _name_of(p: object) -> str:
     return _text(getattr(p, "name", ""))
 
 
+def _check_names(names: object) -> None:
+    if isinstance(names, (str, bytes)) or not isinstance(names, Iterable):
+        raise InvalidValueError(f"expected a list of parameter names, got {type(names).__name__}")
+
+
 def _callback_error(stage: str, exc: Exception) -> ParamddsError:
     if isinstance(exc, ParamddsError):
         return error_for(exc.code, f"{stage} callback failed: {exc.message}")
@@ -284,6 +294,7 @@ class ParameterTable:
 
     def get_many(self, names: Sequence[str], *, with_descriptors: bool = False) -> list[GetResult]:
         """One result per name, in order: a value, or a NOT_FOUND / INVALID_NAME status."""
+        _check_names(names)
         out: list[GetResult] = []
         with self._lock:
             for name in names:
@@ -304,6 +315,7 @@ class ParameterTable:
 
     def get_types(self, names: Sequence[str]) -> list[ParameterType]:
         """The type of each name; NOT_SET for an unknown one (as ROS 2 does)."""
+        _check_names(names)
         with self._lock:
             return [
                 self._params[n][0].type if isinstance(n, str) and n in self._params else ParameterType.NOT_SET
@@ -449,7 +461,7 @@ class ParameterTable:
                 )
             stage = _Stage(self._params)
             stage.pending[name] = None
-            self._commit(stage, [Parameter(name, NOT_SET)])
+            self._commit(stage, [], post_set=False)
 
     # --- setting ---------------------------------------------------------------------------
 
@@ -586,6 +598,8 @@ class ParameterTable:
     # --- callbacks -------------------------------------------------------------------------
 
     def _run_pre_set(self, params: _Objects) -> _Objects:
+        if not self._pre or not params:
+            return params
         for handle in self._pre:
             typed = [p for p in params if isinstance(p, Parameter)]
             if len(typed) != len(params):
@@ -605,7 +619,7 @@ class ParameterTable:
             params = list(out)
         if not params:
             raise _UnitFailed(
-                None, InvalidValueError("not applied: a pre-set callback removed every parameter")
+                None, InvalidValueError("not applied: the pre-set callbacks left no parameter to set")
             )
         return params
 
@@ -656,7 +670,9 @@ class ParameterTable:
             ]
         return SetOutcome(tuple(results), self.revision, change)
 
-    def _commit(self, stage: _Stage, applied: _Params) -> tuple[ChangeSet | None, str]:
+    def _commit(
+        self, stage: _Stage, applied: _Params, *, post_set: bool = True
+    ) -> tuple[ChangeSet | None, str]:
         """Steps 5-7: write ``stage``, tell the listeners, run post-set.
 
         Returns the ChangeSet (None if nothing changed) and what a failing post-set said.
@@ -687,7 +703,7 @@ class ParameterTable:
                     handle.fn(change)
                 except Exception:
                     log.exception("change listener %r of node %r failed", handle, self.node_id)
-            for handle in list(self._post):
+            for handle in list(self._post) if post_set else []:
                 try:
                     handle.fn(list(applied))
                 except Exception as exc:

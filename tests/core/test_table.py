@@ -438,7 +438,7 @@ def test_pre_set_removing_everything_fails_the_request(table: ParameterTable) ->
     table.add_pre_set_callback(lambda ps: [])
     out = table.set([P("count", 2)])
     assert not out.results[0].successful
-    assert "removed every parameter" in out.results[0].reason and table.get("count") == V(1)
+    assert "left no parameter to set" in out.results[0].reason and table.get("count") == V(1)
 
 
 def test_an_on_set_veto_fails_only_its_parameter_in_a_plain_set(table: ParameterTable) -> None:
@@ -646,3 +646,27 @@ def test_arbitrary_input_to_set_yields_results_or_our_errors(items: list[object]
         return
     assert len(out.results) == len(items)
     assert all(isinstance(r.name, str) for r in out.results)
+
+
+def test_an_empty_request_commits_nothing(table: ParameterTable) -> None:
+    rev = table.revision
+    for method in (table.set, table.set_atomically):
+        out = method([])
+        assert out.results == () and out.change is None and out.revision == rev
+
+
+def test_undeclare_tells_listeners_but_runs_no_set_callbacks(table: ParameterTable) -> None:
+    post: list[list[Parameter]] = []
+    changes: list[ChangeSet] = []
+    table.add_post_set_callback(post.append)
+    table.add_change_listener(changes.append)
+    table.undeclare("any")
+    assert post == []
+    assert [(c.kind, c.name) for c in changes[0].changes] == [(ChangeKind.DELETED, "any")]
+
+
+def test_name_lists_must_be_lists(table: ParameterTable) -> None:
+    with pytest.raises(InvalidValueError, match="list of parameter names"):
+        table.get_many("count")
+    with pytest.raises(InvalidValueError, match="list of parameter names"):
+        table.get_types("count")
