@@ -1,9 +1,11 @@
 """Clients: request/reply over the six request/reply topics, and node presence.
 
 Correlation: every request carries this client's random 64-bit ``client_id`` and
-a request id counted from 1; each reply reader's Topic filters on ``client_id``,
-so two clients (in one process or two) never see each other's replies, and
-replies are matched to calls by request id. Many calls may be outstanding at
+a request id counted from 1; the reply handler drops every reply whose
+``client_id`` is not this client's, so two clients (in one process or two) never
+take each other's replies, and replies are matched to calls by request id. (No
+Cyclone topic filter: a Python filter deadlocks against ``take`` under load; see
+:mod:`paramdds.dds.server`.) Many calls may be outstanding at
 once (pipelining).
 
 No call ever hangs: each has a timeout (default :data:`DEFAULT_TIMEOUT`). A node
@@ -145,17 +147,14 @@ class ParameterClient:
             reader = DataReader(participant, self._own_replies(name), self._qos.reader(name))
             self._dispatcher.add(reader, self._on_replies)
         presence = Topic(participant, "ParameterEvents", wire.ParameterEvent)
-        presence.set_topic_filter(lambda _t, s: s.kind == wire.EVENT_PRESENCE)
         self._dispatcher.add(
             DataReader(participant, presence, self._qos.reader("ParameterEvents")), self._on_presence
         )
         self._dispatcher.start()
 
     def _own_replies(self, name: str) -> Any:
-        topic = Topic(self._dp, name, wire.TOPICS[name])
-        me = self.client_id
-        topic.set_topic_filter(lambda _t, s: s.client_id == me)
-        return topic
+        # every client's replies arrive here; _on_replies keeps only this client's
+        return Topic(self._dp, name, wire.TOPICS[name])
 
     def close(self) -> None:
         self._dispatcher.close()
@@ -178,6 +177,8 @@ class ParameterClient:
             for s in samples:
                 info = s.sample_info
                 if info.valid_data:
+                    if s.kind != wire.EVENT_PRESENCE:
+                        continue
                     self._nodes[s.node_id] = NodeInfo(
                         s.node_id,
                         info.instance_state == InstanceState.Alive,
@@ -320,8 +321,9 @@ class ParameterClient:
         return self._send("SetParametersRequest", node, sample)
 
     def _on_replies(self, samples: Sequence[Any]) -> None:
+        me = self.client_id
         for reply in samples:
-            if not reply.sample_info.valid_data:
+            if not reply.sample_info.valid_data or reply.client_id != me:
                 continue
             pending = self._pending.pop(reply.request_id, None)
             if pending is not None and not pending.future.done():

@@ -93,10 +93,8 @@ class ParameterMonitor:
         self._synced = False
         self._only = {canonical_node_id(n) for n in nodes} if nodes else None
         qos = qos or QosProfiles.load()
+        # no topic filter (it deadlocks against take under load): _apply skips other nodes
         topic = Topic(participant, "ParameterEvents", wire.ParameterEvent)
-        if self._only is not None:
-            only = self._only
-            topic.set_topic_filter(lambda _t, s: s.node_id in only)
         self._dispatcher = Dispatcher(participant, "paramdds-monitor")
         self._dispatcher.add(DataReader(participant, topic, qos.reader("ParameterEvents")), self._on_samples)
         self._dispatcher.start()

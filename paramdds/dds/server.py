@@ -2,9 +2,12 @@
 
 How it works:
 
-* Each request topic is read through a reader whose Topic object carries a filter
-  that passes only the hosted node ids (a separate Topic object from the reply
-  writers': a filter on a writer's Topic would drop that writer's own samples).
+* Each request topic is read by one reader; the handlers ignore requests for node
+  ids this server does not host. No Cyclone topic filter is used: a Python filter
+  runs on Cyclone's receive thread while it holds the reader's lock and waits for
+  the GIL, and ``DataReader.take`` holds the GIL while it waits for that lock, so
+  the two deadlock the whole process under load (seen within a few hundred
+  requests). Filtering in the handler costs the same deserialization.
 * One dispatch thread wakes on a WaitSet, applies each request atomically through
   the node's :class:`~paramdds.core.table.ParameterTable`, and answers with the
   requester's ``client_id`` and ``request_id``.
@@ -92,19 +95,12 @@ class ParameterServer:
             "ListParametersRequest": self._on_list,
         }
         for name, handler in handlers.items():
-            reader = DataReader(participant, self._filtered_topic(name), self._qos.reader(name))
+            reader = DataReader(participant, self._request_topic(name), self._qos.reader(name))
             self._dispatcher.add(reader, handler)
 
-    def _filtered_topic(self, name: str) -> Any:
-        topic = Topic(self._dp, name, wire.TOPICS[name])
-        tables = self._tables
-
-        def hosted(_topic: Any, sample: Any) -> bool:
-            node_id = sample.node_id
-            return node_id in tables or node_id.lstrip("/") in tables
-
-        topic.set_topic_filter(hosted)
-        return topic
+    def _request_topic(self, name: str) -> Any:
+        # no set_topic_filter: see the module docstring (GIL / reader-lock deadlock)
+        return Topic(self._dp, name, wire.TOPICS[name])
 
     # -- hosting -----------------------------------------------------------------
 
@@ -133,11 +129,12 @@ class ParameterServer:
     def start(self) -> ParameterServer:
         """Serve. Retained assignments for the nodes hosted now are applied from here on.
 
-        The assignment reader is created here, after the nodes are added, because its
-        topic filter sees the retained samples once, when they are delivered.
+        The assignment reader is created here, after the nodes are added, because it
+        takes the retained samples once, when they are delivered, and ignores those
+        of nodes not hosted then.
         """
         reader = DataReader(
-            self._dp, self._filtered_topic("SetParametersRequest"), self._qos.assignment_reader()
+            self._dp, self._request_topic("SetParametersRequest"), self._qos.assignment_reader()
         )
         self._dispatcher.add(reader, self._on_assignment)
         self._dispatcher.start()
