@@ -210,10 +210,11 @@ def prepare(options: ServerOptions) -> tuple[dict[str, ParameterTable], list[str
         build_table(sources, options, spec, with_persisted=False)  # blame the files first
         try:
             tables[node_id] = build_table(sources, options, spec)
-        except FileFormatError as exc:
+        except ParamddsError as exc:  # a spec's declare raises TypeMismatchError & co., not FileFormatError
             if store is None:
                 raise
-            raise PersistError(f"does not fit node {node_id!r}: {exc.detail}", file=str(store.path)) from exc
+            detail = exc.detail if isinstance(exc, FileFormatError) else exc.message
+            raise PersistError(f"does not fit node {node_id!r}: {detail}", file=str(store.path)) from exc
     lines = [f"[SERVER] Loaded {count} parameters from {path}" for path, count in loaded.items()]
     return tables, lines, store
 
