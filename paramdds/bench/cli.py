@@ -1,0 +1,96 @@
+"""The ``paramdds bench`` verb: its parser, and the dispatch to a scenario module.
+
+The CLI calls :func:`register` only when the verb is ``bench`` and then adds the
+global options itself (``-d``, ``-o``, ``--localhost``, ``--timeout``…), so they
+are not defined here. Each scenario lives in ``paramdds.bench.<scenario>`` and
+has ``run(args) -> int``; it prints a table, or one JSON object with ``-o json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+from typing import Any
+
+SCENARIOS = {
+    "latency": "round trip of a get and of a set of 10 vs a raw echo and a 10 ms polling client",
+    "scaling": "monitor time to full state of N nodes x 50 params vs the ROS 2 per-node service layout",
+    "throughput": "gets per second with many requests in flight vs a raw echo",
+    "hosting": "one process hosting 1,000 node ids x 20 params: start time, RSS, monitor full state",
+    "startup": "whole-process time of `paramdds get` vs `import cyclonedds` and a bare participant",
+}
+
+
+def _int_list(text: str) -> list[int]:
+    try:
+        values = [int(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated integers, got {text!r}") from None
+    if not values or any(v <= 0 for v in values):
+        raise argparse.ArgumentTypeError(f"expected positive integers, got {text!r}")
+    return values
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return value
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    return value
+
+
+def register(subparsers: Any) -> None:
+    """Add the ``bench`` sub-parser (its handler is ``args.func``)."""
+    lines = "\n".join(f"  {name:<11} {text}" for name, text in SCENARIOS.items())
+    p = subparsers.add_parser(
+        "bench",
+        help="benchmarks against baselines measured in the same run",
+        description="Benchmarks. Servers, echo peers and monitors run as separate processes; "
+        "each scenario measures paramdds and its baseline in the same run.\n\n" + lines,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("scenario", choices=list(SCENARIOS), metavar="SCENARIO", help=", ".join(SCENARIOS))
+    p.add_argument("--quick", action="store_true", help="a short run for smoke tests (rough figures)")
+    p.add_argument(
+        "--nodes",
+        type=_int_list,
+        metavar="N,N…",
+        help="scaling: node counts (default 10,50,100,200); "
+        "hosting: node ids in the one process (default 1000)",
+    )
+    p.add_argument(
+        "--params", type=_positive_int, metavar="P", help="parameters per node (scaling 50, hosting 20)"
+    )
+    p.add_argument(
+        "--requests", type=_positive_int, metavar="N", help="latency: requests per system (default 2000)"
+    )
+    p.add_argument("--rounds", type=_positive_int, metavar="R", help="alternation rounds / repetitions")
+    p.add_argument("--servers", type=_positive_int, metavar="K", help="scaling: server processes (default 2)")
+    p.add_argument(
+        "--clients", type=_positive_int, metavar="C", help="throughput: client processes (default 2)"
+    )
+    p.add_argument(
+        "--window", type=_positive_int, metavar="W", help="throughput: requests in flight per client"
+    )
+    p.add_argument(
+        "--seconds", type=_positive_float, metavar="S", help="throughput: measured seconds per round"
+    )
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    module = importlib.import_module(f"paramdds.bench.{args.scenario}")
+    result: int = module.run(args)
+    return result

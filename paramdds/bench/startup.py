@@ -1,0 +1,76 @@
+"""``paramdds bench startup``: whole-process time of ``paramdds get NODE NAME``.
+
+A server process hosts one node; then, alternating in rounds (default 7, median
+reported), three commands run to completion:
+
+* ``paramdds get bench_n0000 group0.param_000`` (the console script, as a user runs it);
+* ``python -c "import cyclonedds"``: the import floor;
+* ``python -c`` creating one participant with paramdds's configuration: the
+  participant floor (import + participant + exit).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+from ._common import Workers, emit, median, node_names, note, render, run_timed, worker_env
+from .worker import param_name
+
+NODE = node_names(1)[0]
+
+
+def cli_command(domain: int, localhost: bool) -> list[str]:
+    script = os.path.join(os.path.dirname(sys.executable), "paramdds")
+    base = [script] if os.access(script, os.X_OK) else [sys.executable, "-m", "paramdds.cli"]
+    cmd = [*base, "get", NODE, param_name(0), "-d", str(domain)]
+    return [*cmd, "--localhost"] if localhost else cmd
+
+
+def run(args: argparse.Namespace) -> int:
+    rounds = args.rounds or (3 if args.quick else 7)
+    env = worker_env(args.localhost)
+    participant_code = (
+        "from paramdds.dds.participant import make_participant; "
+        f"make_participant({args.domain}, localhost={args.localhost!r})"
+    )
+    commands = {
+        "cli_get": cli_command(args.domain, args.localhost),
+        "import": [sys.executable, "-c", "import cyclonedds"],
+        "participant": [sys.executable, "-c", participant_code],
+    }
+    times: dict[str, list[float]] = {k: [] for k in commands}
+    with Workers(localhost=args.localhost, domain=args.domain) as workers:
+        server = workers.start("server", "--nodes", "1", "--params", "50")
+        server.read("READY", 60)
+        note(f"startup: {rounds} rounds of {', '.join(commands)} (after one warm-up each)")
+        for cmd in commands.values():
+            run_timed(cmd, env=env)
+        for r in range(rounds):
+            keys = list(commands)
+            for key in keys[r % 3 :] + keys[: r % 3]:
+                elapsed, _out = run_timed(commands[key], env=env)
+                times[key].append(elapsed)
+    data = {
+        "cli_get_ms": round(median(times["cli_get"]), 1),
+        "import_floor_ms": round(median(times["import"]), 1),
+        "participant_floor_ms": round(median(times["participant"]), 1),
+        "cli_get_max_ms": round(max(times["cli_get"]), 1),
+        "rounds": rounds,
+        "command": " ".join(commands["cli_get"]),
+    }
+    table = render(
+        ["command", "median ms", "max ms"],
+        [
+            ("paramdds get NODE NAME", data["cli_get_ms"], data["cli_get_max_ms"]),
+            ('python -c "import cyclonedds"', data["import_floor_ms"], round(max(times["import"]), 1)),
+            (
+                "python: import + participant",
+                data["participant_floor_ms"],
+                round(max(times["participant"]), 1),
+            ),
+        ],
+    )
+    emit(args, data, table)
+    return 0

@@ -1,0 +1,277 @@
+"""Bench worker processes: ``python -m paramdds.bench.worker ROLE [options]``.
+
+Roles (see :mod:`paramdds.bench._common` for the READY / RESULT protocol):
+
+``server``   host ``--nodes`` node ids with ``--params`` parameters each, either
+             with paramdds's :class:`~paramdds.dds.server.ParameterServer`
+             (``--layout paramdds``) or in the ROS 2 layout (``--layout ros``);
+``echo``     the raw echo server of the latency and throughput baselines;
+``monitor``  start, time until the full state of every node is held, report, exit;
+``census``   count topics and endpoints in the domain with the builtin topics;
+``load``     a throughput client: keep ``--window`` gets (or echoes) in flight.
+
+A worker exits when its stdin closes or on SIGTERM, closing its DDS entities.
+"""
+
+from __future__ import annotations
+
+import time
+
+T_EXEC = time.perf_counter_ns()  # before the heavy imports
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import os  # noqa: E402
+import signal  # noqa: E402
+import sys  # noqa: E402
+from typing import Any  # noqa: E402
+
+
+def _ms(a: int, b: int) -> float:
+    return (b - a) / 1e6
+
+
+def _say(tag: str, **data: Any) -> None:
+    sys.stdout.write(f"{tag} {json.dumps(data)}\n")
+    sys.stdout.flush()
+
+
+def _wait_for_stdin_eof() -> None:
+    try:
+        while sys.stdin.readline():
+            pass
+    except (OSError, ValueError):
+        pass
+
+
+def _on_sigterm(_signum: int, _frame: Any) -> None:
+    raise SystemExit(0)
+
+
+def value_for(j: int, salt: int = 0) -> object:
+    """The value of parameter ``j`` (its type depends on j only; ``salt`` varies it)."""
+    kind = j % 4
+    if kind == 0:
+        return float(j) + salt * 0.001
+    if kind == 1:
+        return j + salt
+    if kind == 2:
+        return f"value_{j}_{salt}"
+    return bool((j + salt) % 2)
+
+
+def param_name(j: int) -> str:
+    return f"group{j // 10}.param_{j:03d}"
+
+
+def make_table(node: str, params: int) -> Any:
+    from ..core.table import ParameterTable
+    from ..core.values import ParameterValue
+
+    table = ParameterTable(node)
+    table.declare_from((param_name(j), ParameterValue.from_python(value_for(j)), None) for j in range(params))
+    return table
+
+
+def _participant(args: argparse.Namespace, *, topic_discovery: bool = False) -> Any:
+    from ..dds.participant import make_participant
+
+    return make_participant(
+        args.domain, localhost=args.localhost, app_name=f"bench-{args.role}", topic_discovery=topic_discovery
+    )
+
+
+def role_server(args: argparse.Namespace) -> None:
+    from ..dds.qos import QosProfiles
+    from ._common import node_names
+
+    t_import = time.perf_counter_ns()
+    qos = QosProfiles.load()
+    dp = _participant(args, topic_discovery=args.topic_discovery)
+    names = node_names(args.offset + args.nodes)[args.offset :]
+    server: Any
+    if args.layout == "ros":
+        from ._dds import RosLayoutServer
+
+        server = RosLayoutServer(dp, qos)
+    else:
+        from ..dds.server import ParameterServer
+
+        server = ParameterServer(dp, qos)
+    for node in names:
+        server.add_node(make_table(node, args.params))
+    server.start()
+    t_ready = time.perf_counter_ns()
+    _say("READY", pid=os.getpid(), import_ms=_ms(T_EXEC, t_import), setup_ms=_ms(t_import, t_ready))
+    try:
+        _wait_for_stdin_eof()
+    finally:
+        server.close()
+
+
+def role_echo(args: argparse.Namespace) -> None:
+    from ..dds.qos import QosProfiles
+    from ._dds import serve_echo
+
+    qos = QosProfiles.load()
+    dp = _participant(args)
+    dispatcher = serve_echo(dp, qos, args.reply_size)
+    _say("READY", pid=os.getpid())
+    try:
+        _wait_for_stdin_eof()
+    finally:
+        dispatcher.close()
+
+
+def role_monitor(args: argparse.Namespace) -> None:
+    from ..dds.qos import QosProfiles
+    from ._common import node_names
+
+    if args.layout == "ros":
+        from ._dds import RosLayoutMonitor, own_endpoints
+    else:
+        from ..dds.monitor import ParameterMonitor
+        from ._dds import own_endpoints
+    qos = QosProfiles.load()
+    nodes = node_names(args.nodes)
+    t_import = time.perf_counter_ns()
+    dp = _participant(args)
+    t_dp = time.perf_counter_ns()
+    if args.layout == "ros":
+        monitor = RosLayoutMonitor(dp, qos, nodes)
+        state = monitor.run(args.timeout)
+        t_done = time.perf_counter_ns()
+        params = sum(len(v) for v in state.values())
+        described = sum(1 for v in state.values() for _val, d in v.values() if d)
+    else:
+        pm = ParameterMonitor(dp, qos)
+        if not pm.wait_complete(nodes, args.timeout):
+            snap = pm.snapshot()
+            have = sum(1 for n in nodes if n in snap and snap[n].complete)
+            raise SystemExit(f"monitor: {have} of {len(nodes)} nodes complete after {args.timeout:g} s")
+        t_done = time.perf_counter_ns()
+        snap = pm.snapshot()
+        params = sum(len(snap[n].parameters) for n in nodes)
+        described = params
+    endpoints = own_endpoints(dp)
+    _say(
+        "RESULT",
+        pid=os.getpid(),
+        import_ms=_ms(T_EXEC, t_import),
+        participant_ms=_ms(t_import, t_dp),
+        full_state_ms=_ms(t_dp, t_done),
+        params=params,
+        described=described,
+        endpoints=endpoints,
+    )
+    if args.layout != "ros":
+        pm.close()
+
+
+def role_census(args: argparse.Namespace) -> None:
+    from ._dds import census
+
+    dp = _participant(args, topic_discovery=True)
+    _say("RESULT", **census(dp, settle=args.settle))
+
+
+def role_load(args: argparse.Namespace) -> None:
+    """``window`` asyncio tasks, each awaiting one request after another, for ``seconds``.
+
+    Gets go through the public :class:`~paramdds.dds.client.AsyncParameterClient`;
+    echoes through the same Future → ``asyncio.wrap_future`` path.
+    """
+    import asyncio
+
+    from ..dds.qos import QosProfiles
+
+    qos = QosProfiles.load()
+    dp = _participant(args)
+    if args.kind == "echo":
+        from ._dds import EchoClient
+
+        echo = EchoClient(dp, qos, args.request_size)
+        if not echo.wait_matched(10.0):
+            raise SystemExit("load: the echo server did not match")
+
+        async def one() -> None:
+            await asyncio.wrap_future(echo.send())
+
+        closer: Any = echo
+    else:
+        from ..dds.client import AsyncParameterClient, ParameterClient
+
+        client = ParameterClient(dp, qos)
+        client.wait_for_node(args.node, 10.0)
+        aclient = AsyncParameterClient(client)
+        names = [param_name(0)]
+
+        async def one() -> None:
+            await aclient.get(args.node, names)
+
+        closer = client
+    counts = {"done": 0, "measuring": False, "stop": False}
+
+    async def worker() -> None:
+        while not counts["stop"]:
+            await one()
+            if counts["measuring"]:
+                counts["done"] += 1
+
+    async def drive() -> dict[str, float]:
+        tasks = [asyncio.create_task(worker()) for _ in range(args.window)]
+        await asyncio.sleep(args.warmup)
+        counts["measuring"] = True
+        t0 = time.perf_counter_ns()
+        await asyncio.sleep(args.seconds)
+        counts["measuring"] = False
+        t1 = time.perf_counter_ns()
+        done = counts["done"]
+        counts["stop"] = True
+        await asyncio.wait_for(asyncio.gather(*tasks), 10.0)
+        return {"per_s": done / ((t1 - t0) / 1e9), "completed": done}
+
+    _say("READY", pid=os.getpid())
+    go = sys.stdin.readline()  # the bench starts every load worker at once
+    if go.strip() != "go":
+        return
+    try:
+        _say("RESULT", **asyncio.run(drive()))
+    finally:
+        closer.close()
+
+
+def main(argv: list[str] | None = None) -> None:
+    p = argparse.ArgumentParser(prog="python -m paramdds.bench.worker")
+    p.add_argument("role", choices=("server", "echo", "monitor", "census", "load"))
+    p.add_argument("-d", "--domain", type=int, required=True)
+    p.add_argument("--localhost", action="store_true")
+    p.add_argument("--layout", choices=("paramdds", "ros"), default="paramdds")
+    p.add_argument("--nodes", type=int, default=1)
+    p.add_argument("--offset", type=int, default=0)
+    p.add_argument("--params", type=int, default=50)
+    p.add_argument("--topic-discovery", action="store_true")
+    p.add_argument("--reply-size", type=int, default=100)
+    p.add_argument("--request-size", type=int, default=100)
+    p.add_argument("--timeout", type=float, default=60.0)
+    p.add_argument("--settle", type=float, default=0.3)
+    p.add_argument("--kind", choices=("get", "echo"), default="get")
+    p.add_argument("--node", default="bench_n0000")
+    p.add_argument("--window", type=int, default=32)
+    p.add_argument("--warmup", type=float, default=0.5)
+    p.add_argument("--seconds", type=float, default=2.0)
+    args = p.parse_args(argv)
+    signal.signal(signal.SIGTERM, _on_sigterm)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the bench process decides when we stop
+    {
+        "server": role_server,
+        "echo": role_echo,
+        "monitor": role_monitor,
+        "census": role_census,
+        "load": role_load,
+    }[args.role](args)
+    sys.stdout.flush()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,111 @@
+"""Smoke tests of ``paramdds bench``: every scenario runs ``--quick -o json`` end to end.
+
+They check that the JSON carries every key with a sane value and that the topic
+counts are what the layouts imply. They never assert that a time is below a
+number: timings on a shared CI machine prove nothing.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from typing import Any
+
+import pytest
+
+TIMEOUT = 150
+
+
+def bench(scenario: str, domain_id: int, *extra: str) -> dict[str, Any]:
+    cmd = [
+        sys.executable,
+        "-m",
+        "paramdds.cli",
+        "bench",
+        scenario,
+        "--quick",
+        "-o",
+        "json",
+        "--localhost",
+        "-d",
+        str(domain_id),
+        *extra,
+    ]
+    env = dict(os.environ, PARAMDDS_LOCALHOST="1")
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=TIMEOUT, env=env)
+    assert done.returncode == 0, done.stderr
+    data: dict[str, Any] = json.loads(done.stdout)
+    return data
+
+
+def positive(data: dict[str, Any], *keys: str) -> None:
+    for key in keys:
+        assert key in data, f"missing {key!r} in {data}"
+        assert isinstance(data[key], (int, float)) and data[key] > 0, f"{key} = {data[key]!r}"
+
+
+def test_latency(domain_id: int) -> None:
+    data = bench("latency", domain_id)
+    positive(
+        data,
+        "get_p50_us",
+        "get_p99_us",
+        "set_p50_us",
+        "set_p99_us",
+        "raw_p50_us",
+        "raw_p99_us",
+        "polling_p50_us",
+        "ratio_get_raw",
+    )
+    assert data["get_p99_us"] >= data["get_p50_us"]
+    assert data["raw_p99_us"] >= data["raw_p50_us"]
+
+
+def test_scaling(domain_id: int) -> None:
+    data = bench("scaling", domain_id, "--nodes", "3,6")
+    rows = data["rows"]
+    assert [r["nodes"] for r in rows] == [3, 6]
+    for r in rows:
+        positive(
+            r,
+            "paramdds_full_state_ms",
+            "baseline_full_state_ms",
+            "paramdds_process_ms",
+            "baseline_process_ms",
+            "paramdds_topics",
+            "baseline_topics",
+            "paramdds_monitor_endpoints",
+            "baseline_monitor_endpoints",
+        )
+        assert r["paramdds_topics"] == 7
+        # six services x (request + reply) per node, plus the shared events topic
+        assert r["baseline_topics"] == 12 * r["nodes"] + 1
+        assert r["paramdds_monitor_endpoints"] == 1
+        assert r["baseline_monitor_endpoints"] == 6 * r["nodes"]
+    assert rows[1]["baseline_topics"] > rows[0]["baseline_topics"]
+
+
+def test_throughput(domain_id: int) -> None:
+    data = bench("throughput", domain_id, "--seconds", "0.5")
+    positive(data, "gets_per_s", "raw_per_s")
+
+
+def test_hosting(domain_id: int) -> None:
+    data = bench("hosting", domain_id, "--nodes", "50")
+    positive(data, "nodes", "rss_mb", "start_ms", "full_state_ms")
+    assert data["nodes"] == 50
+
+
+def test_startup(domain_id: int) -> None:
+    data = bench("startup", domain_id, "--rounds", "2")
+    positive(data, "cli_get_ms", "import_floor_ms", "participant_floor_ms")
+
+
+@pytest.mark.parametrize("argv", [["bench", "nosuch"], ["bench", "scaling", "--nodes", "0"]])
+def test_bad_arguments_are_usage_errors(argv: list[str]) -> None:
+    done = subprocess.run(
+        [sys.executable, "-m", "paramdds.cli", *argv], capture_output=True, text=True, timeout=30
+    )
+    assert done.returncode == 2, done.stderr
