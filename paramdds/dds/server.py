@@ -22,8 +22,10 @@ How it works:
   from a TRANSIENT_LOCAL writer; a second, TRANSIENT_LOCAL reader takes them. The
   interactive (VOLATILE) reader ignores them and the assignment reader never sees
   interactive requests (a VOLATILE writer does not match a TRANSIENT_LOCAL reader).
-* Retried requests (same client_id and request_id) get the cached reply again
-  and are never applied twice.
+* Retried requests (same client_id, request_id and content) get the cached reply
+  again and are never applied twice. The same ids with other content are a new
+  request: a client restarted with a fixed client_id counts from 1 again and must
+  not be answered with the previous run's replies.
 """
 
 from __future__ import annotations
@@ -74,7 +76,8 @@ class ParameterServer:
         self._pid = os.getpid()
         self._lock = threading.Lock()
         self._deferred: list[ChangeSet] | None = None
-        self._replies: OrderedDict[tuple[str, int, int], Any] = OrderedDict()
+        # (node, client_id, request_id) -> (request content, reply), for retried requests
+        self._replies: OrderedDict[tuple[str, int, int], tuple[Any, Any]] = OrderedDict()
         self._logged_bad: set[str] = set()
         self.before_reply: list[BeforeReply] = []
         self._closed = False
@@ -235,9 +238,14 @@ class ParameterServer:
         if table is None:
             return
         key = (table.node_id, request.client_id, request.request_id)
-        if reply and key in self._replies:
-            self._reply_writers["SetParametersResponse"].write(self._replies[key])
-            return
+        content = (request.atomic, request.expected_revision, request.parameters)
+        if reply:
+            seen = self._replies.get(key)
+            # a retry carries the same content; the same ids with other content are a new
+            # request (a client restarted with a fixed client_id counts from 1 again)
+            if seen is not None and seen[0] == content:
+                self._reply_writers["SetParametersResponse"].write(seen[1])
+                return
         response = wire.SetParametersResponse(
             node_id=table.node_id, client_id=request.client_id, request_id=request.request_id
         )
@@ -252,7 +260,7 @@ class ParameterServer:
             response.revision = table.revision
         try:
             if reply:
-                self._remember(key, response)
+                self._remember(key, content, response)
                 self._reply_writers["SetParametersResponse"].write(response)
             elif not all(r.successful for r in response.results) or response.code:
                 log.warning("assignment for %s partly refused: %s", table.node_id, _summary(response))
@@ -294,8 +302,9 @@ class ParameterServer:
         results = [bad[i] if i in bad else next(merged) for i in range(len(params))]
         return [_result_to_wire(r) for r in results], outcome.revision
 
-    def _remember(self, key: tuple[str, int, int], response: Any) -> None:
-        self._replies[key] = response
+    def _remember(self, key: tuple[str, int, int], content: tuple[Any, ...], response: Any) -> None:
+        self._replies.pop(key, None)  # re-inserted at the end: the window keeps the newest
+        self._replies[key] = (content, response)
         while len(self._replies) > DEDUP_WINDOW:
             self._replies.popitem(last=False)
 
