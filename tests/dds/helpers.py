@@ -206,8 +206,12 @@ class ServerProc:
         self.proc.wait(10.0)
 
     def close(self) -> None:
+        """Graceful stop (a killed peer makes this process's writers linger on delete)."""
         if self.proc.poll() is None:
-            self.kill()
+            try:
+                self.terminate(timeout=5.0)
+            except subprocess.TimeoutExpired:
+                self.kill()
         for t in self._readers:
             t.join(5.0)
         for stream in (self.proc.stdout, self.proc.stderr):
