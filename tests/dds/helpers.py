@@ -130,6 +130,8 @@ server.start()
 print("READY", flush=True)
 signal.sigwait({signal.SIGTERM})
 server.close()
+from cyclonedds.core import Entity
+Entity.__del__(dp)  # peers drop this participant now, not after its 10 s lease
 print("CLOSED", flush=True)
 """
 

@@ -100,6 +100,8 @@ print("READY", flush=True)
 sys.stdin.readline()  # go
 print(json.dumps(hammer(client, cfg["node"], cfg["worker"], cfg["rounds"])), flush=True)
 client.close()
+from cyclonedds.core import Entity
+Entity.__del__(dp)  # peers drop this participant now, not after its 10 s lease
 """
 
 
