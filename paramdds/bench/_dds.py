@@ -19,6 +19,7 @@
 
 import ctypes as ct
 import itertools
+import secrets
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -100,7 +101,7 @@ class EchoClient:
         self._payload = [3] * echo_padding(request_size)
         self._ids = itertools.count(1)
         self._pending: dict[int, Future[Any]] = {}
-        self.client_id = 42
+        self.client_id = secrets.randbits(63) or 1  # every echo client sees every reply
         self._dispatcher = Dispatcher(participant, "bench-echo-client")
         self._dispatcher.add(reader, self._on_replies)
         self._dispatcher.start()
@@ -108,7 +109,7 @@ class EchoClient:
 
     def _on_replies(self, samples: Sequence[Any]) -> None:
         for s in samples:
-            if s.sample_info.valid_data:
+            if s.sample_info.valid_data and s.client_id == self.client_id:
                 future = self._pending.pop(s.request_id, None)
                 if future is not None:
                     future.set_result(s)

@@ -19,6 +19,7 @@ from ._dds import get_sizes
 from .worker import param_name, value_for
 
 NODE = node_names(1)[0]
+lost: dict[str, int] = {}  # unanswered requests by kind, over the whole run
 
 
 def _round(
@@ -47,7 +48,9 @@ def _round(
             w.read("READY", 60)
         for w in loads:
             w.send("go")
-        return float(sum(w.read("RESULT", seconds + warmup + 30)["per_s"] for w in loads))
+        results = [w.read("RESULT", seconds + warmup + 60) for w in loads]
+        lost[kind] = lost.get(kind, 0) + sum(int(r.get("lost", 0)) for r in results)
+        return float(sum(r["per_s"] for r in results))
     finally:
         for w in loads:
             workers.stop(w)
@@ -81,6 +84,8 @@ def run(args: argparse.Namespace) -> int:
         "window": window,
         "seconds": seconds,
         "rounds": rounds,
+        "lost_gets": lost.get("get", 0),
+        "lost_echoes": lost.get("echo", 0),
         "gets_per_s_rounds": [round(g) for g in gets],
         "raw_per_s_rounds": [round(g) for g in raws],
     }
