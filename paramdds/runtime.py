@@ -73,9 +73,9 @@ def read_entries(path: str, node_id: str) -> list[Entry]:
 
     text = read_file(path)
     if is_seed_format(text, path):
-        from .core import yaml_seed
+        from .core.yaml_seed import load_seed_params_str
 
-        return _entries(yaml_seed.load_seed_text(text, source=path))
+        return _entries(load_seed_params_str(text, source=path))
     return parse_ros_text(text, path, node_id)
 
 
@@ -93,11 +93,10 @@ def read_values(path: str, node_id: str) -> list[Parameter]:
 
 def dump_text(state: Mapping[str, Snapshot], *, with_descriptors: bool = True) -> str:
     """A ROS 2 parameter file holding every node of ``state`` (the dump format)."""
-    from .core import yaml_files
+    from .core.yaml_dump import dump_ros_params
 
     return "".join(
-        yaml_files.dump_ros_params(node, snapshot, with_descriptors=with_descriptors)
-        for node, snapshot in state.items()
+        dump_ros_params(node, snapshot, with_descriptors=with_descriptors) for node, snapshot in state.items()
     )
 
 
@@ -153,6 +152,10 @@ def build_table(
     origin: dict[str, str] = {}
     for path, entries in layers:
         for name, value, descriptor in entries:
+            first = values.get(name)
+            dynamic = any(d is not None and d.dynamic_typing for d in (descriptor, descriptors.get(name)))
+            if first is not None and value.type is not first.type and not dynamic:
+                value = _retype(name, value, first, path, options.strict_types)
             values[name] = value
             if descriptor is not None or name not in descriptors:
                 descriptors[name] = descriptor
@@ -183,6 +186,20 @@ def build_table(
         except ParamddsError as exc:
             raise FileFormatError(f"parameter {name!r}: {exc.message}", file=origin[name]) from exc
     return table
+
+
+def _retype(
+    name: str, value: ParameterValue, first: ParameterValue, path: str, strict: bool
+) -> ParameterValue:
+    """A later layer's value in the type an earlier layer gave ``name`` (FileFormatError if it cannot be)."""
+    from .core.values import ParameterType
+
+    if first.type is ParameterType.NOT_SET or value.type is ParameterType.NOT_SET:
+        return value
+    try:
+        return value.coerce(first.type, strict=strict, name=name)
+    except ParamddsError as exc:
+        raise FileFormatError(exc.message, file=path) from exc
 
 
 def _persist_store(path: str) -> PersistStore:

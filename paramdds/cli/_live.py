@@ -6,7 +6,7 @@ import argparse
 import sys
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
 from ..core.values import Parameter
@@ -17,7 +17,10 @@ from ._session import Session
 from ._values import parse_assignments
 
 if TYPE_CHECKING:
-    from ..dds.monitor import MonitorEvent
+    from ..dds.monitor import MonitorEvent, ParameterMonitor
+
+SETTLE = 0.5  # seconds a fresh watcher gives discovery before it calls the state complete
+QUIET = 0.1  # seconds without events before the state counts as received
 
 
 def wait_until_interrupted(broken: threading.Event | None = None) -> None:
@@ -53,20 +56,26 @@ class EventPrinter:
         self._lock = threading.Lock()
         self._synced = False
         self.broken = threading.Event()
+        self.last_event = time.monotonic()
 
     def __call__(self, event: MonitorEvent) -> None:
         from ..dds.monitor import EventKind
 
+        self.last_event = time.monotonic()
         if event.event is EventKind.SYNCED:
-            self._synced = True
-            self._write('{"event": "synced"}' if self._json else "synced")
-            return
+            return  # printed by :meth:`synced`, once the state has settled (see settle())
         if event.event in (EventKind.ONLINE, EventKind.OFFLINE):
             if self._synced:
                 self._write(self._node_line(event))
             return
         if matches_prefix(event.name, self._prefixes):
             self._write(self._parameter_line(event))
+
+    def synced(self) -> None:
+        """Print the ``synced`` line: the current state has been printed."""
+        with self._lock:
+            self._synced = True
+        self._write('{"event": "synced"}' if self._json else "synced")
 
     def _node_line(self, e: MonitorEvent) -> str:
         if self._json:
@@ -113,11 +122,38 @@ class EventPrinter:
                 self.broken.set()
 
 
+def settle(monitor: ParameterMonitor, started: float, limit: float, quiet: Callable[[], float]) -> bool:
+    """Wait (at most ``limit`` s from ``started``) until the monitor holds the current state.
+
+    A fresh process cannot know when discovery is over, so besides the monitor's own
+    sync it waits for at least :data:`SETTLE` seconds since start, then for every online
+    node to be complete and :data:`QUIET` seconds without events (``quiet()`` returns
+    the time of the last one). False when the limit was reached first.
+    """
+    deadline = started + limit
+    monitor.wait_synced(limit)
+    pause = started + SETTLE - time.monotonic()
+    if pause > 0:
+        time.sleep(pause)
+    while True:
+        remaining = deadline - time.monotonic()
+        done = monitor.wait_until(
+            lambda s: all(st.complete or not st.online for st in s.values()), max(0.0, remaining)
+        )
+        wait = quiet() + QUIET - time.monotonic()
+        if wait <= 0 or remaining <= 0:
+            return done and remaining > 0
+        time.sleep(wait)
+
+
 def run_watch(args: argparse.Namespace) -> int:
     nodes = [node_arg(n) for n in args.nodes]
     printer = EventPrinter(args.output, args.prefixes)
     with Session(args) as session:
-        session.monitor(nodes or None, on_event=printer)
+        started = time.monotonic()
+        monitor = session.monitor(nodes or None, on_event=printer)
+        settle(monitor, started, args.timeout, lambda: printer.last_event)
+        printer.synced()
         wait_until_interrupted(printer.broken)
     return Exit.OK
 
@@ -138,7 +174,8 @@ def run_assign(args: argparse.Namespace) -> int:
     if not params:
         raise UsageError("nothing to assign: give NAME=VALUE arguments or --file")
     with Session(args, app_name="paramdds-assign") as session:
-        session.assigner().assign(node, list(params.values()))
+        assigner = session.assigner()  # keep it: its writer holds the retained values
+        assigner.assign(node, list(params.values()))
         sys.stdout.write(f"[ASSIGN] holding {len(params)} parameters for node {node} (Ctrl-C to stop)\n")
         sys.stdout.flush()
         wait_until_interrupted()

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
+import time
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
@@ -49,9 +50,13 @@ def problem(message: str) -> None:
 
 
 def run_nodes(args: argparse.Namespace) -> int:
+    from ._live import settle
+
+    last = [time.monotonic()]
     with Session(args) as session:
-        monitor = session.monitor()
-        if not monitor.wait_synced(min(args.timeout, NODES_SETTLE)):
+        started = time.monotonic()
+        monitor = session.monitor(on_event=lambda _e: last.__setitem__(0, time.monotonic()))
+        if not settle(monitor, started, min(args.timeout, NODES_SETTLE), lambda: last[0]):
             log.warning("the node list may be incomplete: discovery did not settle in time")
         states = monitor.snapshot()
     rows = [

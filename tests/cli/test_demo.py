@@ -1,0 +1,93 @@
+"""The seed scenario as a user runs it: ``run.sh --demo`` and ``paramdds client --once``."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from ._support import ROOT, cli_env, next_domain, run_cli, start_server
+
+EXAMPLE = ROOT / "examples" / "params.yaml"
+NAMES = [
+    "robot.enabled",
+    "robot.max_acceleration",
+    "robot.max_velocity",
+    "robot.name",
+    "robot.wheel_count",
+    "sensor.frequencies",
+    "sensor.topics",
+]
+
+
+def check_demo_output(out: str, node: str) -> None:
+    lines = out.splitlines()
+    assert lines[lines.index(f"[PARAM_EVENT] From node: {node}") + 1].startswith("  NEW: ")
+    assert sorted(line[len("  NEW: ") :] for line in lines if line.startswith("  NEW: ")) == NAMES
+    i = lines.index("=== LIST PARAMETERS ===")
+    assert lines[i + 1] == f"[LIST] Found 7 parameters on {node}:"
+    assert lines[i + 2 : i + 9] == [f"  - {n}" for n in NAMES]
+    g = lines.index("=== GET PARAMETERS ===")
+    assert lines[g + 1] == "[GET] Retrieved 7 parameters:"
+    assert "  robot.max_velocity = double 1.5" in lines[g + 2 : g + 9]
+    assert "  sensor.topics = string_array ['/scan', '/imu', '/odom']" in lines[g + 2 : g + 9]
+    s = lines.index("=== SET PARAMETERS ===")
+    assert lines[s + 1] == f"[SET] Response from: {node}"
+    assert lines[s + 2 : s + 9] == [f"  Result[{i}]: SUCCESS" for i in range(7)]
+
+
+def test_client_once_prints_the_seed_demo(tmp_path: Path) -> None:
+    domain = next_domain()
+    server = start_server(domain, "-n", "robot1", "-p", str(EXAMPLE))
+    try:
+        assert server.lines[0] == f"[SERVER] Loaded 7 parameters from {EXAMPLE}"
+        out = run_cli(domain, "client", "--target", "robot1", "--params-file", str(EXAMPLE), "--once")
+        assert out.returncode == 0, out.stderr
+        check_demo_output(out.stdout, "robot1")
+        failing = tmp_path / "bad.yaml"
+        failing.write_text("parameters:\n  - name: robot.name\n    type: integer\n    value: 3\n")
+        out = run_cli(domain, "client", "--target", "robot1", "--params-file", str(failing), "--once")
+        assert out.returncode == 1
+        assert "  Result[0]: FAILED: " in out.stdout
+    finally:
+        assert server.stop() == 0  # SIGTERM is a graceful stop
+
+
+def test_client_exits_3_when_the_target_never_appears() -> None:
+    out = run_cli(next_domain(), "client", "--target", "nobody", "--wait", "1", "--once")
+    assert out.returncode == 3
+    assert "nobody" in out.stderr and out.stderr.count("\n") == 1
+
+
+def test_run_sh_demo() -> None:
+    env = cli_env(next_domain())
+    env["PARAMDDS_VENV"] = str(Path(sys.executable).parent.parent)
+    out = subprocess.run(
+        [str(ROOT / "run.sh"), "--demo", "-n", "robot1", "-d", env["PARAMDDS_DOMAIN"]],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=180,
+        cwd=os.fspath(ROOT),
+    )
+    assert out.returncode == 0, out.stderr
+    assert f"[SERVER] Loaded 7 parameters from {EXAMPLE}" in out.stdout
+    check_demo_output(out.stdout, "robot1")
+
+
+def test_run_sh_rejects_bad_flags() -> None:
+    out = subprocess.run([str(ROOT / "run.sh"), "-v", "9"], capture_output=True, text=True, timeout=30)
+    assert out.returncode == 2 and "verbosity" in out.stderr
+    help_text = subprocess.run([str(ROOT / "run.sh"), "-h"], capture_output=True, text=True, timeout=30)
+    assert help_text.returncode == 0
+    for flag in (
+        "--domain",
+        "--verbosity",
+        "--qos-file",
+        "--params-file",
+        "--node-name",
+        "--target",
+        "--server",
+    ):
+        assert flag in help_text.stdout

@@ -1,0 +1,75 @@
+"""``server --persist``: acknowledged changes survive a kill; damaged files refuse the start."""
+
+from __future__ import annotations
+
+import json
+import signal
+from pathlib import Path
+
+import pytest
+
+from paramdds.persist import HEADER, TRAILER_PREFIX
+
+from ._support import next_domain, run_cli, start_server
+
+
+def test_a_restart_restores_every_acknowledged_change(params_file: Path, tmp_path: Path) -> None:
+    domain = next_domain()
+    state = tmp_path / "state.yaml"
+    args = ("-n", "robot1", "-p", str(params_file), "--persist", str(state))
+    server = start_server(domain, *args)
+    try:
+        assert state.read_text().startswith(HEADER)  # created at start
+        out = run_cli(domain, "set", "robot1", "robot.max_velocity=3.25", "sensor.frame_ids=[a, b, c]")
+        assert out.returncode == 0, out.stderr
+    finally:
+        server.stop(signal.SIGKILL)  # no graceful anything: the reply came after the write
+    text = state.read_text()
+    assert "3.25" in text and text.splitlines()[-1].startswith(TRAILER_PREFIX)
+    server = start_server(domain, *args)
+    try:
+        got = run_cli(
+            domain, "get", "robot1", "robot.max_velocity", "sensor.frame_ids", "robot.name", "-o", "json"
+        )
+        assert json.loads(got.stdout) == {
+            "robot.max_velocity": 3.25,
+            "sensor.frame_ids": ["a", "b", "c"],
+            "robot.name": "my_robot",
+        }
+    finally:
+        assert server.stop() == 0
+
+
+@pytest.fixture(scope="module")
+def valid_state(params_file: Path, tmp_path_factory: pytest.TempPathFactory) -> str:
+    """The text of a persistence file written by a real server (made once per module)."""
+    state = tmp_path_factory.mktemp("persist") / "state.yaml"
+    server = start_server(next_domain(), "-n", "robot1", "-p", str(params_file), "--persist", str(state))
+    server.stop()
+    return state.read_text()
+
+
+@pytest.mark.parametrize(
+    ("damage", "message"),
+    [
+        (lambda text: text[: len(text) // 2], "truncated"),
+        (lambda text: "robot1: [unclosed\n", "YAML"),  # not YAML (a hand-written file without the header)
+        (lambda text: text.replace("robot.max_velocity", "x").replace("1.5", '"fast"'), "checksum"),
+        (lambda text: "robot1:\n  ros__parameters:\n    robot:\n      max_velocity: fast\n", "max_velocity"),
+        (lambda text: "", "empty"),
+    ],
+    ids=["truncated", "not-yaml", "edited", "wrong-type", "empty"],
+)
+def test_a_damaged_file_refuses_the_start_and_is_left_untouched(
+    params_file: Path, tmp_path: Path, valid_state: str, damage: object, message: str
+) -> None:
+    domain = next_domain()
+    state = tmp_path / "state.yaml"
+    state.write_text(damage(valid_state))  # type: ignore[operator]
+    before = state.read_bytes()
+    out = run_cli(domain, "server", "-n", "robot1", "-p", str(params_file), "--persist", str(state))
+    assert out.returncode == 2
+    assert str(state) in out.stderr and message in out.stderr
+    assert out.stderr.count("\n") == 1 and "Traceback" not in out.stderr
+    assert state.read_bytes() == before
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
