@@ -203,6 +203,24 @@ class ServerProc:
         self.proc.send_signal(signal.SIGTERM)
         return self.proc.wait(timeout)
 
+    def freeze(self, timeout: float = 5.0) -> None:
+        """SIGSTOP, and wait until every thread has stopped (the signal takes a moment)."""
+        self.proc.send_signal(signal.SIGSTOP)
+        assert wait_until(self._stopped, timeout), "the server process did not stop"
+
+    def _stopped(self) -> bool:
+        tasks = f"/proc/{self.pid}/task"
+        try:
+            states = [self._state(f"{tasks}/{t}/stat") for t in os.listdir(tasks)]
+        except OSError:
+            return False
+        return bool(states) and all(s in ("T", "t") for s in states)
+
+    @staticmethod
+    def _state(stat: str) -> str:
+        with open(stat) as f:
+            return f.read().rpartition(")")[2].split()[0]
+
     def kill(self) -> None:
         self.proc.kill()
         self.proc.wait(10.0)

@@ -13,7 +13,7 @@ from paramdds.dds import types as wire
 from paramdds.dds.assign import Assigner
 from paramdds.dds.qos import QosProfiles
 
-from .helpers import DdsSession, ServerProc
+from .helpers import DdsSession, ServerProc, wait_until
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -66,6 +66,12 @@ def test_assignment_reaches_a_node_started_later_validated(dds: DdsSession) -> N
             timeout=5.0,
         )
         assert monitor.wait_until(lambda s: s["late"].parameters["limit"][0].value == 4, timeout=5.0)
+
+        def client_sees_restart() -> bool:
+            info = client.node_info("late")
+            return info is not None and info.online and info.pid == restarted.pid
+
+        assert wait_until(client_sees_restart, timeout=5.0)
         got = client.get("late", ["speed", "limit", "label"])
         assert {n: v.value for n, v in got.values().items()} == {"speed": 5, "limit": 4, "label": "default"}
 

@@ -9,7 +9,6 @@ never like every parameter being deleted.
 from __future__ import annotations
 
 import os
-import signal
 import threading
 import time
 from collections.abc import Iterator
@@ -22,7 +21,7 @@ from paramdds.core.values import NOT_SET, Parameter, ParameterValue
 from paramdds.dds.monitor import EventKind, MonitorEvent
 from paramdds.errors import UnavailableError
 
-from .helpers import DdsSession, ServerProc
+from .helpers import DdsSession, ServerProc, wait_until
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -179,7 +178,7 @@ def test_killed_server_offline_fast_calls_fail_fast_and_restart_online(dds: DdsS
         assert monitor.wait_until(lambda s: s["victim"].parameters["speed"][0].value == 4, timeout=3.0)
 
         # A frozen server: the call is pending when the node's liveliness lapses.
-        os.kill(server.pid, signal.SIGSTOP)
+        server.freeze()
         stopped = time.monotonic()
         with pytest.raises(UnavailableError, match="victim"):
             client.get("victim", ["speed"])  # timeout 10 s
@@ -204,6 +203,8 @@ def test_killed_server_offline_fast_calls_fail_fast_and_restart_online(dds: DdsS
         assert monitor.wait_until(
             lambda s: s["victim"].online and s["victim"].pid == restarted.pid, timeout=5.0
         )
+        assert wait_until(lambda: getattr(client.node_info("victim"), "pid", 0) == restarted.pid, 5.0)
+        assert client.wait_for_node("victim", timeout=1.0).online
         assert client.get_value("victim", "speed").value == 3  # the restarted node's default
         assert client.set("victim", {"speed": 6}).successful
         assert client.get_value("victim", "speed").value == 6
