@@ -22,13 +22,13 @@ import itertools
 import secrets
 import threading
 import time
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import Future
 from concurrent.futures import TimeoutError as FutureTimeout
 from dataclasses import dataclass
 from typing import Any
 
-from cyclonedds.core import InstanceState
+from cyclonedds.core import DDSException, InstanceState
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
@@ -53,6 +53,8 @@ from .qos import QosProfiles
 
 DEFAULT_TIMEOUT = 5.0
 PRESENCE_GRACE = 1.0  # seconds after start-up before a node without presence counts as absent
+_READ_ALL = 1 << 24  # "every sample" for read(); Cyclone refuses N >= 2**28
+PRESENCE_CHECK = 0.2  # while a call waits past the grace, how often the node's presence is checked
 
 ParamsArg = Mapping[str, object] | Iterable[Parameter]
 
@@ -134,8 +136,7 @@ class ParameterClient:
         self._ids = itertools.count(1)
         self._ids_lock = threading.Lock()
         self._pending: dict[int, _Pending] = {}
-        self._nodes: dict[str, NodeInfo] = {}
-        self._nodes_changed = threading.Condition()
+        self._closing = threading.Event()
         self._started = time.monotonic()
         self._presence_grace = presence_grace
         self._writers = {
@@ -147,9 +148,7 @@ class ParameterClient:
             reader = DataReader(participant, self._own_replies(name), self._qos.reader(name))
             self._dispatcher.add(reader, self._on_replies)
         presence = Topic(participant, "ParameterEvents", wire.ParameterEvent)
-        self._dispatcher.add(
-            DataReader(participant, presence, self._qos.reader("ParameterEvents")), self._on_presence
-        )
+        self._presence = DataReader(participant, presence, self._qos.reader("ParameterEvents"))
         self._dispatcher.start()
 
     def _own_replies(self, name: str) -> Any:
@@ -157,6 +156,7 @@ class ParameterClient:
         return Topic(self._dp, name, wire.TOPICS[name])
 
     def close(self) -> None:
+        self._closing.set()
         self._dispatcher.close()
         for pending in list(self._pending.values()):
             if not pending.future.done():
@@ -170,59 +170,51 @@ class ParameterClient:
         self.close()
 
     # -- presence -------------------------------------------------------------------
+    #
+    # The presence reader is never drained by the dispatcher: Cyclone keeps each
+    # instance's last sample serialized, and we decode only the presence instance of
+    # the node asked about (lookup_instance + read). Taking every ParameterEvents
+    # sample instead would make each client decode the whole system's state.
 
-    def _on_presence(self, samples: Sequence[Any]) -> None:
-        offline: list[str] = []
-        with self._nodes_changed:
-            for s in samples:
-                info = s.sample_info
-                if info.valid_data:
-                    if s.kind != wire.EVENT_PRESENCE:
-                        continue
-                    self._nodes[s.node_id] = NodeInfo(
-                        s.node_id,
-                        info.instance_state == InstanceState.Alive,
-                        s.host,
-                        s.pid,
-                        s.revision,
-                        s.parameter_count,
-                    )
-                else:
-                    old = self._nodes.get(s.key_sample.node_id)
-                    if old is not None and s.key_sample.name == "":
-                        self._nodes[old.node] = NodeInfo(
-                            old.node, False, old.host, old.pid, old.revision, old.parameters
-                        )
-                        offline.append(old.node)
-            self._nodes_changed.notify_all()
-        for node in offline:
-            for pending in list(self._pending.values()):
-                if pending.node == node and not pending.future.done():
-                    pending.future.set_exception(UnavailableError(f"node {node!r} went offline"))
+    def _presence_of(self, node: str) -> NodeInfo | None:
+        handle = self._presence.lookup_instance(wire.ParameterEvent(node_id=node, name=""))
+        if handle is None:
+            return None
+        try:
+            samples = self._presence.read(N=1, instance_handle=handle)
+        except DDSException:
+            # the handle is process-wide: another entity here may know the key while
+            # this reader holds no such instance (PRECONDITION_NOT_MET)
+            return None
+        return _node_info(samples[0]) if samples else None
 
     def nodes(self) -> list[NodeInfo]:
-        """Every node whose presence this client has seen, sorted by name."""
-        with self._nodes_changed:
-            return sorted(self._nodes.values(), key=lambda n: n.node)
+        """Every node whose presence this client holds (alive or not), sorted by name."""
+        found = [_node_info(s) for s in self._presence.read(N=_READ_ALL)]
+        return sorted((n for n in found if n is not None), key=lambda n: n.node)
 
     def node_info(self, node: str) -> NodeInfo | None:
-        with self._nodes_changed:
-            return self._nodes.get(canonical_node_id(node))
+        return self._presence_of(canonical_node_id(node))
 
     def wait_for_node(self, node: str, timeout: float | None = None) -> NodeInfo:
-        """Block until ``node`` is online; UnavailableError after ``timeout`` seconds."""
+        """Block until ``node`` is online; UnavailableError after ``timeout`` seconds.
+
+        Checks the node's presence instance every :data:`PRESENCE_CHECK` seconds (a
+        start-up wait, not a data path: replies are never polled).
+        """
         node = canonical_node_id(node)
         limit = self.timeout if timeout is None else timeout
         deadline = time.monotonic() + limit
-        with self._nodes_changed:
-            while True:
-                info = self._nodes.get(node)
-                if info is not None and info.online:
-                    return info
-                remaining = deadline - time.monotonic()
-                if remaining <= 0:
-                    raise UnavailableError(f"node {node!r} is not present (waited {limit:g} s)")
-                self._nodes_changed.wait(remaining)
+        while True:
+            info = self._presence_of(node)
+            if info is not None and info.online:
+                return info
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise UnavailableError(f"node {node!r} is not present (waited {limit:g} s)")
+            self._closing.wait(min(remaining, PRESENCE_CHECK))
+            if self._closing.is_set():
+                raise UnavailableError("the client was closed")
 
     # -- the calls ------------------------------------------------------------------------
 
@@ -336,40 +328,47 @@ class ParameterClient:
         return min(grace, limit), limit
 
     def _absent(self, node: str) -> bool:
-        info = self._nodes.get(node)
+        info = self._presence_of(node)
         return info is None or not info.online
 
-    def _wait(self, node: str, request_id: int, pending: _Pending, timeout: float | None) -> Any:
+    def _slices(self, node: str, timeout: float | None) -> Iterator[float]:
+        """How long to wait for the reply next; raises once the call cannot succeed.
+
+        First until the presence grace ends, then in :data:`PRESENCE_CHECK` steps,
+        checking between steps that the node is (still) present: an absent node is
+        UNAVAILABLE at once, one that goes offline within a step of its lease
+        ending, and a present one that does not answer is a TIMEOUT at ``timeout``.
+        """
         first, limit = self._phase(node, timeout)
-        started = time.monotonic()
-        try:
-            try:
-                return pending.future.result(first)
-            except FutureTimeout:
-                pass
+        deadline = time.monotonic() + limit
+        yield first
+        while True:
             if self._absent(node):
                 raise UnavailableError(f"node {node!r} is not present")
-            try:
-                return pending.future.result(max(0.0, limit - (time.monotonic() - started)))
-            except FutureTimeout:
-                raise TimeoutError_(f"no answer from node {node!r} within {limit:g} s") from None
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise TimeoutError_(f"no answer from node {node!r} within {limit:g} s")
+            yield min(remaining, PRESENCE_CHECK)
+
+    def _wait(self, node: str, request_id: int, pending: _Pending, timeout: float | None) -> Any:
+        try:
+            for step in self._slices(node, timeout):
+                try:
+                    return pending.future.result(step)
+                except FutureTimeout:
+                    continue
+            raise AssertionError("unreachable")  # _slices raises before it ends
         finally:
             self._pending.pop(request_id, None)
 
     async def _await(self, node: str, request_id: int, pending: _Pending, timeout: float | None) -> Any:
-        first, limit = self._phase(node, timeout)
         future = asyncio.wrap_future(pending.future)
-        started = time.monotonic()
         try:
-            done, _ = await asyncio.wait({future}, timeout=first)
-            if done:
-                return future.result()
-            if self._absent(node):
-                raise UnavailableError(f"node {node!r} is not present")
-            done, _ = await asyncio.wait({future}, timeout=max(0.0, limit - (time.monotonic() - started)))
-            if done:
-                return future.result()
-            raise TimeoutError_(f"no answer from node {node!r} within {limit:g} s")
+            for step in self._slices(node, timeout):
+                done, _ = await asyncio.wait({future}, timeout=step)
+                if done:
+                    return future.result()
+            raise AssertionError("unreachable")
         finally:
             self._pending.pop(request_id, None)
             if not future.done():
@@ -444,3 +443,12 @@ class AsyncParameterClient:
 
     async def wait_for_node(self, node: str, timeout: float | None = None) -> NodeInfo:
         return await asyncio.to_thread(self.sync.wait_for_node, node, timeout)
+
+
+def _node_info(sample: Any) -> NodeInfo | None:
+    """The presence carried by a ParameterEvents sample, or None for a parameter sample."""
+    info = sample.sample_info
+    if not info.valid_data or sample.kind != wire.EVENT_PRESENCE:
+        return None
+    online = info.instance_state == InstanceState.Alive
+    return NodeInfo(sample.node_id, online, sample.host, sample.pid, sample.revision, sample.parameter_count)
