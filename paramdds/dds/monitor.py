@@ -31,7 +31,7 @@ from ..core.descriptors import ParameterDescriptor
 from ..core.names import canonical_node_id
 from ..core.values import ParameterValue
 from . import types as wire
-from .convert import descriptor_from_wire, value_from_wire
+from .convert import state_descriptor_from_wire, value_from_wire
 from .dispatch import Dispatcher
 from .qos import QosProfiles
 
@@ -177,7 +177,8 @@ class ParameterMonitor:
                     EventKind.DELETED, state.node, key.name, value, descriptor, state.revision
                 )
             return None  # "no writers" on a parameter: the node is offline, keep its value
-        value, descriptor = value_from_wire(s.value), descriptor_from_wire(s.descriptor)
+        value = value_from_wire(s.value)
+        descriptor = state_descriptor_from_wire(s.descriptor, key.name, value)
         kind = EventKind.MODIFIED if key.name in state.parameters else EventKind.ADDED
         state.parameters[key.name] = (value, descriptor)
         return MonitorEvent(kind, state.node, key.name, value, descriptor, s.revision, _seconds(s.stamp))

@@ -49,7 +49,7 @@ from ..core.table import ChangeKind, ChangeSet, ParameterTable, SetResult
 from ..core.values import Parameter
 from ..errors import ErrorCode, ParamddsError
 from . import types as wire
-from .convert import descriptor_to_wire, parameter_from_wire, value_to_wire
+from .convert import descriptor_to_wire, parameter_from_wire, state_descriptor_to_wire, value_to_wire
 from .dispatch import Dispatcher
 from .qos import QosProfiles
 
@@ -170,7 +170,7 @@ class ParameterServer:
             revision=revision,
             stamp=now_stamp(),
             value=value_to_wire(value),
-            descriptor=descriptor_to_wire(descriptor),
+            descriptor=state_descriptor_to_wire(descriptor, value),
         )
 
     def _write_presence(self, table: ParameterTable) -> None:

@@ -102,7 +102,8 @@ class ParameterEvent(IdlStruct, typename="paramdds.ParameterEvent"):
     revision: int64 = 0
     stamp: Time = field(default_factory=Time)
     value: ParameterValue = field(default_factory=ParameterValue)
-    descriptor: ParameterDescriptor = field(default_factory=ParameterDescriptor)
+    # empty when the descriptor is only (name, value type): see convert.state_descriptor_to_wire
+    descriptor: sequence[ParameterDescriptor, 1] = field(default_factory=list)
     host: str = ""
     pid: int32 = 0
     parameter_count: uint32 = 0

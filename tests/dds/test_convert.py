@@ -159,3 +159,20 @@ def test_unknown_type_byte_is_refused(byte: int) -> None:
         descriptor_from_wire(wire.ParameterDescriptor(name="x", type=byte))
     with pytest.raises(InvalidValueError):
         parameter_from_wire(wire.Parameter(name="x", value=wire.ParameterValue(type=byte)))
+
+
+def test_state_descriptor_is_left_out_only_when_it_is_name_and_type() -> None:
+    from paramdds.core.descriptors import IntegerRange, ParameterDescriptor
+    from paramdds.core.values import ParameterType, ParameterValue
+    from paramdds.dds.convert import state_descriptor_from_wire, state_descriptor_to_wire
+
+    value = ParameterValue.of(ParameterType.INTEGER, 3)
+    plain = ParameterDescriptor("a.b", ParameterType.INTEGER)
+    assert state_descriptor_to_wire(plain, value) == []
+    assert state_descriptor_from_wire([], "a.b", value) == plain
+    ranged = ParameterDescriptor("a.b", ParameterType.INTEGER, integer_range=IntegerRange(0, 10, 1))
+    dynamic = ParameterDescriptor("a.b", ParameterType.INTEGER, dynamic_typing=True)
+    for rich in (ranged, dynamic):
+        sent = state_descriptor_to_wire(rich, value)
+        assert len(sent) == 1
+        assert state_descriptor_from_wire(sent, "a.b", value) == rich
