@@ -256,7 +256,8 @@ def test_next_client_run_never_receives_a_stale_reply(dds: DdsSession) -> None:
         stale = [s.request_id for s in reader.take(N=100) if s.sample_info.valid_data]
         assert stale == [], f"{name}: replies of the previous run were replayed"
 
-    # and the reason, as discovery shows it: request/reply writers are VOLATILE, KEEP_ALL
+    # and the reason, as discovery shows it: request/reply writers are VOLATILE (and keep a
+    # deep KEEP_LAST history, so a dead reader that never acks cannot block them)
     publications = BuiltinDataReader(dp, BuiltinTopicDcpsPublication)
     seen: dict[str, Any] = {}
 
@@ -267,7 +268,7 @@ def test_next_client_run_never_receives_a_stale_reply(dds: DdsSession) -> None:
     assert wait_until(all_seen, timeout=5.0), sorted(seen)
     for name in (*REPLY_TOPICS, *REQUEST_TOPICS):
         assert seen[name][Policy.Durability] == Policy.Durability.Volatile, name
-        assert seen[name][Policy.History] == Policy.History.KeepAll, name
+        assert seen[name][Policy.History] == Policy.History.KeepLast(4096), name
         assert isinstance(seen[name][Policy.Reliability], Policy.Reliability.Reliable), name
 
 

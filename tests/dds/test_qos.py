@@ -78,12 +78,19 @@ def test_state_profile(profiles: QosProfiles) -> None:
 
 
 @pytest.mark.parametrize("topic", ["GetParametersRequest", "SetParametersResponse"])
-def test_request_and_reply_are_volatile_keep_all_bounded(profiles: QosProfiles, topic: str) -> None:
-    for q in (profiles.writer(topic), profiles.reader(topic)):
+def test_request_and_reply_are_volatile_and_never_replace_undelivered(
+    profiles: QosProfiles, topic: str
+) -> None:
+    # readers KEEP_ALL (bounded): nothing delivered is replaced before it is taken (trap 3);
+    # writers a deep KEEP_LAST: a reader that never acks (a killed peer within its lease)
+    # cannot make the writer block and starve every other client
+    writer, reader = profiles.writer(topic), profiles.reader(topic)
+    for q in (writer, reader):
         assert q[Policy.Durability] == Policy.Durability.Volatile
-        assert q[Policy.History] == Policy.History.KeepAll
         assert isinstance(q[Policy.Reliability], Policy.Reliability.Reliable)
-        assert 0 < q[Policy.ResourceLimits].max_samples <= 100_000
+    assert reader[Policy.History] == Policy.History.KeepAll
+    assert 0 < reader[Policy.ResourceLimits].max_samples <= 100_000
+    assert writer[Policy.History] == Policy.History.KeepLast(4096)
 
 
 def test_assignment_profile(profiles: QosProfiles) -> None:

@@ -146,14 +146,6 @@ time.sleep(60)
 
 @pytest.mark.slow
 @pytest.mark.timeout(60)
-@pytest.mark.xfail(
-    strict=True,
-    reason="a client process that dies (SIGKILL, or any exit that does not delete its participant, "
-    "which includes every paramdds CLI run) stays matched for the 10 s participant lease; its "
-    "readers never ack, the server's KEEP_ALL reply writers block 1 s per write once ~500 kB of "
-    "replies are unacked, then fail with DDS_RETCODE_TIMEOUT: replies to every other client are "
-    "lost (and the rest of the taken batch with them, as the exception leaves the handler)",
-)
 def test_a_killed_client_does_not_stall_replies_to_others(
     domain_id: int, tmp_path: Path, dds: DDS, procs: list[Proc]
 ) -> None:
