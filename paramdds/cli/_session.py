@@ -82,6 +82,11 @@ class Session:
                 obj.close()
             except Exception:
                 log.debug("closing %r failed", obj, exc_info=True)
+        if self._participant is not None:
+            from ..dds.participant import close_participant
+
+            close_participant(self._participant)
+            self._participant = None
 
     def __enter__(self) -> Session:
         return self

@@ -39,6 +39,7 @@ __all__ = [
     "LOCALHOST_ENV",
     "MAX_DOMAIN_ID",
     "MAX_PARTICIPANT_INDEX",
+    "close_participant",
     "domain_config",
     "localhost_from_env",
     "make_participant",
@@ -145,3 +146,17 @@ def _domain(domain_id: int, config: str) -> Domain:
         ) from exc
     _domains[domain_id] = (config, weakref.ref(domain))
     return domain
+
+
+def close_participant(participant: DomainParticipant) -> None:
+    """Delete ``participant`` and everything in it now, telling its peers.
+
+    Python does not delete Cyclone entities at interpreter exit, so a process that
+    just exits stays known to its peers for the 10 s participant lease: their
+    reliable writers keep data for its readers, and a server's reply writer can
+    stall. Every paramdds process calls this on its way out (close readers' users
+    such as dispatch threads first). Calling it twice is harmless.
+    """
+    from cyclonedds.core import Entity
+
+    Entity.__del__(participant)

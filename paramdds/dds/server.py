@@ -244,7 +244,7 @@ class ParameterServer:
             # a retry carries the same content; the same ids with other content are a new
             # request (a client restarted with a fixed client_id counts from 1 again)
             if seen is not None and seen[0] == content:
-                self._reply_writers["SetParametersResponse"].write(seen[1])
+                self._send_reply("SetParametersResponse", seen[1])
                 return
         response = wire.SetParametersResponse(
             node_id=table.node_id, client_id=request.client_id, request_id=request.request_id
@@ -261,7 +261,7 @@ class ParameterServer:
         try:
             if reply:
                 self._remember(key, content, response)
-                self._reply_writers["SetParametersResponse"].write(response)
+                self._send_reply("SetParametersResponse", response)
             elif not all(r.successful for r in response.results) or response.code:
                 log.warning("assignment for %s partly refused: %s", table.node_id, _summary(response))
         finally:
@@ -282,6 +282,8 @@ class ParameterServer:
             except ParamddsError as exc:
                 params.append(None)
                 bad[i] = SetResult(p.name, False, exc.message, exc.code)
+                who = request.client_id
+                self._log_once("malformed-value", "bad value for %r from client %x: %s", p.name, who, exc)
         expected = None if request.expected_revision < 0 else int(request.expected_revision)
         good = [p for p in params if p is not None]
         if bad and request.atomic:
@@ -302,6 +304,20 @@ class ParameterServer:
         results = [bad[i] if i in bad else next(merged) for i in range(len(params))]
         return [_result_to_wire(r) for r in results], outcome.revision
 
+    def _send_reply(self, topic: str, response: Any) -> None:
+        """Write a reply; a failed write is logged and never loses the rest of the batch."""
+        try:
+            self._reply_writers[topic].write(response)
+        except Exception as exc:
+            who = response.client_id
+            self._log_once(f"write:{topic}", "could not send a %s to client %x: %s", topic, who, exc)
+
+    def _log_once(self, kind: str, message: str, *args: object) -> None:
+        """Log a problem caused by peers once per kind, so a faulty peer cannot flood the log."""
+        if kind not in self._logged_bad:
+            self._logged_bad.add(kind)
+            log.warning(message + " (further ones are not logged)", *args)
+
     def _remember(self, key: tuple[str, int, int], content: tuple[Any, ...], response: Any) -> None:
         self._replies.pop(key, None)  # re-inserted at the end: the window keeps the newest
         self._replies[key] = (content, response)
@@ -309,7 +325,6 @@ class ParameterServer:
             self._replies.popitem(last=False)
 
     def _on_get(self, samples: Sequence[Any]) -> None:
-        writer = self._reply_writers["GetParametersResponse"]
         for request in samples:
             if not request.sample_info.valid_data:
                 continue
@@ -343,10 +358,9 @@ class ParameterServer:
             except Exception as exc:
                 log.exception("get request on %s failed", table.node_id)
                 response.code, response.reason = ErrorCode.INVALID_VALUE.value, f"internal error: {exc}"
-            writer.write(response)
+            self._send_reply("GetParametersResponse", response)
 
     def _on_list(self, samples: Sequence[Any]) -> None:
-        writer = self._reply_writers["ListParametersResponse"]
         for request in samples:
             if not request.sample_info.valid_data:
                 continue
@@ -365,7 +379,7 @@ class ParameterServer:
             except Exception as exc:
                 log.exception("list request on %s failed", table.node_id)
                 response.code, response.reason = ErrorCode.INVALID_VALUE.value, f"internal error: {exc}"
-            writer.write(response)
+            self._send_reply("ListParametersResponse", response)
 
 
 def _result_to_wire(r: SetResult) -> Any:

@@ -8,7 +8,6 @@ nodes (see the README's wire-compatibility section).
 Values follow rcl_interfaces: a ``type`` byte and one member per type.
 """
 
-
 from dataclasses import dataclass, field
 
 from cyclonedds.idl import IdlStruct
