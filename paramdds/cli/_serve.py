@@ -3,6 +3,12 @@
 Everything local is read and checked before DDS starts: a bad parameter file,
 spec or persistence file ends the command with exit 2 and one line naming the
 file, and nothing is published.
+
+Stopping: Ctrl-C (SIGINT) ends with exit 130, SIGTERM with exit 0; both close
+the server gracefully (its nodes go offline, their last values stay with the
+monitors). A shell without job control starts background jobs with SIGINT
+ignored, and Python keeps it ignored: stop such a server with SIGTERM (run.sh
+--demo does).
 """
 
 from __future__ import annotations
