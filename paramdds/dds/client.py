@@ -12,13 +12,16 @@ No call ever hangs: each has a timeout (default :data:`DEFAULT_TIMEOUT`). A node
 that has no presence instance once the client has had ``presence_grace`` seconds
 to discover the system is reported UNAVAILABLE at once; a node that goes offline
 while a call waits fails that call with UNAVAILABLE; otherwise a missing answer is
-a TIMEOUT naming the node and the time waited.
+a TIMEOUT naming the node and the time waited. A request without a reply is sent
+again (same ids) with backoff: the server answers repeats from its reply cache,
+so a copy lost during discovery costs a fraction of a second, not the timeout.
 """
 
 from __future__ import annotations
 
 import asyncio
 import itertools
+import logging
 import secrets
 import threading
 import time
@@ -51,10 +54,12 @@ from .convert import descriptor_from_wire, parameter_to_wire, value_from_wire
 from .dispatch import Dispatcher
 from .qos import QosProfiles
 
+log = logging.getLogger(__name__)
+
 DEFAULT_TIMEOUT = 5.0
 PRESENCE_GRACE = 1.0  # seconds after start-up before a node without presence counts as absent
 _READ_ALL = 1 << 24  # "every sample" for read(); Cyclone refuses N >= 2**28
-PRESENCE_CHECK = 0.2  # while a call waits past the grace, how often the node's presence is checked
+RESEND_AFTER = 0.2  # seconds without a reply before a call checks presence and resends
 
 ParamsArg = Mapping[str, object] | Iterable[Parameter]
 
@@ -110,10 +115,12 @@ def _to_parameters(params: ParamsArg) -> list[Parameter]:
 
 
 class _Pending:
-    __slots__ = ("future", "node")
+    __slots__ = ("future", "node", "sample", "topic")
 
-    def __init__(self, node: str) -> None:
+    def __init__(self, node: str, topic: str, sample: Any) -> None:
         self.node = node
+        self.topic = topic
+        self.sample = sample
         self.future: Future[Any] = Future()
 
 
@@ -199,7 +206,7 @@ class ParameterClient:
     def wait_for_node(self, node: str, timeout: float | None = None) -> NodeInfo:
         """Block until ``node`` is online; UnavailableError after ``timeout`` seconds.
 
-        Checks the node's presence instance every :data:`PRESENCE_CHECK` seconds (a
+        Checks the node's presence instance every :data:`RESEND_AFTER` seconds (a
         start-up wait, not a data path: replies are never polled).
         """
         node = canonical_node_id(node)
@@ -212,7 +219,7 @@ class ParameterClient:
             remaining = deadline - time.monotonic()
             if remaining <= 0:
                 raise UnavailableError(f"node {node!r} is not present (waited {limit:g} s)")
-            self._closing.wait(min(remaining, PRESENCE_CHECK))
+            self._closing.wait(min(remaining, RESEND_AFTER))
             if self._closing.is_set():
                 raise UnavailableError("the client was closed")
 
@@ -261,7 +268,7 @@ class ParameterClient:
             return next(self._ids)
 
     def _send(self, topic: str, node: str, sample: Any) -> tuple[str, int, _Pending]:
-        pending = _Pending(node)
+        pending = _Pending(node, topic, sample)
         self._pending[sample.request_id] = pending
         try:
             self._writers[topic].write(sample)
@@ -321,38 +328,42 @@ class ParameterClient:
             if pending is not None and not pending.future.done():
                 pending.future.set_result(reply)
 
-    def _phase(self, node: str, timeout: float | None) -> tuple[float, float]:
-        """(seconds until presence must be seen, seconds until the call times out)."""
-        limit = self.timeout if timeout is None else timeout
-        grace = max(0.0, self._started + self._presence_grace - time.monotonic())
-        return min(grace, limit), limit
-
     def _absent(self, node: str) -> bool:
         info = self._presence_of(node)
         return info is None or not info.online
 
-    def _slices(self, node: str, timeout: float | None) -> Iterator[float]:
+    def _slices(self, pending: _Pending, timeout: float | None) -> Iterator[float]:
         """How long to wait for the reply next; raises once the call cannot succeed.
 
-        First until the presence grace ends, then in :data:`PRESENCE_CHECK` steps,
-        checking between steps that the node is (still) present: an absent node is
-        UNAVAILABLE at once, one that goes offline within a step of its lease
-        ending, and a present one that does not answer is a TIMEOUT at ``timeout``.
+        Waits in steps of :data:`RESEND_AFTER` seconds, doubling up to 1 s. After a
+        step without a reply: once the
+        presence grace is over, an absent node is UNAVAILABLE (at once for a node
+        never seen; within a step of its liveliness lease for one that died);
+        otherwise the request is sent again (the first copy can be lost while a
+        just-started client or server is still being discovered). Retries are safe:
+        the server answers a repeated (client_id, request_id) from its reply cache.
+        A present node that does not answer is a TIMEOUT at ``timeout``.
         """
-        first, limit = self._phase(node, timeout)
+        limit = self.timeout if timeout is None else timeout
         deadline = time.monotonic() + limit
-        yield first
+        grace_end = self._started + self._presence_grace
+        step = RESEND_AFTER
         while True:
-            if self._absent(node):
-                raise UnavailableError(f"node {node!r} is not present")
             remaining = deadline - time.monotonic()
             if remaining <= 0:
-                raise TimeoutError_(f"no answer from node {node!r} within {limit:g} s")
-            yield min(remaining, PRESENCE_CHECK)
+                raise TimeoutError_(f"no answer from node {pending.node!r} within {limit:g} s")
+            yield min(remaining, step)
+            step = min(2 * step, 1.0)  # a big request that is merely slow is not resent often
+            if time.monotonic() >= grace_end and self._absent(pending.node):
+                raise UnavailableError(f"node {pending.node!r} is not present")
+            try:
+                self._writers[pending.topic].write(pending.sample)
+            except Exception as exc:
+                log.debug("resending request %d failed: %s", pending.sample.request_id, exc)
 
     def _wait(self, node: str, request_id: int, pending: _Pending, timeout: float | None) -> Any:
         try:
-            for step in self._slices(node, timeout):
+            for step in self._slices(pending, timeout):
                 try:
                     return pending.future.result(step)
                 except FutureTimeout:
@@ -364,7 +375,7 @@ class ParameterClient:
     async def _await(self, node: str, request_id: int, pending: _Pending, timeout: float | None) -> Any:
         future = asyncio.wrap_future(pending.future)
         try:
-            for step in self._slices(node, timeout):
+            for step in self._slices(pending, timeout):
                 done, _ = await asyncio.wait({future}, timeout=step)
                 if done:
                     return future.result()
