@@ -9,21 +9,19 @@ from __future__ import annotations
 
 import os
 import queue
-import random
 import signal
 import subprocess
 import sys
 import threading
 import time
 from collections.abc import Sequence
-from itertools import count
 from pathlib import Path
+
+from ..conftest import next_domain_id
 
 ROOT = Path(__file__).resolve().parents[2]
 PARAMDDS = str(Path(sys.executable).with_name("paramdds"))
 
-# domains 150..232, away from the default (1) and from other test packages' counters
-_DOMAINS = count(150 + random.randrange(0, 40))
 
 SEED_PARAMS = """\
 parameters:
@@ -52,9 +50,8 @@ parameters:
 
 
 def next_domain() -> int:
-    domain = next(_DOMAINS)
-    assert domain <= 232, "ran out of test domain ids"
-    return domain
+    """A domain id of its own, from the suite's one counter (tests/conftest.py)."""
+    return next_domain_id()
 
 
 def cli_env(domain: int) -> dict[str, str]:

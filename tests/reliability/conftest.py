@@ -26,6 +26,8 @@ from typing import Any
 
 import pytest
 
+from ..conftest import next_domain_id
+
 PARAMDDS = str(Path(sys.executable).with_name("paramdds"))
 
 PARAMS_YAML = """\
@@ -59,8 +61,13 @@ def make_dds_env(domain: int, **extra: str) -> dict[str, str]:
 
 
 def other_domain(domain: int) -> int:
-    """A second domain id for a test that needs two (tests run one at a time in a process)."""
-    return domain + 1 if domain < 230 else domain - 1
+    """A second domain id for a test that needs two: a fresh one from the shared counter.
+
+    (``domain + 1`` would be the next test's domain, which then met this test's
+    leftovers in the same process.)
+    """
+    fresh = next_domain_id()
+    return fresh if fresh != domain else next_domain_id()
 
 
 class Proc:
