@@ -68,8 +68,13 @@ ensure_venv() {
     if ! { [ -x "$VENV/bin/paramdds" ] && [ "$stamp" -nt "$HERE/pyproject.toml" ]; }; then
         echo "run.sh: setting up $VENV (first run only)..." >&2
         [ -x "$VENV/bin/python" ] || python3 -m venv "$VENV"
-        "$VENV/bin/python" -m pip install --quiet --upgrade pip >&2
-        "$VENV/bin/python" -m pip install --quiet -e "$HERE" >&2
+        local log="$VENV/.paramdds-install.log"
+        if ! { "$VENV/bin/python" -m pip install --upgrade pip \
+               && "$VENV/bin/python" -m pip install -e "$HERE"; } >"$log" 2>&1; then
+            cat "$log" >&2
+            echo "run.sh: installing paramdds into $VENV failed (log above, kept in $log)" >&2
+            exit 1
+        fi
         touch "$stamp"
     fi
     flock -u 9
