@@ -325,61 +325,63 @@ class ParameterServer:
             self._replies.popitem(last=False)
 
     def _on_get(self, samples: Sequence[Any]) -> None:
-        for request in samples:
-            if not request.sample_info.valid_data:
-                continue
-            table = self._table_for(request.node_id)
-            if table is None:
-                continue
-            response = wire.GetParametersResponse(
-                node_id=table.node_id, client_id=request.client_id, request_id=request.request_id
-            )
-            try:
-                if len(request.names) > MAX_PARAMETERS_PER_REQUEST:
-                    raise ParamddsError(
-                        f"a get of {len(request.names)} names exceeds the limit of "
-                        f"{MAX_PARAMETERS_PER_REQUEST}",
-                        code=ErrorCode.TOO_LARGE,
-                    )
-                results = table.get_many(list(request.names), with_descriptors=request.with_descriptors)
-                response.revision = table.revision
-                response.results = [
-                    wire.GetParameterResult(
-                        name=r.name,
-                        code=r.code.value if r.code else "",
-                        reason=r.reason,
-                        value=value_to_wire(r.value) if r.value is not None else wire.ParameterValue(),
-                        descriptor=[descriptor_to_wire(r.descriptor)] if r.descriptor is not None else [],
-                    )
-                    for r in results
-                ]
-            except ParamddsError as exc:
-                response.code, response.reason = exc.code.value, exc.message
-            except Exception as exc:
-                log.exception("get request on %s failed", table.node_id)
-                response.code, response.reason = ErrorCode.INVALID_VALUE.value, f"internal error: {exc}"
-            self._send_reply("GetParametersResponse", response)
+        self._answer(samples, "GetParametersResponse", _fill_get)
 
     def _on_list(self, samples: Sequence[Any]) -> None:
+        self._answer(samples, "ListParametersResponse", _fill_list)
+
+    def _answer(self, samples: Sequence[Any], reply_topic: str, fill: Fill) -> None:
+        """Answer read-only requests: ``fill(table, request, response)`` does the work.
+
+        Requests for nodes not hosted here are ignored; a refusal becomes the reply's
+        code and reason, and no exception escapes to take the server down.
+        """
+        reply_type: Any = wire.TOPICS[reply_topic]
         for request in samples:
             if not request.sample_info.valid_data:
                 continue
             table = self._table_for(request.node_id)
             if table is None:
                 continue
-            response = wire.ListParametersResponse(
+            response = reply_type(
                 node_id=table.node_id, client_id=request.client_id, request_id=request.request_id
             )
             try:
-                result = table.list(list(request.prefixes), int(request.depth))
+                fill(table, request, response)
                 response.revision = table.revision
-                response.names, response.prefixes = list(result.names), list(result.prefixes)
             except ParamddsError as exc:
                 response.code, response.reason = exc.code.value, exc.message
             except Exception as exc:
-                log.exception("list request on %s failed", table.node_id)
+                log.exception("%s on %s failed", type(request).__name__, table.node_id)
                 response.code, response.reason = ErrorCode.INVALID_VALUE.value, f"internal error: {exc}"
-            self._send_reply("ListParametersResponse", response)
+            self._send_reply(reply_topic, response)
+
+
+Fill = Callable[[ParameterTable, Any, Any], None]
+
+
+def _fill_get(table: ParameterTable, request: Any, response: Any) -> None:
+    if len(request.names) > MAX_PARAMETERS_PER_REQUEST:
+        raise ParamddsError(
+            f"a get of {len(request.names)} names exceeds the limit of {MAX_PARAMETERS_PER_REQUEST}",
+            code=ErrorCode.TOO_LARGE,
+        )
+    results = table.get_many(list(request.names), with_descriptors=request.with_descriptors)
+    response.results = [
+        wire.GetParameterResult(
+            name=r.name,
+            code=r.code.value if r.code else "",
+            reason=r.reason,
+            value=value_to_wire(r.value) if r.value is not None else wire.ParameterValue(),
+            descriptor=[descriptor_to_wire(r.descriptor)] if r.descriptor is not None else [],
+        )
+        for r in results
+    ]
+
+
+def _fill_list(table: ParameterTable, request: Any, response: Any) -> None:
+    result = table.list(list(request.prefixes), int(request.depth))
+    response.names, response.prefixes = list(result.names), list(result.prefixes)
 
 
 def _result_to_wire(r: SetResult) -> Any:
