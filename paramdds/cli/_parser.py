@@ -132,7 +132,7 @@ def _server(p: Parser) -> None:
     p.add_argument("--allow-undeclared", action="store_true", help="accept sets of undeclared names")
     p.add_argument("--strict-types", action="store_true", help="never widen an integer to a double")
     p.add_argument("--read-only", action="store_true", help="serve reads, refuse every set and delete")
-    p.add_argument("--use-sim-time", action="store_true", help="declare use_sim_time = true")
+    p.add_argument("--use-sim-time", action="store_true", help="declare use_sim_time (bool, false)")
 
 
 def _client(p: Parser) -> None:
