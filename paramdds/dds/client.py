@@ -59,6 +59,7 @@ log = logging.getLogger(__name__)
 DEFAULT_TIMEOUT = 5.0
 PRESENCE_GRACE = 1.0  # seconds after start-up before a node without presence counts as absent
 _READ_ALL = 1 << 24  # "every sample" for read(); Cyclone refuses N >= 2**28
+PRESENCE_POLL = 0.02  # seconds between presence checks in wait_for_node
 RESEND_AFTER = 0.2  # seconds without a reply before a call checks presence and resends
 
 ParamsArg = Mapping[str, object] | Iterable[Parameter]
@@ -206,7 +207,7 @@ class ParameterClient:
     def wait_for_node(self, node: str, timeout: float | None = None) -> NodeInfo:
         """Block until ``node`` is online; UnavailableError after ``timeout`` seconds.
 
-        Checks the node's presence instance every :data:`RESEND_AFTER` seconds (a
+        Checks the node's presence instance every :data:`PRESENCE_POLL` seconds (a
         start-up wait, not a data path: replies are never polled).
         """
         node = canonical_node_id(node)
@@ -219,7 +220,7 @@ class ParameterClient:
             remaining = deadline - time.monotonic()
             if remaining <= 0:
                 raise UnavailableError(f"node {node!r} is not present (waited {limit:g} s)")
-            self._closing.wait(min(remaining, RESEND_AFTER))
+            self._closing.wait(min(remaining, PRESENCE_POLL))
             if self._closing.is_set():
                 raise UnavailableError("the client was closed")
 
