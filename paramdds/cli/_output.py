@@ -78,13 +78,6 @@ def dumps_yaml(obj: object) -> str:
     return str(yaml.safe_dump(obj, sort_keys=False, allow_unicode=True, default_flow_style=None))
 
 
-def show_value(value: ParameterValue | None) -> str:
-    """A value for humans: ``1.5``, ``'abc'``, ``[1, 2]``, ``not_set``."""
-    if value is None:
-        return "not_set"
-    return value.show()
-
-
 def typed(value: ParameterValue | None) -> str:
     """``double 1.5`` — a value with its type, as the demo and table outputs print it."""
     if value is None or value.type is ParameterType.NOT_SET:
