@@ -50,6 +50,7 @@ from ..errors import (
     error_for,
 )
 from . import types as wire
+from .cdr import is_malformed
 from .convert import descriptor_from_wire, parameter_to_wire, value_from_wire
 from .dispatch import Dispatcher
 from .qos import QosProfiles
@@ -460,7 +461,7 @@ class AsyncParameterClient:
 def _node_info(sample: Any) -> NodeInfo | None:
     """The presence carried by a ParameterEvents sample, or None for a parameter sample."""
     info = sample.sample_info
-    if not info.valid_data or sample.kind != wire.EVENT_PRESENCE:
+    if not info.valid_data or is_malformed(sample) or sample.kind != wire.EVENT_PRESENCE:
         return None
     online = info.instance_state == InstanceState.Alive
     return NodeInfo(sample.node_id, online, sample.host, sample.pid, sample.revision, sample.parameter_count)

@@ -16,6 +16,8 @@ from typing import Any
 from cyclonedds.core import GuardCondition, InstanceState, ReadCondition, SampleState, ViewState, WaitSet
 from cyclonedds.util import duration
 
+from .cdr import is_malformed
+
 log = logging.getLogger(__name__)
 
 Handler = Callable[[Sequence[Any]], None]
@@ -30,6 +32,7 @@ class Dispatcher:
         self._waitset.attach(self._guard)
         self._entries: list[tuple[Any, Any, Handler]] = []
         self._stopping = False
+        self._warned: set[str] = set()
         self._thread = threading.Thread(target=self._run, name=name, daemon=True)
 
     def add(self, reader: Any, handler: Handler) -> None:
@@ -62,14 +65,18 @@ class Dispatcher:
             for reader, _, handler in self._entries:
                 self._drain(reader, handler)
 
-    @staticmethod
-    def _drain(reader: Any, handler: Handler) -> None:
+    def _drain(self, reader: Any, handler: Handler) -> None:
         while True:
             samples = reader.take(N=_TAKE_BATCH)
             if not samples:
                 return
+            good = [s for s in samples if not is_malformed(s)]
+            if len(good) < len(samples) and reader.topic.name not in self._warned:
+                self._warned.add(reader.topic.name)  # a flood of bad samples must not flood the log
+                log.warning("%s: dropped an undecodable sample (further ones not logged)", reader.topic.name)
             try:
-                handler(samples)
+                if good:
+                    handler(good)
             except Exception:  # a bug in one handler must not stop the thread
                 log.exception("handler for %s failed", reader.topic.name)
             if len(samples) < _TAKE_BATCH:

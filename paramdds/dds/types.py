@@ -14,6 +14,8 @@ from cyclonedds.idl import IdlStruct
 from cyclonedds.idl.annotations import appendable, key
 from cyclonedds.idl.types import bounded_str, float64, int32, int64, sequence, uint8, uint32, uint64
 
+from paramdds.dds.cdr import fast_cdr
+
 MAX_KEY_LEN = 255  # bytes of UTF-8, for node ids and parameter names (written as a literal
 # in the annotations below: the cyclonedds mypy plugin needs `bounded_str[<int literal>]`)
 
@@ -22,6 +24,7 @@ EVENT_PARAMETER = 0  # one parameter's current value and descriptor
 EVENT_PRESENCE = 1  # the node itself: host, pid, revision, parameter count; name is ""
 
 
+@fast_cdr
 @dataclass
 @appendable
 class ParameterValue(IdlStruct, typename="paramdds.ParameterValue"):
@@ -37,6 +40,7 @@ class ParameterValue(IdlStruct, typename="paramdds.ParameterValue"):
     string_array_value: sequence[str] = field(default_factory=list)
 
 
+@fast_cdr
 @dataclass
 @appendable
 class IntegerRange(IdlStruct, typename="paramdds.IntegerRange"):
@@ -45,6 +49,7 @@ class IntegerRange(IdlStruct, typename="paramdds.IntegerRange"):
     step: uint64 = 0
 
 
+@fast_cdr
 @dataclass
 @appendable
 class FloatingPointRange(IdlStruct, typename="paramdds.FloatingPointRange"):
@@ -53,6 +58,7 @@ class FloatingPointRange(IdlStruct, typename="paramdds.FloatingPointRange"):
     step: float64 = 0.0
 
 
+@fast_cdr
 @dataclass
 @appendable
 class Validator(IdlStruct, typename="paramdds.Validator"):
@@ -60,6 +66,7 @@ class Validator(IdlStruct, typename="paramdds.Validator"):
     args: sequence[ParameterValue] = field(default_factory=list)
 
 
+@fast_cdr
 @dataclass
 @appendable
 class ParameterDescriptor(IdlStruct, typename="paramdds.ParameterDescriptor"):
@@ -74,6 +81,7 @@ class ParameterDescriptor(IdlStruct, typename="paramdds.ParameterDescriptor"):
     validators: sequence[Validator] = field(default_factory=list)
 
 
+@fast_cdr
 @dataclass
 @appendable
 class Parameter(IdlStruct, typename="paramdds.Parameter"):
@@ -81,6 +89,7 @@ class Parameter(IdlStruct, typename="paramdds.Parameter"):
     value: ParameterValue = field(default_factory=ParameterValue)
 
 
+@fast_cdr
 @dataclass
 @appendable
 class Time(IdlStruct, typename="paramdds.Time"):
@@ -88,6 +97,7 @@ class Time(IdlStruct, typename="paramdds.Time"):
     nanosec: uint32 = 0
 
 
+@fast_cdr
 @dataclass
 @appendable
 class ParameterEvent(IdlStruct, typename="paramdds.ParameterEvent"):
@@ -108,6 +118,7 @@ class ParameterEvent(IdlStruct, typename="paramdds.ParameterEvent"):
     parameter_count: uint32 = 0
 
 
+@fast_cdr
 @dataclass
 @appendable
 class SetParametersRequest(IdlStruct, typename="paramdds.SetParametersRequest"):
@@ -121,6 +132,7 @@ class SetParametersRequest(IdlStruct, typename="paramdds.SetParametersRequest"):
     parameters: sequence[Parameter] = field(default_factory=list)
 
 
+@fast_cdr
 @dataclass
 @appendable
 class SetParameterResult(IdlStruct, typename="paramdds.SetParameterResult"):
@@ -130,6 +142,7 @@ class SetParameterResult(IdlStruct, typename="paramdds.SetParameterResult"):
     code: str = ""  # an ErrorCode name, "" on success
 
 
+@fast_cdr
 @dataclass
 @appendable
 class SetParametersResponse(IdlStruct, typename="paramdds.SetParametersResponse"):
@@ -143,6 +156,7 @@ class SetParametersResponse(IdlStruct, typename="paramdds.SetParametersResponse"
     results: sequence[SetParameterResult] = field(default_factory=list)
 
 
+@fast_cdr
 @dataclass
 @appendable
 class GetParametersRequest(IdlStruct, typename="paramdds.GetParametersRequest"):
@@ -154,6 +168,7 @@ class GetParametersRequest(IdlStruct, typename="paramdds.GetParametersRequest"):
     names: sequence[str] = field(default_factory=list)
 
 
+@fast_cdr
 @dataclass
 @appendable
 class GetParameterResult(IdlStruct, typename="paramdds.GetParameterResult"):
@@ -164,6 +179,7 @@ class GetParameterResult(IdlStruct, typename="paramdds.GetParameterResult"):
     descriptor: sequence[ParameterDescriptor, 1] = field(default_factory=list)
 
 
+@fast_cdr
 @dataclass
 @appendable
 class GetParametersResponse(IdlStruct, typename="paramdds.GetParametersResponse"):
@@ -177,6 +193,7 @@ class GetParametersResponse(IdlStruct, typename="paramdds.GetParametersResponse"
     results: sequence[GetParameterResult] = field(default_factory=list)
 
 
+@fast_cdr
 @dataclass
 @appendable
 class ListParametersRequest(IdlStruct, typename="paramdds.ListParametersRequest"):
@@ -188,6 +205,7 @@ class ListParametersRequest(IdlStruct, typename="paramdds.ListParametersRequest"
     prefixes: sequence[str] = field(default_factory=list)
 
 
+@fast_cdr
 @dataclass
 @appendable
 class ListParametersResponse(IdlStruct, typename="paramdds.ListParametersResponse"):

@@ -10,6 +10,7 @@ from __future__ import annotations
 import time
 from typing import Any
 
+from cyclonedds._clayer import ddspy_write
 from cyclonedds.core import Policy
 from cyclonedds.pub import DataWriter
 from cyclonedds.qos import Qos
@@ -53,6 +54,11 @@ class RawPeer:
     def send(self, sample: Any) -> None:
         name = type(sample).__name__
         self.writers[name].write(sample)
+
+    def send_bytes(self, topic: str, data: bytes) -> None:
+        """Write ``data`` as a serialized sample, bypassing every encoder (cyclonedds C API)."""
+        padded = data.ljust((len(data) + 3) & ~3, b"\0")
+        assert ddspy_write(self.writers[topic]._ref, padded) == 0
 
     def _pump(self) -> None:
         for name, reader in self.readers.items():

@@ -211,3 +211,25 @@ def test_a_burst_of_every_kind_leaves_the_server_serving(
         assert value.type is not ParameterType.NOT_SET, name
         assert descriptor.dynamic_typing or descriptor.type is value.type, name
     _no_internal_errors(caplog)
+
+
+@pytest.mark.timeout(30)
+def test_undecodable_samples_are_dropped_and_later_ones_served(
+    harness: tuple[ParameterTable, RawPeer], caplog: pytest.LogCaptureFixture
+) -> None:
+    # bytes no encoder would write: invalid UTF-8 in the key and in a nested string.
+    # cyclonedds-python decodes inside take(): this used to kill the server's dispatch thread.
+    table, peer = harness
+    good = _get("i", "s").serialize()
+    for _ in range(3):
+        peer.send_bytes("GetParametersRequest", good.replace(NODE.encode(), b"\xffdd"))
+        peer.send_bytes("GetParametersRequest", good.replace(b"s\x00", b"\xff\x00"))
+        peer.send_bytes(
+            "SetParametersRequest",
+            _set(_p("s", type=4, string_value="xyz")).serialize().replace(b"xyz", b"\xc3(z"),
+        )
+    _still_answers(peer)
+    assert table.get("s").value == "text"
+    dropped = [r for r in caplog.records if "undecodable" in r.getMessage()]
+    assert {r.getMessage().split(":")[0] for r in dropped} == {"GetParametersRequest", "SetParametersRequest"}
+    _no_internal_errors(caplog)
