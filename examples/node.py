@@ -13,7 +13,8 @@ import os
 import time
 
 from paramdds.core.descriptors import FloatingPointRange, ParameterDescriptor
-from paramdds.core.table import ParameterTable, SetVeto
+from paramdds.core.results import SetVeto
+from paramdds.core.table import ParameterTable
 from paramdds.core.values import Parameter, ParameterType
 from paramdds.dds.participant import localhost_from_env, make_participant
 from paramdds.dds.server import ParameterServer

@@ -5,34 +5,38 @@ The public API, importable from here::
     from paramdds import ParameterTable, ParameterServer, ParameterClient, make_participant
 
 The pure core (values, descriptors, the table, YAML formats) imports no DDS.
-The DDS names (server, client, monitor, assigner, participant) are loaded on
-first use, so ``import paramdds`` stays light for tools that never touch DDS.
+Every name but the errors is loaded on first use, so ``import paramdds`` stays
+light, and a command that only needs the client never imports the table.
 """
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
-from .core import (
-    NOT_SET,
-    ChangeKind,
-    ChangeSet,
-    FloatingPointRange,
-    GetResult,
-    IntegerRange,
-    ListResult,
-    Parameter,
-    ParameterChange,
-    ParameterDescriptor,
-    ParameterTable,
-    ParameterType,
-    ParameterValue,
-    SetOutcome,
-    SetResult,
-    SetVeto,
-    Validator,
-)
+from . import core as _core
+from ._lazy import loader
+
+if TYPE_CHECKING:
+    from .core.descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
+    from .core.results import (
+        ChangeKind,
+        ChangeSet,
+        GetResult,
+        ListResult,
+        ParameterChange,
+        SetOutcome,
+        SetResult,
+        SetVeto,
+    )
+    from .core.table import ParameterTable
+    from .core.values import NOT_SET, Parameter, ParameterType, ParameterValue
+    from .dds.assign import Assigner
+    from .dds.client import AsyncParameterClient, NodeInfo, ParameterClient
+    from .dds.monitor import EventKind, MonitorEvent, NodeState, ParameterMonitor
+    from .dds.participant import close_participant, make_participant
+    from .dds.qos import QosProfiles
+    from .dds.server import ParameterServer
+
 from .errors import (
     ErrorCode,
     FileFormatError,
@@ -44,28 +48,20 @@ from .errors import (
     UnavailableError,
 )
 
-if TYPE_CHECKING:
-    from .dds.assign import Assigner
-    from .dds.client import AsyncParameterClient, NodeInfo, ParameterClient
-    from .dds.monitor import EventKind, MonitorEvent, NodeState, ParameterMonitor
-    from .dds.participant import close_participant, make_participant
-    from .dds.qos import QosProfiles
-    from .dds.server import ParameterServer
-
-_LAZY = {
-    "Assigner": "paramdds.dds.assign",
-    "AsyncParameterClient": "paramdds.dds.client",
-    "NodeInfo": "paramdds.dds.client",
-    "ParameterClient": "paramdds.dds.client",
-    "EventKind": "paramdds.dds.monitor",
-    "MonitorEvent": "paramdds.dds.monitor",
-    "NodeState": "paramdds.dds.monitor",
-    "ParameterMonitor": "paramdds.dds.monitor",
-    "close_participant": "paramdds.dds.participant",
-    "make_participant": "paramdds.dds.participant",
-    "QosProfiles": "paramdds.dds.qos",
-    "ParameterServer": "paramdds.dds.server",
-}
+__getattr__ = loader(
+    __name__,
+    {
+        **dict.fromkeys(_core.__all__, "paramdds.core"),
+        "Assigner": "paramdds.dds.assign",
+        **dict.fromkeys(["AsyncParameterClient", "NodeInfo", "ParameterClient"], "paramdds.dds.client"),
+        **dict.fromkeys(
+            ["EventKind", "MonitorEvent", "NodeState", "ParameterMonitor"], "paramdds.dds.monitor"
+        ),
+        **dict.fromkeys(["close_participant", "make_participant"], "paramdds.dds.participant"),
+        "QosProfiles": "paramdds.dds.qos",
+        "ParameterServer": "paramdds.dds.server",
+    },
+)
 
 __all__ = [
     "NOT_SET",
@@ -106,12 +102,3 @@ __all__ = [
     "close_participant",
     "make_participant",
 ]
-
-
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'paramdds' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value

@@ -36,7 +36,8 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from .core.descriptors import ParameterDescriptor
-from .core.table import ChangeSet, ParameterTable
+from .core.results import ChangeSet
+from .core.table import ParameterTable
 from .core.values import ParameterValue
 from .errors import FileFormatError
 

@@ -17,3 +17,13 @@ def test_import_paramdds_does_not_load_cyclonedds() -> None:
     code = "import paramdds, sys; print(any(m.startswith('cyclonedds') for m in sys.modules))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_a_client_does_not_load_the_table() -> None:
+    # `paramdds get` pays for every import: the table, its validation and YAML stay out
+    code = (
+        "import sys, paramdds.cli._requests, paramdds.dds.client; "
+        "print(sorted(m for m in sys.modules if m.startswith(('paramdds.core.table', 'yaml'))))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"

@@ -1,21 +1,52 @@
 """The pure core of paramdds: values, descriptors, validation and the parameter table.
 
 Nothing here imports DDS; the DDS layer maps samples to these calls and back.
+Names are loaded on first use: a client needs the values, not the table.
 """
 
-from .descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
-from .table import (
-    ChangeKind,
-    ChangeSet,
-    GetResult,
-    ListResult,
-    ParameterChange,
-    ParameterTable,
-    SetOutcome,
-    SetResult,
-    SetVeto,
+from typing import TYPE_CHECKING
+
+from .._lazy import loader
+
+if TYPE_CHECKING:
+    from .descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
+    from .results import (
+        ChangeKind,
+        ChangeSet,
+        GetResult,
+        ListResult,
+        ParameterChange,
+        SetOutcome,
+        SetResult,
+        SetVeto,
+    )
+    from .table import ParameterTable
+    from .values import NOT_SET, Parameter, ParameterType, ParameterValue
+
+__getattr__ = loader(
+    __name__,
+    {
+        **dict.fromkeys(
+            ["FloatingPointRange", "IntegerRange", "ParameterDescriptor", "Validator"],
+            f"{__name__}.descriptors",
+        ),
+        **dict.fromkeys(
+            [
+                "ChangeKind",
+                "ChangeSet",
+                "GetResult",
+                "ListResult",
+                "ParameterChange",
+                "SetOutcome",
+                "SetResult",
+                "SetVeto",
+            ],
+            f"{__name__}.results",
+        ),
+        "ParameterTable": f"{__name__}.table",
+        **dict.fromkeys(["NOT_SET", "Parameter", "ParameterType", "ParameterValue"], f"{__name__}.values"),
+    },
 )
-from .values import NOT_SET, Parameter, ParameterType, ParameterValue
 
 __all__ = [
     "NOT_SET",

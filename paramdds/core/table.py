@@ -65,8 +65,7 @@ import logging
 import threading
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass, replace
-from enum import Enum
+from dataclasses import replace
 
 from ..errors import (
     AlreadyDeclaredError,
@@ -83,75 +82,20 @@ from .descriptors import ParameterDescriptor
 from .limits import MAX_PARAMETERS_PER_REQUEST, check_text, check_value
 from .listing import list_names
 from .names import is_valid_name, validate_name
+from .results import (
+    ChangeKind,
+    ChangeSet,
+    GetResult,
+    ListResult,
+    ParameterChange,
+    SetOutcome,
+    SetResult,
+    SetVeto,
+)
 from .validation import check_descriptor, validate
 from .values import NOT_SET, Parameter, ParameterType, ParameterValue
 
 log = logging.getLogger(__name__)
-
-
-class ChangeKind(str, Enum):
-    NEW = "new"
-    CHANGED = "changed"
-    DELETED = "deleted"
-
-
-@dataclass(frozen=True, slots=True)
-class ParameterChange:
-    kind: ChangeKind
-    name: str
-    value: ParameterValue  # NOT_SET for DELETED
-    descriptor: ParameterDescriptor
-
-
-@dataclass(frozen=True, slots=True)
-class ChangeSet:
-    """What one committed request changed. ``revision`` goes up by one per commit.
-
-    One change per parameter touched, carrying its final state, in the order the
-    request first applied them.
-    """
-
-    node_id: str
-    revision: int
-    changes: tuple[ParameterChange, ...]
-
-
-@dataclass(frozen=True, slots=True)
-class SetResult:
-    name: str
-    successful: bool
-    reason: str = ""  # kept on success too (an on-set callback may say why)
-    code: ErrorCode | None = None  # None when successful
-
-
-@dataclass(frozen=True, slots=True)
-class SetOutcome:
-    results: tuple[SetResult, ...]
-    revision: int  # the node's revision after this request
-    change: ChangeSet | None  # None when nothing was committed
-
-
-@dataclass(frozen=True, slots=True)
-class GetResult:
-    name: str
-    value: ParameterValue | None  # None when not found
-    descriptor: ParameterDescriptor | None  # only when asked for, and found
-    code: ErrorCode | None = None  # NOT_FOUND / INVALID_NAME
-    reason: str = ""
-
-
-@dataclass(frozen=True, slots=True)
-class ListResult:
-    names: tuple[str, ...]
-    prefixes: tuple[str, ...]
-
-
-@dataclass(frozen=True, slots=True)
-class SetVeto:
-    """What an on-set callback returns: ``SetVeto(successful=False, reason=...)``."""
-
-    successful: bool
-    reason: str = ""
 
 
 PreSetCallback = Callable[[list[Parameter]], list[Parameter]]

@@ -38,7 +38,7 @@ from cyclonedds.topic import Topic
 
 from ..core.limits import MAX_PARAMETERS_PER_REQUEST, check_value
 from ..core.names import canonical_node_id, validate_name
-from ..core.table import GetResult, ListResult, SetResult
+from ..core.results import GetResult, ListResult, SetResult
 from ..core.values import NOT_SET, Parameter, ParameterValue
 from ..errors import (
     ErrorCode,

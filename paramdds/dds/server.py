@@ -45,7 +45,8 @@ from cyclonedds.topic import Topic
 
 from ..core.limits import MAX_PARAMETERS_PER_REQUEST
 from ..core.names import canonical_node_id
-from ..core.table import ChangeKind, ChangeSet, ParameterTable, SetResult
+from ..core.results import ChangeKind, ChangeSet, SetResult
+from ..core.table import ParameterTable
 from ..core.values import Parameter
 from ..errors import ErrorCode, ParamddsError
 from . import types as wire

@@ -14,7 +14,8 @@ import time
 import pytest
 
 import paramdds.dds.server as server_module
-from paramdds.core.table import ParameterTable, SetVeto
+from paramdds.core.results import SetVeto
+from paramdds.core.table import ParameterTable
 from paramdds.core.values import ParameterValue
 from paramdds.dds import types as wire
 

@@ -22,7 +22,8 @@ from hypothesis import strategies as st
 
 from paramdds.core.descriptors import IntegerRange, ParameterDescriptor
 from paramdds.core.limits import MAX_PARAMETERS_PER_REQUEST
-from paramdds.core.table import ParameterTable, SetResult
+from paramdds.core.results import SetResult
+from paramdds.core.table import ParameterTable
 from paramdds.dds import types as wire
 from paramdds.dds.convert import parameter_from_wire
 from paramdds.dds.server import ParameterServer

@@ -1,0 +1,79 @@
+"""What the parameter table's operations return: results, outcomes and change sets.
+
+Kept apart from ``table.py`` so that clients, which receive these over DDS,
+need not import the table, its validation and its callbacks.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum
+
+from ..errors import ErrorCode
+from .descriptors import ParameterDescriptor
+from .values import ParameterValue
+
+
+class ChangeKind(str, Enum):
+    NEW = "new"
+    CHANGED = "changed"
+    DELETED = "deleted"
+
+
+@dataclass(frozen=True, slots=True)
+class ParameterChange:
+    kind: ChangeKind
+    name: str
+    value: ParameterValue  # NOT_SET for DELETED
+    descriptor: ParameterDescriptor
+
+
+@dataclass(frozen=True, slots=True)
+class ChangeSet:
+    """What one committed request changed. ``revision`` goes up by one per commit.
+
+    One change per parameter touched, carrying its final state, in the order the
+    request first applied them.
+    """
+
+    node_id: str
+    revision: int
+    changes: tuple[ParameterChange, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class SetResult:
+    name: str
+    successful: bool
+    reason: str = ""  # kept on success too (an on-set callback may say why)
+    code: ErrorCode | None = None  # None when successful
+
+
+@dataclass(frozen=True, slots=True)
+class SetOutcome:
+    results: tuple[SetResult, ...]
+    revision: int  # the node's revision after this request
+    change: ChangeSet | None  # None when nothing was committed
+
+
+@dataclass(frozen=True, slots=True)
+class GetResult:
+    name: str
+    value: ParameterValue | None  # None when not found
+    descriptor: ParameterDescriptor | None  # only when asked for, and found
+    code: ErrorCode | None = None  # NOT_FOUND / INVALID_NAME
+    reason: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class ListResult:
+    names: tuple[str, ...]
+    prefixes: tuple[str, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class SetVeto:
+    """What an on-set callback returns: ``SetVeto(successful=False, reason=...)``."""
+
+    successful: bool
+    reason: str = ""
