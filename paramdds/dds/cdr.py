@@ -59,7 +59,8 @@ def is_malformed(sample: object) -> bool:
 # Decoding reads ``buf`` (bytes) at ``pos`` and must stay within ``end``, the end of the
 # enclosing struct; encoding appends to ``out`` (a bytearray whose offset 0 is the start
 # of the encapsulation header, so alignment is on len(out)). ``{v}`` is the member's
-# variable, ``{c}`` a struct code, ``{b}`` a bound, ``{f}`` a nested function's name.
+# variable, ``{c}`` a struct code, ``{b}`` a bound (``{bcheck}`` its test, empty when
+# unbounded; lines marked ``[bounded]`` are dropped then), ``{f}`` a nested function's name.
 
 _ALIGN = "pos += -pos & 3"
 _OUT_ALIGN = "out += PAD[-len(out) & 3]"
@@ -73,7 +74,7 @@ _DECODE = {
         "(n,) = unpack_I(buf, pos)",
         "pos += 4",
         "e = pos + n",
-        "if n == 0 or n > {b} or e > end or buf[e - 1] != 0:",
+        "if n == 0{bcheck} or e > end or buf[e - 1] != 0:",
         "    raise MalformedSample('bad string length, bound or terminator')",
         "{v} = buf[pos : e - 1].decode()",
         "pos = e",
@@ -83,7 +84,7 @@ _DECODE = {
         "(n,) = unpack_I(buf, pos)",
         "pos += 4",
         "e = pos + n",
-        "if n > {b} or e > end:",
+        "if e > end{bcheck}:",
         "    raise MalformedSample('sequence past its bound or the struct')",
         "{v} = {convert}",
         "pos = e",
@@ -93,7 +94,7 @@ _DECODE = {
         "(n,) = unpack_I(buf, pos)",
         "pos += 4",
         "e = pos + n * {size}",
-        "if n > {b} or e > end:",
+        "if e > end{bcheck}:",
         "    raise MalformedSample('sequence past its bound or the struct')",
         "{v} = list(unpack_from('<%d{c}' % n, buf, pos)) if n else []",
         "pos = e",
@@ -103,7 +104,7 @@ _DECODE = {
         "(size, n) = unpack_II(buf, pos)",
         "e = pos + 4 + size",
         "pos += 8",
-        "if n > {b} or 4 * n > size or e > end:",  # every element takes at least 4 bytes
+        "if 4 * n > size or e > end{bcheck}:",  # every element takes at least 4 bytes
         "    raise MalformedSample('sequence past its bound or the struct')",
         "{v} = []",
         "for _ in range(n):",
@@ -120,26 +121,26 @@ _ENCODE = {
     "fixed": [_OUT_ALIGN, "out += pack_{c}({v})"],
     "string": [
         "data = {v}.encode()",
-        "if len(data) > {b} - 1:",
-        "    raise ValueError(f'string of {{len(data)}} bytes is longer than its bound of {bmsg}')",
+        "[bounded]if len(data) > {b} - 1:",
+        "[bounded]    raise ValueError(f'string of {{len(data)}} bytes is longer than its bound of {bmsg}')",
         _OUT_ALIGN,
         "out += pack_I(len(data) + 1)",
         "out += data",
         "out.append(0)",
     ],
     "bytes": [
-        "check_count(len({v}), {b})",
+        "[bounded]check_count(len({v}), {b})",
         _OUT_ALIGN,
         "out += pack_I(len({v}))",
         "out += bytes({convert})",
     ],
     "array": [
-        "check_count(len({v}), {b})",
+        "[bounded]check_count(len({v}), {b})",
         _OUT_ALIGN,
         "out += pack('<I%d{c}' % len({v}), len({v}), *{v})",
     ],
     "delimited": [
-        "check_count(len({v}), {b})",
+        "[bounded]check_count(len({v}), {b})",
         _OUT_ALIGN,
         "{v}_at = len(out)",
         "out += pack_II(0, len({v}))",
@@ -167,7 +168,12 @@ class _Member:
         size = struct.calcsize("<" + self.code) if self.code else 0
         fields = {"v": var, "c": self.code, "size": size, "b": self.bound, "bmsg": bmsg, "f": fn}
         fields["convert"] = (self.convert_in if templates is _DECODE else self.convert_out).format(**fields)
-        return [line.format(**fields) for line in templates[self.kind]]
+        bounded = self.bound != _NO_BOUND
+        fields["bcheck"] = f" or n > {self.bound}" if bounded else ""
+        lines = templates[self.kind]
+        if not bounded:  # lines marked [bounded] check a bound: unbounded members skip them
+            lines = [line for line in lines if not line.startswith("[bounded]")]
+        return [line.removeprefix("[bounded]").format(**fields) for line in lines]
 
 
 def _member(hint: Any, functions: dict[str, Any]) -> _Member:
@@ -235,59 +241,131 @@ _BASE_NAMESPACE: dict[str, Any] = {
     "MalformedSample": MalformedSample,
     "check_count": check_count,
     "decode_str": _str_decode,
+    "fast_str": _str_decode,
     "encode_str": _str_encode,
 }
-_compiled: dict[type, tuple[Any, Any, str]] = {}  # class -> (decode, encode, source)
+_compiled: dict[type, _Functions] = {}
 
 
 def _compile(cls: type, functions: dict[str, Any]) -> str:
-    """Generate ``decode_<name>`` and ``encode_<name>`` for ``cls`` into ``functions``; the name."""
+    """Generate the functions of ``cls`` (see :class:`_Functions`) into ``functions``; its name."""
     name = cls.__name__
-    if cls in _compiled:
-        functions[f"decode_{name}"], functions[f"encode_{name}"], _ = _compiled[cls]
-        return name
-    hints = typing.get_type_hints(cls, include_extras=True)
-    members = [(field, _member(hint, functions)) for field, hint in hints.items()]
-    dec = [
-        f"def decode_{name}(buf, pos, end):",
-        "    pos += -pos & 3",
-        "    (size,) = unpack_I(buf, pos)",
-        "    pos += 4",
-        "    if pos + size > end:",
-        "        raise MalformedSample('struct past its container')",
-        "    end = pos + size",
-    ]
+    if cls not in _compiled:
+        hints = typing.get_type_hints(cls, include_extras=True)
+        members = [(field, _member(hint, functions)) for field, hint in hints.items()]
+        packers: dict[str, Any] = {}
+        fast, encode = _fast_decoder_and_encoder(name, members, packers)
+        source = "\n\n\n".join("\n".join(f) for f in (_careful_decoder(name, members), fast, encode))
+        namespace = dict(_BASE_NAMESPACE, cls=cls, **functions, **packers)
+        exec(compile(source + "\n", f"<paramdds.dds.cdr {name}>", "exec"), namespace)
+        _compiled[cls] = _Functions(
+            namespace[f"decode_{name}"], namespace[f"fast_{name}"], namespace[f"encode_{name}"], source + "\n"
+        )
+    compiled = _compiled[cls]
+    functions.update(
+        {f"decode_{name}": compiled.decode, f"fast_{name}": compiled.fast, f"encode_{name}": compiled.encode}
+    )
+    return name
+
+
+_HEAD = [  # every struct decoder starts here: align, read the DHEADER, bound the struct
+    "    pos += -pos & 3",
+    "    (size,) = unpack_I(buf, pos)",
+    "    pos += 4",
+    "    if pos + size > end:",
+    "        raise MalformedSample('struct past its container')",
+    "    end = pos + size",
+]
+_TAIL = ["    if pos > end:", "        raise MalformedSample('members past the struct size')"]
+
+
+def _careful_decoder(name: str, members: list[tuple[str, _Member]]) -> list[str]:
+    """Member by member, stopping where an older writer's struct ends."""
+    lines = [f"def decode_{name}(buf, pos, end):", *_HEAD]
+    done: list[str] = []
+    for i, (field, member) in enumerate(members):
+        lines.append(f"    if pos >= end:  # an older writer: {field} and later keep their defaults")
+        lines.append(f"        return cls({', '.join(done)}), end")
+        lines += ["    " + line for line in member.lines(_DECODE, f"m{i}", f"decode_{member.nested}")]
+        done.append(f"m{i}")
+    return [*lines, *_TAIL, f"    return cls({', '.join(done)}), end"]
+
+
+def _fast_decoder_and_encoder(
+    name: str, members: list[tuple[str, _Member]], packers: dict[str, Any]
+) -> tuple[list[str], list[str]]:
+    """Every member present (the common case), runs of fixed-size members read and written at once.
+
+    Where the offset modulo 4 is known (from the struct start, up to the first
+    string or struct), a run of fixed-size members becomes one ``struct`` format
+    with its padding spelled out (``<B?xxqd`` for ParameterValue's first four).
+    """
+    dec = [f"def fast_{name}(buf, pos, end):", *_HEAD]
     enc = [
         f"def encode_{name}(out, obj):",
         f"    {_OUT_ALIGN}",
         "    at = len(out)",
         "    out += b'\\0\\0\\0\\0'",
     ]
-    done: list[str] = []
+    phase: int | None = 0  # the offset modulo 4, when known
+    run: list[tuple[str, str, str]] = []  # (variable, field, format with padding) to read at once
+
+    def flush() -> None:
+        if run:
+            packer = struct.Struct("<" + "".join(piece for _, _, piece in run))
+            label = f"{run[0][0]}_to_{run[-1][0]}"  # e.g. m0_to_m3, format in the comment
+            packers[f"unpack_{label}"], packers[f"pack_{label}"] = packer.unpack_from, packer.pack
+            dec.append(
+                f"    ({', '.join(v for v, _, _ in run)},) = unpack_{label}(buf, pos)  # {packer.format}"
+            )
+            dec.append(f"    pos += {packer.size}")
+            enc.append(f"    out += pack_{label}({', '.join('obj.' + f for _, f, _ in run)})")
+            run.clear()
+
     for i, (field, member) in enumerate(members):
         var = f"m{i}"
-        dec.append(f"    if pos >= end:  # an older writer: {field} and later keep their defaults")
-        dec.append(f"        return cls({', '.join(done)}), end")
-        dec += ["    " + line for line in member.lines(_DECODE, var, f"decode_{member.nested}")]
-        done.append(var)
-        enc.append(f"    {var} = obj.{field}")
-        enc += ["    " + line for line in member.lines(_ENCODE, var, f"encode_{member.nested}")]
-    dec += [
-        "    if pos > end:",
-        "        raise MalformedSample('members past the struct size')",
-        f"    return cls({', '.join(done)}), end",
-    ]
+        size = (
+            1
+            if member.kind in ("byte", "bool")
+            else struct.calcsize("<" + member.code)
+            if member.kind == "fixed"
+            else 0
+        )
+        if size and phase is None and size == 1:  # offset unknown: a lone byte needs no alignment
+            dec += ["    " + line for line in member.lines(_DECODE, var, "")]
+            enc += [f"    {var} = obj.{field}", *("    " + line for line in member.lines(_ENCODE, var, ""))]
+        elif size:
+            if phase is None:  # align at run time; from here the offset is known
+                flush()
+                dec.append(f"    {_ALIGN}")
+                enc.append(f"    {_OUT_ALIGN}")
+                phase = 0
+            pad = -phase % 4 if size > 1 else 0
+            run.append((var, field, "x" * pad + ("?" if member.kind == "bool" else member.code or "B")))
+            phase = (phase + pad + size) % 4
+        else:
+            flush()
+            dec += ["    " + line for line in member.lines(_DECODE, var, f"fast_{member.nested}")]
+            enc += [
+                f"    {var} = obj.{field}",
+                *("    " + line for line in member.lines(_ENCODE, var, f"encode_{member.nested}")),
+            ]
+            phase = 0 if member.kind == "array" else None
+    flush()
+    dec += [*_TAIL, f"    return cls({', '.join(f'm{i}' for i in range(len(members)))}), end"]
     enc.append("    pack_into_I(out, at, len(out) - at - 4)")
-    source = "\n".join(dec) + "\n\n\n" + "\n".join(enc) + "\n"
-    namespace = dict(_BASE_NAMESPACE, cls=cls, **functions)
-    exec(compile(source, f"<paramdds.dds.cdr {name}>", "exec"), namespace)
-    decode, encode = namespace[f"decode_{name}"], namespace[f"encode_{name}"]
-    _compiled[cls] = (decode, encode, source)
-    functions[f"decode_{name}"], functions[f"encode_{name}"] = decode, encode
-    return name
+    return dec, enc
 
 
-def _codec(cls: type) -> tuple[Any, Any, str]:
+@dataclass(frozen=True)
+class _Functions:
+    decode: Any  # (buf, pos, end) -> (sample, end): careful, raises MalformedSample
+    fast: Any  # the same assuming every member is present; on any failure, use decode
+    encode: Any  # (out, sample) -> None
+    source: str
+
+
+def _codec(cls: type) -> _Functions:
     if cls not in _compiled:
         _compile(cls, {})
     return _compiled[cls]
@@ -295,24 +373,28 @@ def _codec(cls: type) -> tuple[Any, Any, str]:
 
 def source(cls: type[IdlStruct]) -> str:
     """The generated decode and encode functions of ``cls``, for reading and debugging."""
-    return _codec(cls)[2]
+    return _codec(cls).source
 
 
 def encode(sample: IdlStruct) -> bytes:
     out = bytearray(HEADER)
-    _codec(type(sample))[1](out, sample)
+    _codec(type(sample)).encode(out, sample)
     return bytes(out)
 
 
 def decode(cls: type[IdlStruct], data: bytes) -> Any:
     """Decode a sample with its encapsulation header; raises MalformedSample."""
+    functions = _codec(cls)
     try:
-        sample, _ = _codec(cls)[0](data, 4, len(data))
+        return functions.fast(data, 4, len(data))[0]
+    except (struct.error, ValueError, IndexError):  # incl. MalformedSample and UnicodeDecodeError
+        pass  # an older writer, or bytes that are not a sample: the careful decoder tells which
+    try:
+        return functions.decode(data, 4, len(data))[0]
     except MalformedSample:
         raise
-    except (struct.error, ValueError, IndexError) as exc:  # UnicodeDecodeError is a ValueError
+    except (struct.error, ValueError, IndexError) as exc:
         raise MalformedSample(str(exc)) from exc
-    return sample
 
 
 # ---- installing on a type -----------------------------------------------------------------------

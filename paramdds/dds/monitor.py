@@ -181,6 +181,8 @@ class ParameterMonitor:
         descriptor = state_descriptor_from_wire(s.descriptor, key.name, value)
         kind = EventKind.MODIFIED if key.name in state.parameters else EventKind.ADDED
         state.parameters[key.name] = (value, descriptor)
+        if not self._callbacks:
+            return None  # an event exists only to be emitted: a monitor's full state is 5,000+ samples
         return MonitorEvent(kind, state.node, key.name, value, descriptor, s.revision, _seconds(s.stamp))
 
     def _apply_presence(self, state: NodeState, s: Any, info: Any) -> MonitorEvent | None:

@@ -19,7 +19,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from paramdds.dds import types as wire
-from paramdds.dds.cdr import decode, encode, is_malformed
+from paramdds.dds.cdr import _codec, decode, encode, is_malformed
 
 WIRE_TYPES = [
     getattr(wire, name)
@@ -79,6 +79,7 @@ def test_same_bytes_and_samples_as_the_binding(cls: type[IdlStruct], data: st.Da
     assert ours == _binding_bytes(sample)
     assert sample.serialize() == ours  # the installed method is ours
     assert decode(cls, ours) == sample
+    assert _codec(cls).fast(ours, 4, len(ours))[0] == sample  # the fast path, not its fallback
     assert cls.__idl__.deserialize(ours) == sample
     assert cls.deserialize(ours) == sample
 
