@@ -17,6 +17,7 @@ map errors without matching on message text::
     │   └── CallbackError              IN_CALLBACK (parameters changed from a callback)
     ├── FileFormatError                FILE_FORMAT (YAML file; carries file and line)
     ├── TooLargeError                  TOO_LARGE (a request or value over our limits)
+    ├── NotPersistedError              NOT_PERSISTED (applied, but not written to --persist)
     └── TransportError                 the node could not be reached
         ├── TimeoutError_              TIMEOUT (no answer within the timeout)
         └── UnavailableError           UNAVAILABLE (the node is not present)
@@ -44,6 +45,7 @@ class ErrorCode(str, Enum):
     TOO_LARGE = "TOO_LARGE"
     TIMEOUT = "TIMEOUT"
     UNAVAILABLE = "UNAVAILABLE"
+    NOT_PERSISTED = "NOT_PERSISTED"
 
 
 class ParamddsError(Exception):
@@ -117,6 +119,13 @@ class TooLargeError(ParamddsError):
     code = ErrorCode.TOO_LARGE
 
 
+class NotPersistedError(ParamddsError):
+    """The change was applied (and published), but the server could not write it to its
+    persistence file: it holds until the server restarts, and is lost then."""
+
+    code = ErrorCode.NOT_PERSISTED
+
+
 class TransportError(ParamddsError):
     """The node could not be reached."""
 
@@ -143,6 +152,7 @@ _BY_CODE: dict[ErrorCode, type[ParamddsError]] = {
         CallbackError,
         FileFormatError,
         TooLargeError,
+        NotPersistedError,
         TimeoutError_,
         UnavailableError,
     )

@@ -48,7 +48,7 @@ from ..core.names import canonical_node_id
 from ..core.results import ChangeKind, ChangeSet, SetResult
 from ..core.table import ParameterTable
 from ..core.values import Parameter
-from ..errors import ErrorCode, ParamddsError
+from ..errors import ErrorCode, NotPersistedError, ParamddsError
 from . import types as wire
 from .convert import descriptor_to_wire, parameter_from_wire, state_descriptor_to_wire, value_to_wire
 from .dispatch import Dispatcher
@@ -299,11 +299,22 @@ class ParameterServer:
             return [_result_to_wire(r) for r in refused], table.revision
         outcome = (table.set_atomically if request.atomic else table.set)(good, expected_revision=expected)
         if outcome.change is not None:
-            for hook in self.before_reply:
-                hook(table.node_id, table, outcome.change)
+            self._run_hooks(table, outcome.change)
         merged = iter(outcome.results)
         results = [bad[i] if i in bad else next(merged) for i in range(len(params))]
         return [_result_to_wire(r) for r in results], outcome.revision
+
+    def _run_hooks(self, table: ParameterTable, change: ChangeSet) -> None:
+        """Run the ``before_reply`` hooks; a failure is NOT_PERSISTED (the change stays applied)."""
+        for hook in self.before_reply:
+            try:
+                hook(table.node_id, table, change)
+            except Exception as exc:
+                log.exception("persisting %s at revision %d failed", table.node_id, change.revision)
+                raise NotPersistedError(
+                    f"applied at revision {change.revision}, but not persisted: {exc}; "
+                    "the value holds until the server restarts"
+                ) from exc
 
     def _send_reply(self, topic: str, response: Any) -> None:
         """Write a reply; a failed write is logged and never loses the rest of the batch."""

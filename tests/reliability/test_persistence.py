@@ -23,7 +23,7 @@ import pytest
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import ParameterValue
 from paramdds.dds.client import ParameterClient
-from paramdds.errors import ParamddsError
+from paramdds.errors import ErrorCode, NotPersistedError, ParamddsError
 from paramdds.persist import HEADER, PersistStore, frame, unframe
 from paramdds.runtime import dump_text, parse_ros_text
 
@@ -244,3 +244,32 @@ def _wait(predicate: object, timeout: float) -> bool:
             return True
         time.sleep(0.01)
     return bool(predicate())  # type: ignore[operator]
+
+
+@pytest.mark.timeout(30)
+def test_a_failed_persistence_write_is_not_persisted_not_an_internal_error(
+    tmp_path: Path, domain_id: int, dds: DDS
+) -> None:
+    state = tmp_path / "state.yaml"
+    table = ParameterTable(NODE)
+    table.declare("robot.max_velocity", 1.0)
+    store = _store(state)
+    store.attach({NODE: table})
+    server = dds.server(domain_id, table)
+    server.before_reply.append(store.hook)
+    client = dds.client(domain_id, timeout=5.0)
+    client.wait_for_node(NODE)
+
+    state.unlink()
+    state.mkdir()  # the rename over it now fails, even for root (disk full behaves alike)
+    with pytest.raises(NotPersistedError) as caught:
+        client.set(NODE, {"robot.max_velocity": 2.0})
+    assert caught.value.code is ErrorCode.NOT_PERSISTED
+    assert "applied at revision" in caught.value.message and "not persisted" in caught.value.message
+    assert table.get("robot.max_velocity").value == 2.0  # applied, as the message says
+    assert client.get(NODE, ["robot.max_velocity"]).values()["robot.max_velocity"].value == 2.0
+
+    state.rmdir()  # the disk recovers: the next change persists the whole table again
+    client.set(NODE, {"robot.max_velocity": 3.0})
+    assert _persisted(state)["robot.max_velocity"] == ParameterValue.from_python(3.0)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["state.yaml"]  # no temporary file left behind
