@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import json
 import logging
 import os
 import tempfile
@@ -36,7 +37,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from .core.descriptors import ParameterDescriptor
-from .core.results import ChangeSet
+from .core.results import ChangeKind, ChangeSet
 from .core.table import ParameterTable
 from .core.values import ParameterValue
 from .errors import FileFormatError
@@ -45,6 +46,7 @@ log = logging.getLogger(__name__)
 
 HEADER = "# paramdds persisted state: written by the server, do not edit while it runs\n"
 TRAILER_PREFIX = "# paramdds end sha256="
+DELETED_PREFIX = "# paramdds deleted "  # + JSON {"node": id, "names": [...]}: see PersistStore
 
 Entry = tuple[str, ParameterValue, ParameterDescriptor | None]
 Snapshot = list[tuple[str, ParameterValue, ParameterDescriptor]]
@@ -122,6 +124,7 @@ class PersistStore:
         self._lock = threading.Lock()
         self._tables: dict[str, ParameterTable] = {}
         self._text: str | None = None
+        self._deleted: dict[str, set[str]] = {}  # node -> names deleted at runtime
 
     @property
     def exists(self) -> bool:
@@ -135,16 +138,41 @@ class PersistStore:
         if not os.access(directory, os.W_OK | os.X_OK):
             raise PersistError(f"cannot write in the directory {str(directory)!r}", file=str(self.path))
 
-    def read(self, node_id: str) -> list[Entry]:
-        """The persisted entries of ``node_id`` ([] when the file does not exist yet)."""
+    def _load(self) -> str | None:
         if self._text is None:
             if not self.path.exists():
-                return []
+                return None
             try:
                 raw = self.path.read_bytes()
             except OSError as exc:
                 raise PersistError(f"cannot read: {exc.strerror}", file=str(self.path)) from exc
             self._text = unframe(raw, str(self.path))
+        return self._text
+
+    def deleted(self, node_id: str) -> list[str]:
+        """Names of ``node_id`` deleted at runtime: a restart must not bring them back from
+        the parameter files or the spec. Kept as comment lines inside the checksummed
+        frame, so the file stays a plain ROS 2 parameter file."""
+        if node_id not in self._deleted:
+            names: set[str] = set()
+            for number, line in enumerate((self._load() or "").splitlines(), start=1):
+                if line.startswith(DELETED_PREFIX):
+                    try:
+                        record = json.loads(line[len(DELETED_PREFIX) :])
+                        if record["node"] == node_id:
+                            names.update(str(n) for n in record["names"])
+                    except (ValueError, KeyError, TypeError) as exc:
+                        raise PersistError(
+                            f"bad deletion record: {exc}", file=str(self.path), line=number
+                        ) from exc
+            self._deleted[node_id] = names
+        return sorted(self._deleted[node_id])
+
+    def read(self, node_id: str) -> list[Entry]:
+        """The persisted entries of ``node_id`` ([] when the file does not exist yet)."""
+        if self._load() is None:
+            return []
+        assert self._text is not None
         try:
             return self._parse(self._text, str(self.path), node_id)
         except PersistError:
@@ -155,15 +183,29 @@ class PersistStore:
     def attach(self, tables: Mapping[str, ParameterTable]) -> None:
         """Persist these tables from now on, and write their current state at once."""
         self._tables = dict(tables)
+        for node in self._tables:
+            self.deleted(node)  # carry the file's deletion records into every rewrite
         self.write()
 
     def write(self) -> None:
         """Write the state of every attached table (atomically)."""
         with self._lock:
             state = {node: table.snapshot() for node, table in self._tables.items()}
-            atomic_write(self.path, frame(self._dump(state)))
+            records = [
+                DELETED_PREFIX + json.dumps({"node": node, "names": sorted(names)}) + "\n"
+                for node, names in sorted(self._deleted.items())
+                if names and node in self._tables
+            ]
+            atomic_write(self.path, frame(self._dump(state) + "".join(records)))
 
     def hook(self, node_id: str, table: ParameterTable, change: ChangeSet) -> None:
         """The ``before_reply`` hook: the change reaches the disk before the reply is sent."""
         log.debug("persisting %s at revision %d", node_id, change.revision)
+        with self._lock:
+            deleted = self._deleted.setdefault(node_id, set())
+            for c in change.changes:
+                if c.kind is ChangeKind.DELETED:
+                    deleted.add(c.name)
+                else:
+                    deleted.discard(c.name)  # declared again
         self.write()

@@ -8,7 +8,8 @@ Sources, lowest precedence first (each later one overrides the values before it)
    ``parameters:`` list is in the seed format and applies to every hosted node;
    any other file is a ROS 2 parameter file and only the sections matching the
    node apply;
-3. the persisted runtime values (``--persist``);
+3. the persisted runtime values (``--persist``), and its record of parameters
+   deleted at runtime, which stay deleted whatever the files and spec declare;
 4. retained assignments, applied by the server once it runs.
 
 Without a spec, the values of 2 and 3 declare the parameters (their type is the
@@ -134,6 +135,7 @@ class NodeSources:
     node_id: str
     files: list[tuple[str, list[Entry]]]
     persisted: list[Entry]
+    deleted: list[str] = field(default_factory=list)  # deleted at runtime (--persist): stay deleted
 
 
 def build_table(
@@ -168,10 +170,16 @@ def build_table(
         use_sim_time=options.use_sim_time,
         overrides=values,
     )
+    gone = set(sources.deleted) if with_persisted else set()
     if spec is not None:
         _declare_spec(table, spec)
+        for name in sorted(gone & set(table.names())):
+            try:
+                table.undeclare(name)  # deleted at runtime: the spec allowed it then
+            except ParamddsError as exc:  # the spec changed since: it wins
+                log.warning("%s: %r was deleted at runtime, the spec keeps it: %s", options.spec, name, exc)
     for name, value in values.items():
-        if table.has(name):
+        if table.has(name) or name in gone:
             continue
         if spec is not None and not options.allow_undeclared:
             log.warning(
@@ -223,7 +231,9 @@ def prepare(options: ServerOptions) -> tuple[dict[str, ParameterTable], list[str
         files = [(path, read_entries(path, node_id)) for path in options.params_files]
         for path, entries in files:
             loaded[path] = max(loaded[path], len(entries))
-        sources = NodeSources(node_id, files, store.read(node_id) if store else [])
+        sources = NodeSources(
+            node_id, files, store.read(node_id) if store else [], store.deleted(node_id) if store else []
+        )
         build_table(sources, options, spec, with_persisted=False)  # blame the files first
         try:
             tables[node_id] = build_table(sources, options, spec)

@@ -73,3 +73,38 @@ def test_a_damaged_file_refuses_the_start_and_is_left_untouched(
     assert out.stderr.count("\n") == 1 and "Traceback" not in out.stderr
     assert state.read_bytes() == before
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+
+
+def test_a_parameter_deleted_at_runtime_stays_deleted_after_a_restart(tmp_path: Path) -> None:
+    params = tmp_path / "params.yaml"
+    params.write_text(
+        "robot1:\n  ros__parameters:\n    keep: 1\n    scratch:\n      value: 5\n"
+        "  paramdds__descriptors:\n    scratch.value:\n      type: integer\n      dynamic_typing: true\n"
+    )
+    domain = next_domain()
+    state = tmp_path / "state.yaml"
+    args = ("-n", "robot1", "-p", str(params), "--persist", str(state), "--allow-undeclared")
+
+    server = start_server(domain, *args)
+    try:
+        out = run_cli(domain, "delete", "robot1", "scratch.value")
+        assert out.returncode == 0, out.stderr
+    finally:
+        server.stop(signal.SIGKILL)
+    assert '# paramdds deleted {"node": "robot1", "names": ["scratch.value"]}' in state.read_text()
+
+    server = start_server(domain, *args)  # the params file still declares it
+    try:
+        assert json.loads(run_cli(domain, "list", "robot1", "-o", "json").stdout) == ["keep"]
+        out = run_cli(domain, "set", "robot1", "scratch.value=7")  # declared again at runtime
+        assert out.returncode == 0, out.stderr
+    finally:
+        server.stop(signal.SIGKILL)
+    assert "# paramdds deleted" not in state.read_text()
+
+    server = start_server(domain, *args)
+    try:
+        got = run_cli(domain, "get", "robot1", "scratch.value", "-o", "json")
+        assert json.loads(got.stdout) == {"scratch.value": 7}
+    finally:
+        assert server.stop() == 0
