@@ -31,8 +31,7 @@ from __future__ import annotations
 
 import struct
 import typing
-from dataclasses import dataclass
-from typing import Any, TypeVar
+from typing import Any, NamedTuple, TypeVar
 
 from cyclonedds.idl import IdlStruct
 from cyclonedds.idl._support import Endianness
@@ -154,8 +153,7 @@ _ENCODE = {
 _NO_BOUND = 0xFFFFFFFF  # a sequence length or string size can never exceed a uint32
 
 
-@dataclass(frozen=True)
-class _Member:
+class _Member(NamedTuple):
     kind: str  # a key of _DECODE / _ENCODE
     code: str = ""  # struct code ("fixed", "array")
     bound: int = _NO_BOUND  # elements, or bytes of a string including its NUL
@@ -357,8 +355,7 @@ def _fast_decoder_and_encoder(
     return dec, enc
 
 
-@dataclass(frozen=True)
-class _Functions:
+class _Functions(NamedTuple):
     decode: Any  # (buf, pos, end) -> (sample, end): careful, raises MalformedSample
     fast: Any  # the same assuming every member is present; on any failure, use decode
     encode: Any  # (out, sample) -> None
