@@ -235,11 +235,38 @@ def run_timed(cmd: Sequence[str], *, env: dict[str, str], timeout: float = 60.0)
 # -- output -----------------------------------------------------------------------------
 
 
+_LOOP_AT_START: list[float] = []
+
+
+def python_loop_ms() -> float:
+    """How fast this machine runs Python right now: the best of three 1M-step loops, in ms.
+
+    Shared and virtual machines vary by a factor of several within minutes; printed
+    beside every result (before and after the run) so runs can be compared fairly."""
+    best = float("inf")
+    for _ in range(3):
+        t0 = time.perf_counter()
+        total = 0
+        for i in range(1_000_000):
+            total += i
+        best = min(best, (time.perf_counter() - t0) * 1e3)
+    return round(best, 1)
+
+
+def start_probe() -> None:
+    _LOOP_AT_START[:] = [python_loop_ms()]
+
+
 def emit(args: Any, data: dict[str, Any], table: str) -> None:
+    loop = {"before": _LOOP_AT_START[0] if _LOOP_AT_START else None, "after": python_loop_ms()}
     if getattr(args, "output", "table") == "json":
-        sys.stdout.write(json.dumps(data, indent=2, sort_keys=False) + "\n")
+        sys.stdout.write(json.dumps({**data, "python_loop_ms": loop}, indent=2, sort_keys=False) + "\n")
     else:
         sys.stdout.write(table.rstrip("\n") + "\n")
+        sys.stdout.write(
+            f"machine speed: a 1M-step Python loop took {loop['before']} ms before and {loop['after']} ms "
+            "after this run (lower is faster)\n"
+        )
     sys.stdout.flush()
 
 

@@ -91,6 +91,9 @@ def register(subparsers: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ._common import start_probe
+
     module = importlib.import_module(f"paramdds.bench.{args.scenario}")
+    start_probe()
     result: int = module.run(args)
     return result

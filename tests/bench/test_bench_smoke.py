@@ -37,6 +37,7 @@ def bench(scenario: str, domain_id: int, *extra: str) -> dict[str, Any]:
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=TIMEOUT, env=env)
     assert done.returncode == 0, done.stderr
     data: dict[str, Any] = json.loads(done.stdout)
+    positive(data["python_loop_ms"], "before", "after")  # the machine-speed reference of every run
     return data
 
 
