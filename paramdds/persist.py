@@ -14,6 +14,10 @@ Guarantees:
 * **Written before the reply.** :meth:`PersistStore.hook` is a
   ``ParameterServer.before_reply`` hook: a change is on disk before the client
   hears it was applied, so a restart loses nothing that was acknowledged.
+* **Deletes stick.** A parameter deleted at runtime is recorded in a
+  ``# paramdds deleted {...}`` comment line (inside the frame, so checksummed, and
+  invisible to ROS tools); the next start does not declare it again from the
+  parameter files or the spec. Declaring it again at runtime drops the record.
 * **Never half written.** Each write goes to a temporary file in the same
   directory, is fsynced, renamed over the old file and the directory fsynced.
 * **Never silently replaced.** A file that starts with the header but lacks the
