@@ -17,19 +17,25 @@ from . import core as _core
 from ._lazy import loader
 
 if TYPE_CHECKING:
-    from .core.descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
-    from .core.results import (
+    from .core import (
+        NOT_SET,
         ChangeKind,
         ChangeSet,
+        FloatingPointRange,
         GetResult,
+        IntegerRange,
         ListResult,
+        Parameter,
         ParameterChange,
+        ParameterDescriptor,
+        ParameterTable,
+        ParameterType,
+        ParameterValue,
         SetOutcome,
         SetResult,
         SetVeto,
+        Validator,
     )
-    from .core.table import ParameterTable
-    from .core.values import NOT_SET, Parameter, ParameterType, ParameterValue
     from .dds.assign import Assigner
     from .dds.client import AsyncParameterClient, NodeInfo, ParameterClient
     from .dds.monitor import EventKind, MonitorEvent, NodeState, ParameterMonitor
