@@ -436,6 +436,8 @@ def fast_cdr(cls: T) -> T:
         try:
             if has_header and data[:2] == HEADER[:2]:
                 return decode(klass, data)
+            if has_header and len(data) < len(HEADER):  # the binding reads b"" as a default sample
+                raise MalformedSample("no encapsulation header")
             return klass.__idl__.deserialize(data, has_header, use_version_2)  # type: ignore[arg-type]
         except Exception:  # any undecodable sample, whichever codec read it
             sample = klass()

@@ -6,7 +6,6 @@ Bytes that are not a valid sample must come back marked malformed, not raise,
 because the binding decodes inside ``DataReader.take``.
 """
 
-import typing
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -21,6 +20,8 @@ from hypothesis import strategies as st
 from paramdds.dds import types as wire
 from paramdds.dds.cdr import _codec, decode, encode, is_malformed
 
+from .strategies import samples
+
 WIRE_TYPES = [
     getattr(wire, name)
     for name in dir(wire)
@@ -28,38 +29,6 @@ WIRE_TYPES = [
     and issubclass(getattr(wire, name), IdlStruct)
     and getattr(wire, name) is not IdlStruct
 ]
-
-_INTS = {
-    "uint8": (0, 2**8 - 1),
-    "int32": (-(2**31), 2**31 - 1),
-    "uint32": (0, 2**32 - 1),
-    "int64": (-(2**63), 2**63 - 1),
-    "uint64": (0, 2**64 - 1),
-}
-_TEXT = st.text(st.characters(exclude_categories=("Cs",)), max_size=12)
-
-
-def _strategy(hint: Any) -> st.SearchStrategy[Any]:
-    if hint is bool:
-        return st.booleans()
-    if hint is str:
-        return _TEXT
-    if isinstance(hint, type) and issubclass(hint, IdlStruct):
-        return samples(hint)
-    meta = typing.get_args(hint)[1]
-    if meta == "float64":
-        return st.floats(allow_nan=False)
-    if isinstance(meta, str):
-        return st.integers(*_INTS[meta])
-    if isinstance(meta, bounded_str):
-        return st.text(st.characters(exclude_categories=("Cs",)), max_size=meta.max_length // 4)
-    assert isinstance(meta, sequence), hint
-    return st.lists(_strategy(meta.subtype), max_size=min(meta.max_length or 3, 3))
-
-
-def samples(cls: type[IdlStruct]) -> st.SearchStrategy[Any]:
-    hints = typing.get_type_hints(cls, include_extras=True)
-    return st.builds(cls, **{name: st.deferred(lambda h=h: _strategy(h)) for name, h in hints.items()})
 
 
 def _binding_bytes(sample: Any, endianness: Endianness = Endianness.Little) -> bytes:
@@ -116,6 +85,7 @@ def test_what_is_malformed() -> None:
     no_nul = good[:-1] + b"x"
     assert is_malformed(wire.GetParametersRequest.deserialize(no_nul))
     assert not is_malformed(wire.GetParametersRequest.deserialize(good))
+    assert is_malformed(wire.GetParametersRequest.deserialize(b""))  # the binding alone reads defaults
     assert is_malformed(wire.ParameterEvent.deserialize(_binding_bytes(_UnboundedKey("x" * 256))))
     assert not is_malformed(wire.ParameterEvent.deserialize(_binding_bytes(_UnboundedKey("x" * 255))))
 
