@@ -4,6 +4,12 @@ Servers, clients and monitors all use it: no polling, no Cyclone listeners (thei
 callbacks run on Cyclone's receive thread and a listener still attached at exit
 can hang the process). ``close()`` wakes the thread through a GuardCondition and
 joins it, so shutdown is prompt.
+
+A reader added with :meth:`Dispatcher.add_raw` skips the binding's decoder: its
+samples come as serialized bytes and a ``decode`` function of ours turns each
+into what the handler needs (the monitor decodes state samples straight into
+core values, see :mod:`.state`). Either way an undecodable sample is dropped
+alone, with one warning per topic, and the rest of its batch is handled.
 """
 
 from __future__ import annotations
@@ -11,17 +17,29 @@ from __future__ import annotations
 import logging
 import threading
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, TypeVar
 
-from cyclonedds.core import GuardCondition, InstanceState, ReadCondition, SampleState, ViewState, WaitSet
+from cyclonedds._clayer import ddspy_take
+from cyclonedds.core import (
+    DDSException,
+    GuardCondition,
+    InstanceState,
+    ReadCondition,
+    SampleState,
+    ViewState,
+    WaitSet,
+)
 from cyclonedds.util import duration
 
-from .cdr import is_malformed
+from .cdr import MalformedSample, is_malformed
 
 log = logging.getLogger(__name__)
 
+T = TypeVar("T")
 Handler = Callable[[Sequence[Any]], None]
+Take = Callable[[], tuple[list[Any], int]]  # one batch: (good samples, samples taken)
 _TAKE_BATCH = 256
+_ANY = SampleState.Any | ViewState.Any | InstanceState.Any
 
 
 class Dispatcher:
@@ -30,15 +48,51 @@ class Dispatcher:
         self._waitset = WaitSet(participant)
         self._guard = GuardCondition(participant)
         self._waitset.attach(self._guard)
-        self._entries: list[tuple[Any, Any, Handler]] = []
+        self._entries: list[tuple[Take, Any, Handler, str]] = []
         self._stopping = False
         self._warned: set[str] = set()
         self._thread = threading.Thread(target=self._run, name=name, daemon=True)
 
     def add(self, reader: Any, handler: Handler) -> None:
         """Call ``handler(samples)`` on the dispatch thread whenever ``reader`` has data."""
-        condition = ReadCondition(reader, SampleState.Any | ViewState.Any | InstanceState.Any)
-        self._entries.append((reader, condition, handler))
+
+        def take() -> tuple[list[Any], int]:
+            samples = reader.take(N=_TAKE_BATCH)
+            return [s for s in samples if not is_malformed(s)], len(samples)
+
+        self._add(reader, take, handler)
+
+    def add_raw(
+        self,
+        reader: Any,
+        decode: Callable[[bytes, Any], T],
+        handler: Callable[[Sequence[tuple[T, Any]]], None],
+    ) -> None:
+        """Call ``handler([(decode(data, info), info), …])`` whenever ``reader`` has data.
+
+        ``data`` is the serialized sample, or its serialized key when
+        ``info.valid_data`` is false; a sample whose ``decode`` raises
+        :class:`~.cdr.MalformedSample` is dropped.
+        """
+
+        def take() -> tuple[list[Any], int]:
+            batch = ddspy_take(reader._ref, _ANY, _TAKE_BATCH)
+            if isinstance(batch, int):
+                raise DDSException(batch, f"Occurred while taking data in {reader!r}")
+            good = []
+            for data, info in batch:
+                try:
+                    sample = decode(data, info)
+                except MalformedSample:
+                    continue  # dropped: taken, but not among the good ones
+                good.append((sample, info))
+            return good, len(batch)
+
+        self._add(reader, take, handler)
+
+    def _add(self, reader: Any, take: Take, handler: Handler) -> None:
+        condition = ReadCondition(reader, _ANY)
+        self._entries.append((take, condition, handler, reader.topic.name))
         self._waitset.attach(condition)
 
     def start(self) -> None:
@@ -53,7 +107,7 @@ class Dispatcher:
         self._guard.set(True)
         if self._thread.is_alive() and threading.current_thread() is not self._thread:
             self._thread.join(timeout=5.0)
-        for _, condition, _ in self._entries:
+        for _, condition, _, _ in self._entries:
             self._waitset.detach(condition)
 
     def _run(self) -> None:
@@ -62,22 +116,21 @@ class Dispatcher:
             self._waitset.wait(forever)
             if self._stopping:
                 break
-            for reader, _, handler in self._entries:
-                self._drain(reader, handler)
+            for take, _, handler, topic in self._entries:
+                self._drain(take, handler, topic)
 
-    def _drain(self, reader: Any, handler: Handler) -> None:
+    def _drain(self, take: Take, handler: Handler, topic: str) -> None:
         while True:
-            samples = reader.take(N=_TAKE_BATCH)
-            if not samples:
+            good, taken = take()
+            if not taken:
                 return
-            good = [s for s in samples if not is_malformed(s)]
-            if len(good) < len(samples) and reader.topic.name not in self._warned:
-                self._warned.add(reader.topic.name)  # a flood of bad samples must not flood the log
-                log.warning("%s: dropped an undecodable sample (further ones not logged)", reader.topic.name)
+            if len(good) < taken and topic not in self._warned:
+                self._warned.add(topic)  # a flood of bad samples must not flood the log
+                log.warning("%s: dropped an undecodable sample (further ones not logged)", topic)
             try:
                 if good:
                     handler(good)
             except Exception:  # a bug in one handler must not stop the thread
-                log.exception("handler for %s failed", reader.topic.name)
-            if len(samples) < _TAKE_BATCH:
+                log.exception("handler for %s failed", topic)
+            if taken < _TAKE_BATCH:
                 return

@@ -31,9 +31,9 @@ from ..core.descriptors import ParameterDescriptor
 from ..core.names import canonical_node_id
 from ..core.values import ParameterValue
 from . import types as wire
-from .convert import state_descriptor_from_wire, value_from_wire
 from .dispatch import Dispatcher
 from .qos import QosProfiles
+from .state import StateKey, StateSample, decode_key, decode_state
 
 QUIET = 0.1  # seconds without new samples before the initial state counts as received
 
@@ -96,7 +96,8 @@ class ParameterMonitor:
         # no topic filter (it deadlocks against take under load): _apply skips other nodes
         topic = Topic(participant, "ParameterEvents", wire.ParameterEvent)
         self._dispatcher = Dispatcher(participant, "paramdds-monitor")
-        self._dispatcher.add(DataReader(participant, topic, qos.reader("ParameterEvents")), self._on_samples)
+        reader = DataReader(participant, topic, qos.reader("ParameterEvents"))
+        self._dispatcher.add_raw(reader, _decode, self._on_samples)
         self._dispatcher.start()
         self._closed = False
         self._sync_thread = threading.Thread(target=self._watch_sync, name="paramdds-sync", daemon=True)
@@ -149,53 +150,48 @@ class ParameterMonitor:
 
     # -- samples → state and events -------------------------------------------------------
 
-    def _on_samples(self, samples: Sequence[Any]) -> None:
+    def _on_samples(self, samples: Sequence[tuple[StateSample | StateKey, Any]]) -> None:
         events: list[MonitorEvent] = []
         with self._cond:
             self._last_sample = time.monotonic()
-            for s in samples:
-                event = self._apply(s)
+            for s, info in samples:
+                event = self._apply(s, info)
                 if event is not None:
                     events.append(event)
             self._cond.notify_all()
         self._emit(events)
 
-    def _apply(self, s: Any) -> MonitorEvent | None:
-        info = s.sample_info
-        key = s if info.valid_data else s.key_sample
-        if self._only is not None and key.node_id not in self._only:
+    def _apply(self, s: StateSample | StateKey, info: Any) -> MonitorEvent | None:
+        if self._only is not None and s.node_id not in self._only:
             return None
-        state = self._states.get(key.node_id)
+        state = self._states.get(s.node_id)
         if state is None:
-            state = self._states[key.node_id] = NodeState(key.node_id)
-        if key.name == "" and (not info.valid_data or s.kind == wire.EVENT_PRESENCE):
-            return self._apply_presence(state, s, info)
-        if not info.valid_data:
-            if info.instance_state == InstanceState.NotAliveDisposed and key.name in state.parameters:
-                value, descriptor = state.parameters.pop(key.name)
-                return MonitorEvent(
-                    EventKind.DELETED, state.node, key.name, value, descriptor, state.revision
-                )
+            state = self._states[s.node_id] = NodeState(s.node_id)
+        if not isinstance(s, StateSample):  # no data: the instance was disposed or lost its writers
+            if s.name == "":
+                return self._set_online(state, False)
+            if info.instance_state == InstanceState.NotAliveDisposed and s.name in state.parameters:
+                value, descriptor = state.parameters.pop(s.name)
+                return MonitorEvent(EventKind.DELETED, state.node, s.name, value, descriptor, state.revision)
             return None  # "no writers" on a parameter: the node is offline, keep its value
-        value = value_from_wire(s.value)
-        descriptor = state_descriptor_from_wire(s.descriptor, key.name, value)
-        kind = EventKind.MODIFIED if key.name in state.parameters else EventKind.ADDED
-        state.parameters[key.name] = (value, descriptor)
+        if s.kind == wire.EVENT_PRESENCE:
+            return self._apply_presence(state, s, info)
+        kind = EventKind.MODIFIED if s.name in state.parameters else EventKind.ADDED
+        state.parameters[s.name] = (s.value, s.descriptor)
         if not self._callbacks:
             return None  # an event exists only to be emitted: a monitor's full state is 5,000+ samples
-        return MonitorEvent(kind, state.node, key.name, value, descriptor, s.revision, _seconds(s.stamp))
+        return MonitorEvent(kind, state.node, s.name, s.value, s.descriptor, s.revision, s.stamp)
 
-    def _apply_presence(self, state: NodeState, s: Any, info: Any) -> MonitorEvent | None:
-        was_online = state.online
-        if info.valid_data:
-            state.online = info.instance_state == InstanceState.Alive
-            state.host, state.pid = s.host, s.pid
-            state.revision, state.announced = s.revision, s.parameter_count
-        else:
-            state.online = False
-        if state.online == was_online:
+    def _apply_presence(self, state: NodeState, s: StateSample, info: Any) -> MonitorEvent | None:
+        state.host, state.pid = s.host, s.pid
+        state.revision, state.announced = s.revision, s.parameter_count
+        return self._set_online(state, info.instance_state == InstanceState.Alive)
+
+    def _set_online(self, state: NodeState, online: bool) -> MonitorEvent | None:
+        if state.online == online:
             return None
-        kind = EventKind.ONLINE if state.online else EventKind.OFFLINE
+        state.online = online
+        kind = EventKind.ONLINE if online else EventKind.OFFLINE
         return MonitorEvent(kind, state.node, revision=state.revision, stamp=time.time())
 
     def _emit(self, events: list[MonitorEvent]) -> None:
@@ -216,5 +212,5 @@ class ParameterMonitor:
             self._emit([MonitorEvent(EventKind.SYNCED, stamp=time.time())])
 
 
-def _seconds(stamp: Any) -> float:
-    return float(stamp.sec) + float(stamp.nanosec) / 1e9
+def _decode(data: bytes, info: Any) -> StateSample | StateKey:
+    return decode_state(data) if info.valid_data else decode_key(data)

@@ -15,12 +15,17 @@ from collections import Counter
 from typing import Any
 
 import pytest
+from cyclonedds._clayer import ddspy_write
+from cyclonedds.pub import DataWriter
+from cyclonedds.topic import Topic
 
 from paramdds.core.descriptors import ParameterDescriptor
 from paramdds.core.limits import MAX_PARAMETERS_PER_REQUEST
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import ParameterType, ParameterValue
 from paramdds.dds import types as wire
+from paramdds.dds.convert import value_to_wire
+from paramdds.dds.qos import QosProfiles
 
 from .conftest import DDS
 from .rawwire import RawPeer
@@ -232,4 +237,45 @@ def test_undecodable_samples_are_dropped_and_later_ones_served(
     assert table.get("s").value == "text"
     dropped = [r for r in caplog.records if "undecodable" in r.getMessage()]
     assert {r.getMessage().split(":")[0] for r in dropped} == {"GetParametersRequest", "SetParametersRequest"}
+    _no_internal_errors(caplog)
+
+
+@pytest.mark.timeout(30)
+def test_a_monitor_drops_broken_state_samples_alone(
+    domain_id: int, dds: DDS, caplog: pytest.LogCaptureFixture
+) -> None:
+    # A foreign writer on ParameterEvents: bytes that are no sample, and a value with an
+    # unknown type byte, among good samples. Each broken one is dropped by itself (an
+    # exception used to lose the rest of its batch); nothing else is lost or logged twice.
+    caplog.set_level(logging.DEBUG, logger="paramdds")
+    participant = dds.participant(domain_id)
+    writer = DataWriter(
+        participant,
+        Topic(participant, "ParameterEvents", wire.ParameterEvent),
+        QosProfiles.load().writer("ParameterEvents"),
+    )
+    monitor = dds.monitor(domain_id)
+
+    def state(name: str, value: object) -> wire.ParameterEvent:
+        return wire.ParameterEvent(
+            node_id="foreign", name=name, revision=1, value=value_to_wire(ParameterValue.from_python(value))
+        )
+
+    presence = wire.ParameterEvent(node_id="foreign", kind=wire.EVENT_PRESENCE, revision=1, parameter_count=3)
+    unknown_type = state("unknown", 1)
+    unknown_type.value.type = 42
+    for _ in range(3):
+        writer.write(state("a", 1.5))
+        bad_utf8 = state("bad.utf8", "x").serialize().replace(b"bad.utf8", b"bad.\xff\xfe\xfd\xfc")
+        ddspy_write(writer._ref, bad_utf8)
+        writer.write(unknown_type)
+        writer.write(state("b", "text"))
+        writer.write(state("c", [1, 2]))
+    writer.write(presence)
+
+    assert monitor.wait_complete(["foreign"], timeout=5.0)
+    values = {name: v.value for name, (v, _d) in monitor.snapshot()["foreign"].parameters.items()}
+    assert values == {"a": 1.5, "b": "text", "c": (1, 2)}
+    dropped = [r for r in caplog.records if "undecodable" in r.getMessage()]
+    assert [r.getMessage().split(":")[0] for r in dropped] == ["ParameterEvents"]
     _no_internal_errors(caplog)

@@ -1,0 +1,155 @@
+"""The monitor's state decoder against the generated codec: same result, or both refuse.
+
+``decode_state`` reads the common state sample in one pass and hands everything
+else to ``decode_state_slowly`` (the generated codec and the wire→core
+conversions). Whatever the bytes, the fast path may only return what the slow
+one returns; it must actually be taken for the common shape; and bytes that are
+no sample raise ``MalformedSample`` instead of reaching a monitor's table.
+"""
+
+import math
+
+import pytest
+from cyclonedds.idl._support import Endianness
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from paramdds.core.descriptors import FloatingPointRange, ParameterDescriptor
+from paramdds.core.values import NOT_SET, ParameterType, ParameterValue
+from paramdds.dds import types as wire
+from paramdds.dds.cdr import MalformedSample, encode
+from paramdds.dds.convert import state_descriptor_to_wire, value_to_wire
+from paramdds.dds.state import StateSample, _decode_fast, decode_state, decode_state_slowly
+
+from .strategies import samples
+
+_KEY = st.text(st.characters(exclude_categories=("Cs",)), min_size=0, max_size=40).filter(
+    lambda s: len(s.encode()) <= 255
+)
+_SCALARS = st.one_of(
+    st.booleans(),
+    st.integers(-(2**63), 2**63 - 1),
+    st.floats(allow_nan=False),
+    st.text(st.characters(exclude_categories=("Cs",)), max_size=30),
+)
+
+
+@st.composite
+def common_samples(draw: st.DrawFn) -> wire.ParameterEvent:
+    """The shape almost every state sample has: a scalar parameter with a plain descriptor."""
+    return wire.ParameterEvent(
+        node_id=draw(_KEY),
+        name=draw(_KEY),
+        kind=wire.EVENT_PARAMETER,
+        revision=draw(st.integers(-(2**63), 2**63 - 1)),
+        stamp=wire.Time(draw(st.integers(-(2**31), 2**31 - 1)), draw(st.integers(0, 999_999_999))),
+        value=value_to_wire(ParameterValue.from_python(draw(_SCALARS))),
+        pid=draw(st.integers(-(2**31), 2**31 - 1)),
+        parameter_count=draw(st.integers(0, 2**32 - 1)),
+    )
+
+
+def _event(name: str, value: object) -> wire.ParameterEvent:
+    return wire.ParameterEvent(node_id="n", name=name, value=value_to_wire(ParameterValue.from_python(value)))
+
+
+def _same(data: bytes) -> StateSample | None:
+    """decode_state(data), checked against the slow path; None where both refuse."""
+    try:
+        expected = decode_state_slowly(data)
+    except MalformedSample:
+        with pytest.raises(MalformedSample):
+            decode_state(data)
+        return None
+    got = decode_state(data)
+    assert got == expected
+    return got
+
+
+@settings(max_examples=300, deadline=None)
+@given(common_samples())
+def test_the_common_shape_takes_the_fast_path_and_agrees(sample: wire.ParameterEvent) -> None:
+    data = encode(sample)
+    fast = _decode_fast(data)
+    assert fast is not None
+    assert fast == decode_state_slowly(data)
+    assert fast.value.value == sample.value.__dict__[ParameterType(sample.value.type).name.lower() + "_value"]
+    assert fast.descriptor == ParameterDescriptor(sample.name, ParameterType(sample.value.type))
+
+
+@settings(max_examples=200, deadline=None)
+@given(samples(wire.ParameterEvent))
+def test_any_sample_decodes_as_the_generated_codec_does(sample: wire.ParameterEvent) -> None:
+    _same(encode(sample))
+
+
+@settings(max_examples=400, deadline=None)
+@given(
+    sample=common_samples(),
+    cut=st.integers(0, 160),
+    flips=st.lists(st.tuples(st.integers(0, 200), st.integers(1, 255)), max_size=4),
+)
+def test_damaged_bytes_never_decode_differently(
+    sample: wire.ParameterEvent, cut: int, flips: list[tuple[int, int]]
+) -> None:
+    data = bytearray(encode(sample))
+    for i, mask in flips:
+        if i < len(data):
+            data[i] ^= mask
+    _same(bytes(data[: max(0, len(data) - cut)]))
+
+
+def test_other_shapes_take_the_slow_path_with_the_same_result() -> None:
+    ranged = ParameterDescriptor("speed", ParameterType.DOUBLE, floating_point_range=FloatingPointRange(0, 5))
+    array = ParameterValue.from_python([1.0, 2.0])
+    others = {
+        "array": _event("a", [1.0, 2.0]),
+        "descriptor": wire.ParameterEvent(
+            node_id="n",
+            name="speed",
+            value=value_to_wire(ParameterValue.from_python(1.5)),
+            descriptor=state_descriptor_to_wire(ranged, ParameterValue.from_python(1.5)),
+        ),
+        "presence": wire.ParameterEvent(
+            node_id="n", kind=wire.EVENT_PRESENCE, revision=7, host="h", pid=42, parameter_count=3
+        ),
+        "not set": wire.ParameterEvent(node_id="n", name="gone"),
+    }
+    for what, sample in others.items():
+        data = encode(sample)
+        assert _decode_fast(data) is None, what
+        got = decode_state(data)
+        assert got == decode_state_slowly(data), what
+    assert decode_state(encode(others["descriptor"])).descriptor == ranged
+    assert decode_state(encode(others["array"])).value == array
+    presence = decode_state(encode(others["presence"]))
+    assert (presence.kind, presence.revision, presence.host, presence.pid, presence.parameter_count) == (
+        wire.EVENT_PRESENCE,
+        7,
+        "h",
+        42,
+        3,
+    )
+    assert decode_state(encode(others["not set"])).value is NOT_SET
+
+
+def test_big_endian_and_special_doubles() -> None:
+    for d in (math.inf, -math.inf, -0.0, 5e-324):
+        sample = _event("d", d)
+        got = decode_state(encode(sample))
+        assert got.value.value == d and math.copysign(1, got.value.value) == math.copysign(1, d)
+        big = bytes(wire.ParameterEvent.__idl__.serialize(sample, endianness=Endianness.Big))
+        assert decode_state(big) == got  # another encoding: the binding reads it, same result
+    assert math.isnan(decode_state(encode(_event("d", math.nan))).value.value)  # type: ignore[arg-type]
+
+
+def test_what_is_refused() -> None:
+    good = encode(_event("p", 1))
+    # header, DHEADER, "n", "p" (each length + text + padding), kind + padding, revision, Time
+    # {DHEADER, sec, nanosec}, the value's DHEADER: its type byte is at offset 48
+    unknown_type = bytearray(good)
+    assert unknown_type[48] == ParameterType.INTEGER
+    unknown_type[48] = 42
+    for bad in (good[:-4], good[:20], b"", bytes(unknown_type), good.replace(b"p\x00", b"\xff\x00")):
+        with pytest.raises(MalformedSample):
+            decode_state(bad)
