@@ -174,7 +174,7 @@ class ParameterMonitor:
                 value, descriptor = state.parameters.pop(s.name)
                 return MonitorEvent(EventKind.DELETED, state.node, s.name, value, descriptor, state.revision)
             return None  # "no writers" on a parameter: the node is offline, keep its value
-        if s.kind == wire.EVENT_PRESENCE:
+        if s.kind == wire.EVENT_PRESENCE and s.name == "":
             return self._apply_presence(state, s, info)
         kind = EventKind.MODIFIED if s.name in state.parameters else EventKind.ADDED
         state.parameters[s.name] = (s.value, s.descriptor)

@@ -5,12 +5,13 @@ Through the generated codec (:mod:`.cdr`) each one becomes three wire objects an
 six lists, then core values (:mod:`.convert`): ~14 µs a sample in a real monitor,
 a third of it the garbage collector walking those short-lived objects.
 
-Almost every state sample has one shape: a parameter (kind 0) with a scalar value
-(bool, integer, double, string), every array empty and no descriptor beyond its
-name and type (see :func:`.convert.state_descriptor_to_wire`). :func:`decode_state`
-reads exactly that shape in one pass, into a :class:`StateSample` of core values.
-Any other bytes (presence, arrays, a descriptor, an older or newer writer, another
-encoding, damage) go through the generated codec and :mod:`.convert`, which
+Almost every state sample has one shape: a parameter with a scalar value (bool,
+integer, double, string), every array empty and no descriptor beyond its name and
+type (see :func:`.convert.state_descriptor_to_wire`), or a node's presence (no
+value at all). :func:`decode_state` reads exactly that shape in one pass, into a
+:class:`StateSample` of core values. Any other bytes (arrays, a descriptor, an
+older or newer writer, another encoding, damage) go through the generated codec
+and :mod:`.convert`, which
 define the result: the fast path only ever returns what that slower path would
 (``tests/dds/test_state.py`` checks this on generated and damaged samples).
 
@@ -28,7 +29,7 @@ import struct
 from typing import Any, NamedTuple
 
 from ..core.descriptors import ParameterDescriptor
-from ..core.values import ParameterType, ParameterValue
+from ..core.values import NOT_SET, ParameterType, ParameterValue
 from ..errors import ParamddsError
 from . import types as wire
 from .cdr import HEADER, MalformedSample, is_malformed
@@ -66,9 +67,9 @@ _unpack_u32x2 = struct.Struct("<II").unpack_from
 # ParameterValue {DHEADER type bool (pad) int64 double}, length of string_value
 _unpack_middle = struct.Struct("<qIiIIB?xxqdI").unpack_from
 _unpack_tail = struct.Struct("<iI").unpack_from  # pid, parameter_count
-# the rest of the value (4 empty sequences, then a DHEADER and 0 strings), no descriptor
-# (a DHEADER and 0 structs), host "" (length 1, NUL, padding)
-_PLAIN_TAIL = bytes(16) + bytes.fromhex("0400000000000000" "0400000000000000" "0100000000000000")
+# the rest of the value (4 empty sequences, then a DHEADER and 0 strings), and no
+# descriptor (a DHEADER and 0 structs)
+_PLAIN_TAIL = bytes(16) + bytes.fromhex("04000000000000000400000000000000")
 _TIME_SIZE = 8
 
 
@@ -115,29 +116,34 @@ def _decode_fast(buf: bytes) -> StateSample | None:
         node_id, pos = _key_string(buf, 8, n, end)
         pos += -pos & 3
         name, pos = _key_string(buf, pos, _unpack_u32(buf, pos)[0], end)
-        if buf[pos] != wire.EVENT_PARAMETER:  # kind: one byte, straight after the name
-            return None
+        kind = buf[pos]  # one byte, straight after the name
         pos += 1
         pos += -pos & 3
         revision, time_size, sec, nanosec, vsize, t, b, i, d, n = _unpack_middle(buf, pos)
         vend = pos + 24 + vsize  # the value starts after the revision and Time (20 bytes)
         pos += 48
         e = pos + n
-        if time_size != _TIME_SIZE or not 1 <= t <= 4 or n == 0 or e > vend or buf[e - 1] != 0:
+        if kind > 1 or time_size != _TIME_SIZE or t > 4 or n == 0 or e > vend or buf[e - 1] != 0:
             return None
         s = buf[pos : e - 1].decode()
         pos = e + (-e & 3)
-        if pos + 24 != vend or vend + 24 != end or buf[pos : vend + 16] != _PLAIN_TAIL:
+        if pos + 24 != vend or buf[pos : vend + 8] != _PLAIN_TAIL:
             return None
-        pid, count = _unpack_tail(buf, vend + 16)
+        (n,) = _unpack_u32(buf, vend + 8)  # host
+        e = vend + 12 + n
+        if n == 0 or e > end or buf[e - 1] != 0:
+            return None
+        host = buf[vend + 12 : e - 1].decode()
+        pos = e + (-e & 3)
+        if pos + 8 != end:
+            return None
+        pid, count = _unpack_tail(buf, pos)
     except (struct.error, IndexError, UnicodeDecodeError):
         return None
     ptype = _TYPES[t]
-    value = ParameterValue(ptype, b if t == 1 else i if t == 2 else d if t == 3 else s)
+    value = NOT_SET if t == 0 else ParameterValue(ptype, b if t == 1 else i if t == 2 else d if t == 3 else s)
     stamp = sec + nanosec / 1e9
-    return StateSample(
-        node_id, name, wire.EVENT_PARAMETER, revision, stamp, value, _plain(name, ptype), "", pid, count
-    )
+    return StateSample(node_id, name, kind, revision, stamp, value, _plain(name, ptype), host, pid, count)
 
 
 def _key_string(buf: bytes, pos: int, n: int, end: int) -> tuple[str, int]:

@@ -36,14 +36,17 @@ _SCALARS = st.one_of(
 
 @st.composite
 def common_samples(draw: st.DrawFn) -> wire.ParameterEvent:
-    """The shape almost every state sample has: a scalar parameter with a plain descriptor."""
+    """The shapes almost every state sample has: a scalar parameter with a plain
+    descriptor, or a node's presence."""
+    presence = draw(st.booleans())
     return wire.ParameterEvent(
         node_id=draw(_KEY),
-        name=draw(_KEY),
-        kind=wire.EVENT_PARAMETER,
+        name="" if presence else draw(_KEY),
+        kind=wire.EVENT_PRESENCE if presence else wire.EVENT_PARAMETER,
         revision=draw(st.integers(-(2**63), 2**63 - 1)),
         stamp=wire.Time(draw(st.integers(-(2**31), 2**31 - 1)), draw(st.integers(0, 999_999_999))),
-        value=value_to_wire(ParameterValue.from_python(draw(_SCALARS))),
+        value=value_to_wire(NOT_SET if presence else ParameterValue.from_python(draw(_SCALARS))),
+        host=draw(_KEY),
         pid=draw(st.integers(-(2**31), 2**31 - 1)),
         parameter_count=draw(st.integers(0, 2**32 - 1)),
     )
@@ -68,13 +71,21 @@ def _same(data: bytes) -> StateSample | None:
 
 @settings(max_examples=300, deadline=None)
 @given(common_samples())
-def test_the_common_shape_takes_the_fast_path_and_agrees(sample: wire.ParameterEvent) -> None:
+def test_the_common_shapes_take_the_fast_path_and_agree(sample: wire.ParameterEvent) -> None:
     data = encode(sample)
     fast = _decode_fast(data)
     assert fast is not None
     assert fast == decode_state_slowly(data)
-    assert fast.value.value == sample.value.__dict__[ParameterType(sample.value.type).name.lower() + "_value"]
-    assert fast.descriptor == ParameterDescriptor(sample.name, ParameterType(sample.value.type))
+    ptype = ParameterType(sample.value.type)
+    expected = None if ptype is ParameterType.NOT_SET else getattr(sample.value, f"{ptype.label}_value")
+    assert (fast.node_id, fast.name, fast.kind, fast.value.value) == (
+        sample.node_id,
+        sample.name,
+        sample.kind,
+        expected,
+    )
+    assert (fast.host, fast.pid, fast.parameter_count) == (sample.host, sample.pid, sample.parameter_count)
+    assert fast.descriptor == ParameterDescriptor(sample.name, ptype)
 
 
 @settings(max_examples=200, deadline=None)
@@ -101,36 +112,30 @@ def test_damaged_bytes_never_decode_differently(
 
 def test_other_shapes_take_the_slow_path_with_the_same_result() -> None:
     ranged = ParameterDescriptor("speed", ParameterType.DOUBLE, floating_point_range=FloatingPointRange(0, 5))
-    array = ParameterValue.from_python([1.0, 2.0])
-    others = {
-        "array": _event("a", [1.0, 2.0]),
-        "descriptor": wire.ParameterEvent(
-            node_id="n",
-            name="speed",
-            value=value_to_wire(ParameterValue.from_python(1.5)),
-            descriptor=state_descriptor_to_wire(ranged, ParameterValue.from_python(1.5)),
-        ),
-        "presence": wire.ParameterEvent(
-            node_id="n", kind=wire.EVENT_PRESENCE, revision=7, host="h", pid=42, parameter_count=3
-        ),
-        "not set": wire.ParameterEvent(node_id="n", name="gone"),
-    }
-    for what, sample in others.items():
+    with_range = _event("speed", 1.5)
+    with_range.descriptor = state_descriptor_to_wire(ranged, ParameterValue.from_python(1.5))
+    for what, sample in {"array": _event("a", [1.0, 2.0]), "descriptor": with_range}.items():
         data = encode(sample)
         assert _decode_fast(data) is None, what
-        got = decode_state(data)
-        assert got == decode_state_slowly(data), what
-    assert decode_state(encode(others["descriptor"])).descriptor == ranged
-    assert decode_state(encode(others["array"])).value == array
-    presence = decode_state(encode(others["presence"]))
-    assert (presence.kind, presence.revision, presence.host, presence.pid, presence.parameter_count) == (
+        assert decode_state(data) == decode_state_slowly(data), what
+    assert decode_state(encode(with_range)).descriptor == ranged
+    assert decode_state(encode(_event("a", [1.0, 2.0]))).value == ParameterValue.from_python([1.0, 2.0])
+
+
+def test_presence_and_a_parameter_without_value() -> None:
+    presence = wire.ParameterEvent(
+        node_id="n", kind=wire.EVENT_PRESENCE, revision=7, host="h", pid=42, parameter_count=3
+    )
+    got = decode_state(encode(presence))
+    assert (got.kind, got.revision, got.host, got.pid, got.parameter_count, got.value) == (
         wire.EVENT_PRESENCE,
         7,
         "h",
         42,
         3,
+        NOT_SET,
     )
-    assert decode_state(encode(others["not set"])).value is NOT_SET
+    assert decode_state(encode(wire.ParameterEvent(node_id="n", name="gone"))).value is NOT_SET
 
 
 def test_big_endian_and_special_doubles() -> None:
