@@ -62,6 +62,7 @@ PRESENCE_GRACE = 1.0  # seconds after start-up before a node without presence co
 _READ_ALL = 1 << 24  # "every sample" for read(); Cyclone refuses N >= 2**28
 PRESENCE_POLL = 0.02  # seconds between presence checks in wait_for_node
 RESEND_AFTER = 0.2  # seconds without a reply before a call checks presence and resends
+MATCH_POLL = 0.02  # seconds between checks, while a call waits, for a newly matched server
 
 ParamsArg = Mapping[str, object] | Iterable[Parameter]
 
@@ -117,12 +118,13 @@ def _to_parameters(params: ParamsArg) -> list[Parameter]:
 
 
 class _Pending:
-    __slots__ = ("future", "node", "sample", "topic")
+    __slots__ = ("future", "matched", "node", "sample", "topic")
 
-    def __init__(self, node: str, topic: str, sample: Any) -> None:
+    def __init__(self, node: str, topic: str, sample: Any, matched: int) -> None:
         self.node = node
         self.topic = topic
         self.sample = sample
+        self.matched = matched  # the topic's match count (see ParameterClient._matched) when sent
         self.future: Future[Any] = Future()
 
 
@@ -153,8 +155,12 @@ class ParameterClient:
             for name in ("SetParametersRequest", "GetParametersRequest", "ListParametersRequest")
         }
         self._dispatcher = Dispatcher(participant, "paramdds-client")
-        for name in ("SetParametersResponse", "GetParametersResponse", "ListParametersResponse"):
+        self._reply_readers: dict[str, Any] = {}  # by request topic
+        self._match_counts = dict.fromkeys(self._writers, 0)
+        for request in self._writers:
+            name = request.replace("Request", "Response")
             reader = DataReader(participant, self._own_replies(name), self._qos.reader(name))
+            self._reply_readers[request] = reader
             self._dispatcher.add(reader, self._on_replies)
         presence = Topic(participant, "ParameterEvents", wire.ParameterEvent)
         self._presence = DataReader(participant, presence, self._qos.reader("ParameterEvents"))
@@ -270,7 +276,7 @@ class ParameterClient:
             return next(self._ids)
 
     def _send(self, topic: str, node: str, sample: Any) -> tuple[str, int, _Pending]:
-        pending = _Pending(node, topic, sample)
+        pending = _Pending(node, topic, sample, self._match_counts[topic])
         self._pending[sample.request_id] = pending
         try:
             self._writers[topic].write(sample)
@@ -337,31 +343,59 @@ class ParameterClient:
     def _slices(self, pending: _Pending, timeout: float | None) -> Iterator[float]:
         """How long to wait for the reply next; raises once the call cannot succeed.
 
-        Waits in steps of :data:`RESEND_AFTER` seconds, doubling up to 1 s. After a
-        step without a reply: once the
-        presence grace is over, an absent node is UNAVAILABLE (at once for a node
-        never seen; within a step of its liveliness lease for one that died);
-        otherwise the request is sent again (the first copy can be lost while a
-        just-started client or server is still being discovered). Retries are safe:
-        the server answers a repeated (client_id, request_id) from its reply cache.
-        A present node that does not answer is a TIMEOUT at ``timeout``.
+        A request is sent again (the first copy can be lost while a just-started
+        client or server is still being discovered: a VOLATILE writer does not send
+        a sample to a reader it matches later, nor a server's reply writer to a
+        client's reader):
+
+        * at once when the request writer or the reply reader of its topic has
+          matched a new peer since the request was sent (checked every
+          :data:`MATCH_POLL` seconds while the call waits);
+        * after :data:`RESEND_AFTER` seconds without a reply, doubling up to 1 s.
+          Before that resend, once the presence grace is over, an absent node is
+          UNAVAILABLE (at once for a node never seen; within a step of its
+          liveliness lease for one that died).
+
+        Retries are safe: the server answers a repeated (client_id, request_id)
+        from its reply cache. A present node that does not answer is a TIMEOUT at
+        ``timeout``.
         """
         limit = self.timeout if timeout is None else timeout
         deadline = time.monotonic() + limit
         grace_end = self._started + self._presence_grace
         step = RESEND_AFTER
+        next_resend = time.monotonic() + step
         while True:
-            remaining = deadline - time.monotonic()
-            if remaining <= 0:
+            now = time.monotonic()
+            if now >= deadline:
                 raise TimeoutError_(f"no answer from node {pending.node!r} within {limit:g} s")
-            yield min(remaining, step)
-            step = min(2 * step, 1.0)  # a big request that is merely slow is not resent often
-            if time.monotonic() >= grace_end and self._absent(pending.node):
-                raise UnavailableError(f"node {pending.node!r} is not present")
+            yield max(0.0, min(deadline, next_resend, now + MATCH_POLL) - now)
+            now = time.monotonic()
+            if now >= next_resend:
+                step = min(2 * step, 1.0)  # a big request that is merely slow is not resent often
+                next_resend = now + step
+                if now >= grace_end and self._absent(pending.node):
+                    raise UnavailableError(f"node {pending.node!r} is not present")
+            elif not self._newly_matched(pending):
+                continue
             try:
                 self._writers[pending.topic].write(pending.sample)
             except Exception as exc:
                 log.debug("resending request %d failed: %s", pending.sample.request_id, exc)
+
+    def _newly_matched(self, pending: _Pending) -> bool:
+        """Whether the topic of ``pending`` has matched a peer since it was (re)sent."""
+        topic = pending.topic
+        writer: Any = self._writers[topic]  # the binding's status getters are untyped
+        count = (
+            writer.get_publication_matched_status().total_count
+            + self._reply_readers[topic].get_subscription_matched_status().total_count
+        )
+        self._match_counts[topic] = count
+        if count == pending.matched:
+            return False
+        pending.matched = count
+        return True
 
     def _wait(self, node: str, request_id: int, pending: _Pending, timeout: float | None) -> Any:
         try:

@@ -29,6 +29,7 @@ from cyclonedds.topic import Topic
 
 from paramdds.core.descriptors import ParameterDescriptor
 from paramdds.core.table import ParameterTable
+from paramdds.dds import client as client_module
 from paramdds.dds import types as wire
 from paramdds.dds.client import AsyncParameterClient, ParameterClient
 from paramdds.dds.qos import QosProfiles
@@ -326,3 +327,23 @@ def test_raw_duplicate_request_is_applied_once(dds: DdsSession) -> None:
     )
     assert [r.revision for r in replies] == [start + 1, start + 1]
     assert table.revision == start + 1
+
+
+def test_a_request_sent_before_its_server_exists_is_resent_when_the_server_matches(
+    dds: DdsSession, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # A VOLATILE writer never delivers a sample to a reader it matches later: the first
+    # copy of a request sent while the server is still being discovered is lost. The
+    # client sends it again as soon as its writer matches a new reader; with the timed
+    # resend pushed past the call's timeout, that is the only way this call succeeds.
+    monkeypatch.setattr(client_module, "RESEND_AFTER", 60.0)
+    client = dds.client(timeout=20.0)
+    table = ParameterTable("late")
+    table.declare("x", 7)
+    replies: list[Any] = []
+    call = threading.Thread(target=lambda: replies.append(client.get("late", ["x"])))
+    call.start()
+    assert not wait_until(lambda: bool(replies), timeout=0.3)  # nobody serves "late" yet
+    dds.server(table)
+    call.join(timeout=20.0)
+    assert [r.values()["x"].value for r in replies] == [7]
