@@ -124,7 +124,7 @@ class _Pending:
         self.node = node
         self.topic = topic
         self.sample = sample
-        self.matched = matched  # the topic's match count (see ParameterClient._matched) when sent
+        self.matched = matched  # the topic's match count when last looked at (see _newly_matched)
         self.future: Future[Any] = Future()
 
 
@@ -384,7 +384,7 @@ class ParameterClient:
                 log.debug("resending request %d failed: %s", pending.sample.request_id, exc)
 
     def _newly_matched(self, pending: _Pending) -> bool:
-        """Whether the topic of ``pending`` has matched a peer since it was (re)sent."""
+        """Whether the topic of ``pending`` has matched a new peer since the count was last taken."""
         topic = pending.topic
         writer: Any = self._writers[topic]  # the binding's status getters are untyped
         count = (
