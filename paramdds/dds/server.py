@@ -39,6 +39,8 @@ from collections import OrderedDict
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from cyclonedds._clayer import ddspy_write
+from cyclonedds.core import DDSException
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
@@ -53,6 +55,7 @@ from . import types as wire
 from .convert import descriptor_to_wire, parameter_from_wire, state_descriptor_to_wire, value_to_wire
 from .dispatch import Dispatcher
 from .qos import QosProfiles
+from .state import encode_state
 
 log = logging.getLogger(__name__)
 
@@ -116,7 +119,7 @@ class ParameterServer:
         self._tables[node_id] = table
         self._listener_handles[node_id] = table.add_change_listener(self._on_change)
         for name, value, descriptor in table.snapshot():
-            self._state_writer.write(self._state_sample(table, name, value, descriptor, table.revision))
+            self._write_state(table, name, value, descriptor, table.revision)
         self._write_presence(table)
 
     def remove_node(self, node_id: str) -> None:
@@ -161,17 +164,27 @@ class ParameterServer:
 
     # -- state publication ---------------------------------------------------------
 
-    def _state_sample(
+    def _write_state(
         self, table: ParameterTable, name: str, value: Any, descriptor: Any, revision: int
-    ) -> Any:
-        return wire.ParameterEvent(
-            node_id=table.node_id,
-            name=name,
-            kind=wire.EVENT_PARAMETER,
-            revision=revision,
-            stamp=now_stamp(),
-            value=value_to_wire(value),
-            descriptor=state_descriptor_to_wire(descriptor, value),
+    ) -> None:
+        """Publish one parameter's state; the common shape is encoded without a wire object."""
+        sec, nanosec = divmod(time.time_ns(), 1_000_000_000)
+        data = encode_state(table.node_id, name, revision, sec, nanosec, value, descriptor)
+        if data is not None:
+            ret = ddspy_write(self._state_writer._ref, data)
+            if ret < 0:
+                raise DDSException(ret, f"Occurred while writing the state of {name!r} on {table.node_id!r}")
+            return
+        self._state_writer.write(
+            wire.ParameterEvent(
+                node_id=table.node_id,
+                name=name,
+                kind=wire.EVENT_PARAMETER,
+                revision=revision,
+                stamp=wire.Time(sec, nanosec),
+                value=value_to_wire(value),
+                descriptor=state_descriptor_to_wire(descriptor, value),
+            )
         )
 
     def _write_presence(self, table: ParameterTable) -> None:
@@ -202,9 +215,7 @@ class ParameterServer:
             if item.kind is ChangeKind.DELETED:
                 self._state_writer.dispose(wire.ParameterEvent(node_id=change.node_id, name=item.name))
             else:
-                self._state_writer.write(
-                    self._state_sample(table, item.name, item.value, item.descriptor, change.revision)
-                )
+                self._write_state(table, item.name, item.value, item.descriptor, change.revision)
         self._write_presence(table)
 
     def _flush_deferred(self) -> None:

@@ -1,4 +1,5 @@
-"""``ParameterEvents`` samples straight from their bytes to core values: a monitor's hot path.
+"""``ParameterEvents`` samples straight between bytes and core values: the hot paths of
+a monitor (decoding thousands at once) and a server (publishing every change).
 
 A monitor that joins a system of 100 nodes receives 5,000+ state samples at once.
 Through the generated codec (:mod:`.cdr`) each one became three wire objects and
@@ -12,7 +13,9 @@ value at all). :func:`decode_state` reads exactly that shape in one pass, into a
 descriptor, an older or newer writer, another encoding, damage) go through the
 generated codec and :mod:`.convert`, which define the result: the fast path only
 ever returns what that slower path would (``tests/dds/test_state.py`` checks this
-on generated and damaged samples).
+on generated and damaged samples). :func:`encode_state` is the reverse for a
+server's parameter samples of that shape: the same bytes as the generated encoder
+of the wire sample, without building it.
 
 Layout of the fast shape (XCDR2 little endian, every struct ``@appendable``, so
 each starts with a DHEADER, its size in bytes; 8-byte members align to 4)::
@@ -32,9 +35,9 @@ from ..core.values import NOT_SET, ParameterType, ParameterValue
 from ..errors import ParamddsError
 from . import types as wire
 from .cdr import HEADER, MalformedSample, is_malformed
-from .convert import state_descriptor_from_wire, value_from_wire
+from .convert import is_plain, state_descriptor_from_wire, value_from_wire
 
-__all__ = ["StateKey", "StateSample", "decode_key", "decode_state", "decode_state_slowly"]
+__all__ = ["StateKey", "StateSample", "decode_key", "decode_state", "decode_state_slowly", "encode_state"]
 
 
 class StateSample(NamedTuple):
@@ -64,12 +67,16 @@ _unpack_u32 = struct.Struct("<I").unpack_from
 _unpack_u32x2 = struct.Struct("<II").unpack_from
 # from the revision to the string value's length: revision, Time {DHEADER sec nanosec},
 # ParameterValue {DHEADER type bool (pad) int64 double}, length of string_value
-_unpack_middle = struct.Struct("<qIiIIB?xxqdI").unpack_from
+_MIDDLE = struct.Struct("<qIiIIB?xxqdI")
+_unpack_middle = _MIDDLE.unpack_from
 _unpack_tail = struct.Struct("<iI").unpack_from  # pid, parameter_count
 # the rest of the value (4 empty sequences, then a DHEADER and 0 strings), and no
 # descriptor (a DHEADER and 0 structs)
 _PLAIN_TAIL = bytes(16) + bytes.fromhex("04000000000000000400000000000000")
 _TIME_SIZE = 8
+_pack_u32 = struct.Struct("<I").pack
+_NO_HOST_PID_COUNT = bytes.fromhex("01000000000000000000000000000000")  # "", 0, 0
+_PAD = (b"", b"\0\0\0", b"\0\0", b"\0")  # indexed by length % 4: zeros up to a multiple of 4
 
 
 def decode_state(data: bytes) -> StateSample:
@@ -167,3 +174,47 @@ def _plain(name: str, ptype: ParameterType) -> ParameterDescriptor:
             _plain_descriptors.clear()  # a bound, not a policy: any entry is as good as a new one
         d = _plain_descriptors[key] = ParameterDescriptor(name, ptype)
     return d
+
+
+def encode_state(
+    node_id: str,
+    name: str,
+    revision: int,
+    sec: int,
+    nanosec: int,
+    value: ParameterValue,
+    d: ParameterDescriptor,
+) -> bytes | None:
+    """A parameter's state sample of the common shape, ready to write (padded to 4 bytes);
+    None for any other (then build the wire sample and let the generated encoder write it)."""
+    t = int(value.type)
+    if not 1 <= t <= 4 or not is_plain(d, value):
+        return None
+    v = value.value
+    node, key, s = node_id.encode(), name.encode(), v.encode() if isinstance(v, str) else b""
+    if len(node) > 255 or len(key) > 255:
+        return None  # over the bound: the generated encoder raises the error
+    head = len(node) + 1
+    body = len(s) + 1
+    out = bytearray(HEADER)
+    out += b"\0\0\0\0"  # DHEADER, filled in below
+    out += _pack_u32(head) + node + b"\0" + _PAD[head % 4]
+    out += _pack_u32(len(key) + 1) + key + b"\0\0" + _PAD[(len(out) + len(key) + 2) % 4]  # NUL, kind 0
+    try:
+        out += _MIDDLE.pack(
+            revision,
+            _TIME_SIZE,
+            sec,
+            nanosec,
+            24 + body + -body % 4 + 24,  # the value's size: its fixed part, string, 4 + 1 sequences
+            t,
+            v if t == 1 else False,
+            v if t == 2 else 0,
+            v if t == 3 else 0.0,
+            body,
+        )
+    except struct.error:
+        return None  # out of range: the generated encoder raises the error
+    out += s + b"\0" + _PAD[body % 4] + _PLAIN_TAIL + _NO_HOST_PID_COUNT
+    out[4:8] = _pack_u32(len(out) - 8)
+    return bytes(out)
