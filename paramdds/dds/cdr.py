@@ -235,7 +235,8 @@ def _str_decode(buf: bytes, pos: int, end: int) -> tuple[str, int]:
     return buf[pos : e - 1].decode(), e
 
 
-def _str_encode(out: bytearray, value: str) -> None:
+def encode_str(out: bytearray, value: str) -> None:
+    """Append a string at the next 4-byte boundary: length with the NUL, UTF-8, NUL."""
     data = value.encode()
     out += b"\0" * (-len(out) & 3)
     out += struct.pack("<I", len(data) + 1)
@@ -258,7 +259,7 @@ _BASE_NAMESPACE: dict[str, Any] = {
     "check_count": check_count,
     "decode_str": _str_decode,
     "fast_str": _str_decode,
-    "encode_str": _str_encode,
+    "encode_str": encode_str,
 }
 _compiled: dict[type, _Functions] = {}
 

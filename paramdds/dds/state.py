@@ -34,7 +34,7 @@ from ..core.descriptors import ParameterDescriptor
 from ..core.values import NOT_SET, ParameterType, ParameterValue
 from ..errors import ParamddsError
 from . import types as wire
-from .cdr import HEADER, MalformedSample, is_malformed
+from .cdr import HEADER, MalformedSample, encode_str, is_malformed
 from .convert import is_plain, state_descriptor_from_wire, value_from_wire
 
 __all__ = ["StateKey", "StateSample", "decode_key", "decode_state", "decode_state_slowly", "encode_state"]
@@ -63,7 +63,8 @@ class StateKey(NamedTuple):
 
 
 _TYPES = tuple(ParameterType)
-_unpack_u32 = struct.Struct("<I").unpack_from
+_U32 = struct.Struct("<I")
+_unpack_u32 = _U32.unpack_from
 _unpack_u32x2 = struct.Struct("<II").unpack_from
 # from the revision to the string value's length: revision, Time {DHEADER sec nanosec},
 # ParameterValue {DHEADER type bool (pad) int64 double}, length of string_value
@@ -74,9 +75,8 @@ _unpack_tail = struct.Struct("<iI").unpack_from  # pid, parameter_count
 # descriptor (a DHEADER and 0 structs)
 _PLAIN_TAIL = bytes(16) + bytes.fromhex("04000000000000000400000000000000")
 _TIME_SIZE = 8
-_pack_u32 = struct.Struct("<I").pack
 _NO_HOST_PID_COUNT = bytes.fromhex("01000000000000000000000000000000")  # "", 0, 0
-_PAD = (b"", b"\0\0\0", b"\0\0", b"\0")  # indexed by length % 4: zeros up to a multiple of 4
+_PAD = (b"", b"\0", b"\0\0", b"\0\0\0")  # _PAD[-n & 3]: the zeros that bring n to a multiple of 4
 
 
 def decode_state(data: bytes) -> StateSample:
@@ -190,23 +190,24 @@ def encode_state(
     t = int(value.type)
     if not 1 <= t <= 4 or not is_plain(d, value):
         return None
-    v = value.value
-    node, key, s = node_id.encode(), name.encode(), v.encode() if isinstance(v, str) else b""
-    if len(node) > 255 or len(key) > 255:
+    if len(node_id.encode()) > 255 or len(name.encode()) > 255:
         return None  # over the bound: the generated encoder raises the error
-    head = len(node) + 1
+    v = value.value
+    s = v.encode() if isinstance(v, str) else b""
     body = len(s) + 1
     out = bytearray(HEADER)
     out += b"\0\0\0\0"  # DHEADER, filled in below
-    out += _pack_u32(head) + node + b"\0" + _PAD[head % 4]
-    out += _pack_u32(len(key) + 1) + key + b"\0\0" + _PAD[(len(out) + len(key) + 2) % 4]  # NUL, kind 0
+    encode_str(out, node_id)
+    encode_str(out, name)
+    out.append(wire.EVENT_PARAMETER)
+    out += _PAD[-len(out) & 3]
     try:
         out += _MIDDLE.pack(
             revision,
             _TIME_SIZE,
             sec,
             nanosec,
-            24 + body + -body % 4 + 24,  # the value's size: its fixed part, string, 4 + 1 sequences
+            24 + body + (-body & 3) + 24,  # the value's size: its fixed part, string, 4 + 1 sequences
             t,
             v if t == 1 else False,
             v if t == 2 else 0,
@@ -215,6 +216,6 @@ def encode_state(
         )
     except struct.error:
         return None  # out of range: the generated encoder raises the error
-    out += s + b"\0" + _PAD[body % 4] + _PLAIN_TAIL + _NO_HOST_PID_COUNT
-    out[4:8] = _pack_u32(len(out) - 8)
+    out += s + b"\0" + _PAD[-body & 3] + _PLAIN_TAIL + _NO_HOST_PID_COUNT
+    _U32.pack_into(out, 4, len(out) - 8)
     return bytes(out)
