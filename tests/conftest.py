@@ -8,6 +8,12 @@ mapping allows domain ids up to 232; we use 100..230 and wrap.
 ``PARAMDDS_LOCALHOST=1`` is set for the whole session (and so inherited by
 every subprocess): nothing a test starts talks to the LAN or depends on
 multicast.
+
+On top of that, ``CYCLONEDDS_URI`` gets a discovery tag unique to this pytest
+process (:data:`TEST_URI`, inherited by every subprocess): two runs on one host
+(two checkouts, two developers, CI beside a benchmark) never discover each other
+even when their domain counters meet. A test that talks to a peer that knows no
+tags (Fast DDS) builds its environment without it (:func:`untagged_env`).
 """
 
 from __future__ import annotations
@@ -19,6 +25,9 @@ from collections.abc import Callable
 import pytest
 
 os.environ["PARAMDDS_LOCALHOST"] = "1"
+TEST_TAG = f"paramdds-test-{os.getpid()}"
+TEST_URI = f'<CycloneDDS><Domain id="any"><Discovery><Tag>{TEST_TAG}</Tag></Discovery></Domain></CycloneDDS>'
+os.environ["CYCLONEDDS_URI"] = TEST_URI
 
 DOMAIN_FIRST = 100
 DOMAIN_LAST = 230
@@ -59,6 +68,7 @@ def make_dds_env(domain_id: int, **extra: str) -> dict[str, str]:
     env = dict(os.environ)
     env["PARAMDDS_DOMAIN"] = str(domain_id)
     env["PARAMDDS_LOCALHOST"] = "1"
+    env["CYCLONEDDS_URI"] = TEST_URI
     env.update(extra)
     return env
 
@@ -67,3 +77,10 @@ def make_dds_env(domain_id: int, **extra: str) -> dict[str, str]:
 def dds_env() -> Callable[..., dict[str, str]]:
     """``dds_env(domain_id, **extra)`` -> environment dict for a subprocess."""
     return make_dds_env
+
+
+def untagged_env(env: dict[str, str]) -> dict[str, str]:
+    """``env`` without this run's discovery tag, for peers that cannot match tags."""
+    out = dict(env)
+    out.pop("CYCLONEDDS_URI", None)
+    return out

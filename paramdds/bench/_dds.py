@@ -17,7 +17,6 @@
   ``DCPSTopic`` / ``DCPSPublication`` / ``DCPSSubscription``.
 """
 
-import ctypes as ct
 import itertools
 import secrets
 import threading
@@ -35,6 +34,7 @@ from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 
 from ..dds import types as wire
+from ..dds._binding import cookie_buffer, waitset_attach_indexed, waitset_wait_indexed
 from ..dds.dispatch import Dispatcher
 from ..dds.qos import QosProfiles
 
@@ -179,23 +179,16 @@ class IndexedWaitSet:
 
     def __init__(self, participant: Any, capacity: int = 1024) -> None:
         self.ws = WaitSet(participant)
-        self._buf = (ct.c_void_p * capacity)()
-        self._capacity = capacity
+        self._buf = cookie_buffer(capacity)
 
     def attach(self, entity: Any, index: int) -> None:
-        ret = self.ws._waitset_attach(self.ws._ref, entity._ref, index + 1)  # 0 would read back as None
-        if ret < 0:
-            raise RuntimeError(f"waitset attach failed: {ret}")
-        self.ws.attached.append((entity, None))
+        waitset_attach_indexed(self.ws, entity, index + 1)  # 0 would read back as None
 
     def detach(self, entity: Any) -> None:
         self.ws.detach(entity)
 
     def wait(self, timeout_ns: int) -> list[int]:
-        ret = self.ws._waitset_wait(self.ws._ref, self._buf, self._capacity, timeout_ns)
-        if ret < 0:
-            raise RuntimeError(f"waitset wait failed: {ret}")
-        return [int(self._buf[i] or 0) - 1 for i in range(min(ret, self._capacity))]
+        return [cookie - 1 for cookie in waitset_wait_indexed(self.ws, self._buf, timeout_ns)]
 
 
 # -- the ROS 2 layout: per node six services (twelve topics) + one shared events topic -----------

@@ -37,8 +37,9 @@ import typing
 from typing import Any, NamedTuple, TypeVar
 
 from cyclonedds.idl import IdlStruct
-from cyclonedds.idl._support import Endianness
 from cyclonedds.idl.types import bounded_str, sequence
+
+from ._binding import Endianness, binding_deserialize
 
 HEADER = b"\x00\x09\x00\x00"  # D_CDR2 little-endian, no options
 _MALFORMED = "_paramdds_malformed"
@@ -439,7 +440,7 @@ def fast_cdr(cls: T) -> T:
                 return decode(klass, data)
             if has_header and len(data) < len(HEADER):  # the binding reads b"" as a default sample
                 raise MalformedSample("no encapsulation header")
-            return klass.__idl__.deserialize(data, has_header, use_version_2)  # type: ignore[arg-type]
+            return binding_deserialize(klass, data, has_header, use_version_2)
         except Exception:  # any undecodable sample, whichever codec read it
             sample = klass()
             setattr(sample, _MALFORMED, True)

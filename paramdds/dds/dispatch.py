@@ -19,9 +19,7 @@ import threading
 from collections.abc import Callable, Sequence
 from typing import Any, TypeVar
 
-from cyclonedds._clayer import ddspy_take
 from cyclonedds.core import (
-    DDSException,
     GuardCondition,
     InstanceState,
     ReadCondition,
@@ -31,6 +29,7 @@ from cyclonedds.core import (
 )
 from cyclonedds.util import duration
 
+from ._binding import take_serialized
 from .cdr import MalformedSample, is_malformed
 
 log = logging.getLogger(__name__)
@@ -76,9 +75,7 @@ class Dispatcher:
         """
 
         def take() -> tuple[list[Any], int]:
-            batch = ddspy_take(reader._ref, _ANY, _TAKE_BATCH)
-            if isinstance(batch, int):
-                raise DDSException(batch, f"Occurred while taking data in {reader!r}")
+            batch = take_serialized(reader, _ANY, _TAKE_BATCH)
             good = []
             for data, info in batch:
                 try:

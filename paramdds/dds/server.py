@@ -39,8 +39,6 @@ from collections import OrderedDict
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from cyclonedds._clayer import ddspy_write
-from cyclonedds.core import DDSException
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
@@ -52,6 +50,7 @@ from ..core.table import ParameterTable
 from ..core.values import Parameter
 from ..errors import ErrorCode, NotPersistedError, ParamddsError
 from . import types as wire
+from ._binding import write_serialized
 from .convert import descriptor_to_wire, parameter_from_wire, state_descriptor_to_wire, value_to_wire
 from .dispatch import Dispatcher
 from .qos import QosProfiles
@@ -171,9 +170,7 @@ class ParameterServer:
         sec, nanosec = divmod(time.time_ns(), 1_000_000_000)
         data = encode_state(table.node_id, name, revision, sec, nanosec, value, descriptor)
         if data is not None:
-            ret = ddspy_write(self._state_writer._ref, data)
-            if ret < 0:
-                raise DDSException(ret, f"Occurred while writing the state of {name!r} on {table.node_id!r}")
+            write_serialized(self._state_writer, data)
             return
         self._state_writer.write(
             wire.ParameterEvent(

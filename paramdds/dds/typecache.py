@@ -10,63 +10,39 @@ binding, which then never builds them. Used only with the exact binding version
 they were computed with; ``tests/dds/test_typecache.py`` recomputes them and
 fails if they drift from ``types.py``.
 
-The binding reads the bytes from its private ``IDL._xt_bytedata``; the typed
-objects (``get_type_info()`` and friends) are still built on first use.
+The binding reads the bytes from its private ``IDL._xt_bytedata``
+(:func:`._binding.install_type_data`); the typed objects (``get_type_info()``
+and friends) are still built on first use.
 """
 
 from __future__ import annotations
 
 import sys
 from pathlib import Path
-from typing import Any
 
-import cyclonedds
 from cyclonedds.idl import IdlStruct
+
+from ._binding import compute_type_data, install_type_data, installed_version
 
 
 def install(classes: list[type[IdlStruct]]) -> bool:
     """Give each class its cached type data; False (and nothing changed) if the cache does not apply."""
     from . import _typeobjects
 
-    site = Path(cyclonedds.__file__).parent.parent
-    if not (site / f"cyclonedds-{_typeobjects.CYCLONEDDS_VERSION}.dist-info").is_dir():
+    if installed_version() != _typeobjects.CYCLONEDDS_VERSION:
         return False
     for cls in classes:
         cached = _typeobjects.TYPE_DATA.get(cls.__idl_typename__)
         if cached is not None:
-            _use(cls.__idl__, (bytes.fromhex(cached[0]), bytes.fromhex(cached[1])))
+            install_type_data(cls, (bytes.fromhex(cached[0]), bytes.fromhex(cached[1])))
     return True
-
-
-def _use(idl: Any, bytedata: tuple[bytes, bytes]) -> None:
-    build = idl.fill_type_data  # the binding's own: builds the objects and the bytes
-
-    def fill_type_data() -> None:  # what Topic() calls: it needs only the bytes
-        if idl._xt_bytedata[0] is None:
-            idl._xt_bytedata = bytedata
-
-    def built(index: int) -> Any:
-        if idl._xt_data[0] is None:
-            build()
-        return idl._xt_data[index]
-
-    idl.fill_type_data = fill_type_data
-    idl.get_type_info = lambda: built(0)
-    idl.get_type_mapping = lambda: built(1)
-    idl.get_type_id = lambda: built(0).complete.typeid_with_size.type_id
 
 
 def compute(classes: list[type[IdlStruct]]) -> dict[str, tuple[str, str]]:
     """The binding's own type data for each class, built from scratch."""
-    from cyclonedds.idl._support import Endianness
-    from cyclonedds.idl._xt_builder import XTBuilder
-
     out = {}
     for cls in classes:
-        info, mapping = XTBuilder.process_type(cls)
-        out[cls.__idl_typename__] = tuple(
-            x.serialize(endianness=Endianness.Little, use_version_2=True)[4:].hex() for x in (info, mapping)
-        )
+        out[cls.__idl_typename__] = tuple(blob.hex() for blob in compute_type_data(cls))
     return out  # type: ignore[return-value]
 
 

@@ -17,7 +17,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from ..conftest import next_domain_id
+from ..conftest import TEST_URI, next_domain_id
 
 ROOT = Path(__file__).resolve().parents[2]
 PARAMDDS = str(Path(sys.executable).with_name("paramdds"))
@@ -56,7 +56,7 @@ def next_domain() -> int:
 
 def cli_env(domain: int) -> dict[str, str]:
     env = dict(os.environ)
-    env.pop("CYCLONEDDS_URI", None)
+    env["CYCLONEDDS_URI"] = TEST_URI  # this run's discovery tag (tests/conftest.py)
     env.update(PARAMDDS_LOCALHOST="1", PARAMDDS_DOMAIN=str(domain), PYTHONUNBUFFERED="1")
     return env
 

@@ -11,13 +11,13 @@ from typing import Any
 
 import pytest
 from cyclonedds.idl import IdlStruct
-from cyclonedds.idl._support import Endianness
 from cyclonedds.idl.annotations import appendable
 from cyclonedds.idl.types import bounded_str, int64, sequence, uint8, uint64
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from paramdds.dds import types as wire
+from paramdds.dds._binding import Endianness
 from paramdds.dds.cdr import _codec, decode, encode, is_malformed
 
 from .strategies import samples

@@ -11,13 +11,13 @@ no sample raise ``MalformedSample`` instead of reaching a monitor's table.
 import math
 
 import pytest
-from cyclonedds.idl._support import Endianness
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from paramdds.core.descriptors import FloatingPointRange, ParameterDescriptor
 from paramdds.core.values import NOT_SET, ParameterType, ParameterValue
 from paramdds.dds import types as wire
+from paramdds.dds._binding import Endianness
 from paramdds.dds.cdr import MalformedSample, encode
 from paramdds.dds.convert import state_descriptor_to_wire, value_to_wire
 from paramdds.dds.state import _decode_fast, decode_state, decode_state_slowly, encode_state

@@ -26,7 +26,7 @@ from typing import Any
 
 import pytest
 
-from ..conftest import next_domain_id
+from ..conftest import TEST_URI, next_domain_id
 
 PARAMDDS = str(Path(sys.executable).with_name("paramdds"))
 
@@ -54,7 +54,7 @@ PARAM_NAMES = {"robot.max_velocity", "robot.name", "robot.enabled", "robot.wheel
 def make_dds_env(domain: int, **extra: str) -> dict[str, str]:
     """Environment for a paramdds subprocess on ``domain``, loopback only (as ``tests/conftest.py``)."""
     env = dict(os.environ)
-    env.pop("CYCLONEDDS_URI", None)
+    env["CYCLONEDDS_URI"] = TEST_URI  # this run's discovery tag (tests/conftest.py)
     env.update(PARAMDDS_DOMAIN=str(domain), PARAMDDS_LOCALHOST="1")
     env.update(extra)
     return env

@@ -10,7 +10,6 @@ from __future__ import annotations
 import time
 from typing import Any
 
-from cyclonedds._clayer import ddspy_write
 from cyclonedds.core import Policy
 from cyclonedds.pub import DataWriter
 from cyclonedds.qos import Qos
@@ -19,6 +18,7 @@ from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
 from paramdds.dds import types as wire
+from paramdds.dds._binding import write_serialized
 from paramdds.dds.qos import QosProfiles
 
 REQUESTS = ("SetParametersRequest", "GetParametersRequest", "ListParametersRequest")
@@ -58,7 +58,7 @@ class RawPeer:
     def send_bytes(self, topic: str, data: bytes) -> None:
         """Write ``data`` as a serialized sample, bypassing every encoder (cyclonedds C API)."""
         padded = data.ljust((len(data) + 3) & ~3, b"\0")
-        assert ddspy_write(self.writers[topic]._ref, padded) == 0
+        write_serialized(self.writers[topic], padded)
 
     def _pump(self) -> None:
         for name, reader in self.readers.items():

@@ -15,7 +15,6 @@ from collections import Counter
 from typing import Any
 
 import pytest
-from cyclonedds._clayer import ddspy_write
 from cyclonedds.pub import DataWriter
 from cyclonedds.topic import Topic
 
@@ -24,6 +23,7 @@ from paramdds.core.limits import MAX_PARAMETERS_PER_REQUEST
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import ParameterType, ParameterValue
 from paramdds.dds import types as wire
+from paramdds.dds._binding import write_serialized
 from paramdds.dds.convert import value_to_wire
 from paramdds.dds.qos import QosProfiles
 
@@ -267,7 +267,7 @@ def test_a_monitor_drops_broken_state_samples_alone(
     for _ in range(3):
         writer.write(state("a", 1.5))
         bad_utf8 = state("bad.utf8", "x").serialize().replace(b"bad.utf8", b"bad.\xff\xfe\xfd\xfc")
-        ddspy_write(writer._ref, bad_utf8)
+        write_serialized(writer, bad_utf8)
         writer.write(unknown_type)
         writer.write(state("b", "text"))
         writer.write(state("c", [1, 2]))

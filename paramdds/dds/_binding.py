@@ -1,0 +1,159 @@
+"""Every use of cyclonedds-python's private API, in one place.
+
+paramdds reaches below the binding's public API in a few places, each for a
+measured reason:
+
+* :func:`take_serialized` and :func:`write_serialized` move samples as CDR bytes
+  (``cyclonedds._clayer.ddspy_take`` / ``ddspy_write``), so our generated codecs
+  (:mod:`.cdr`, :mod:`.state`) replace the binding's generic interpreter on the
+  hot paths;
+* :func:`binding_deserialize` is the binding's own decoder, the fallback for
+  samples our codec does not read;
+* :func:`install_type_data` hands precomputed XTypes type data to a type's
+  ``__idl__`` and :func:`compute_type_data` computes it (see :mod:`.typecache`);
+* ``Endianness``, the binding's byte-order enum, for encoding big-endian samples;
+* :func:`waitset_attach_indexed` and :func:`waitset_wait_indexed` attach entities
+  to a WaitSet with a cookie of our choosing (the benchmarks' wake-up path);
+* :func:`entity_handle` is the C handle of an entity (``_ref``), for calls into
+  Cyclone's C API.
+
+All of them are checked against one binding version: importing this module with
+another major.minor version of cyclonedds raises :class:`ImportError` naming
+both, so an upgrade fails here, in one obvious place, rather than deep inside a
+dispatch thread.
+"""
+
+from __future__ import annotations
+
+import ctypes as ct
+from pathlib import Path
+from typing import Any
+
+import cyclonedds
+
+__all__ = [
+    "SUPPORTED_VERSION",
+    "Endianness",
+    "binding_deserialize",
+    "compute_type_data",
+    "cookie_buffer",
+    "entity_handle",
+    "install_type_data",
+    "installed_version",
+    "take_serialized",
+    "waitset_attach_indexed",
+    "waitset_wait_indexed",
+    "write_serialized",
+]
+
+SUPPORTED_VERSION = "11.0"  # major.minor of cyclonedds-python these calls were written against
+
+
+def installed_version() -> str | None:
+    """The installed cyclonedds version, read from its dist-info folder name (no importlib.metadata)."""
+    site = Path(cyclonedds.__file__).parent.parent
+    for info in site.glob("cyclonedds-*.dist-info"):
+        return info.name[len("cyclonedds-") : -len(".dist-info")]
+    return None
+
+
+def _check_version() -> None:
+    version = installed_version()
+    if version is None:
+        return  # a source checkout of the binding: nothing to compare, trust it
+    if version.split(".")[:2] != SUPPORTED_VERSION.split("."):
+        raise ImportError(
+            f"paramdds uses private parts of cyclonedds-python {SUPPORTED_VERSION}.x "
+            f"(paramdds/dds/_binding.py), but cyclonedds {version} is installed: "
+            f"install cyclonedds>={SUPPORTED_VERSION},<{int(SUPPORTED_VERSION.split('.')[0]) + 1}"
+        )
+
+
+_check_version()
+
+from cyclonedds._clayer import ddspy_take, ddspy_write  # noqa: E402  (after the version check)
+from cyclonedds.core import DDSException  # noqa: E402
+from cyclonedds.idl._support import Endianness  # noqa: E402
+
+
+def entity_handle(entity: Any) -> int:
+    """The Cyclone C handle of a binding entity (reader, writer, topic, waitset…)."""
+    return int(entity._ref)
+
+
+def take_serialized(reader: Any, mask: int, count: int) -> list[tuple[bytes, Any]]:
+    """Take up to ``count`` samples of ``reader`` as ``(CDR bytes, SampleInfo)`` pairs.
+
+    For an invalid sample (dispose, unregister) the bytes are its serialized key.
+    """
+    batch = ddspy_take(reader._ref, mask, count)
+    if isinstance(batch, int):
+        raise DDSException(batch, f"Occurred while taking data in {reader!r}")
+    return batch  # type: ignore[no-any-return]
+
+
+def write_serialized(writer: Any, data: bytes) -> None:
+    """Write one sample already encoded as CDR (encapsulation header included)."""
+    ret = ddspy_write(writer._ref, data)
+    if ret < 0:
+        raise DDSException(ret, f"Occurred while writing to {writer!r}")
+
+
+def binding_deserialize(cls: type, data: bytes, has_header: bool, use_version_2: bool | None) -> Any:
+    """Decode ``data`` with the binding's own generic interpreter."""
+    return cls.__idl__.deserialize(data, has_header, use_version_2)  # type: ignore[attr-defined]
+
+
+def install_type_data(cls: type, bytedata: tuple[bytes, bytes]) -> None:
+    """Give ``cls`` precomputed XTypes (TypeInformation, TypeMapping) bytes.
+
+    ``Topic()`` then uses them as they are; the typed objects (``get_type_info()``
+    and friends) are still built by the binding, on first use only.
+    """
+    idl = cls.__idl__  # type: ignore[attr-defined]
+    build = idl.fill_type_data  # the binding's own: builds the objects and the bytes
+
+    def fill_type_data() -> None:  # what Topic() calls: it needs only the bytes
+        if idl._xt_bytedata[0] is None:
+            idl._xt_bytedata = bytedata
+
+    def built(index: int) -> Any:
+        if idl._xt_data[0] is None:
+            build()
+        return idl._xt_data[index]
+
+    idl.fill_type_data = fill_type_data
+    idl.get_type_info = lambda: built(0)
+    idl.get_type_mapping = lambda: built(1)
+    idl.get_type_id = lambda: built(0).complete.typeid_with_size.type_id
+
+
+def compute_type_data(cls: type) -> tuple[bytes, bytes]:
+    """The binding's own XTypes (TypeInformation, TypeMapping) bytes for ``cls``, built from scratch."""
+    from cyclonedds.idl._xt_builder import XTBuilder
+
+    info, mapping = XTBuilder.process_type(cls)
+    return tuple(  # type: ignore[return-value]
+        x.serialize(endianness=Endianness.Little, use_version_2=True)[4:] for x in (info, mapping)
+    )
+
+
+def waitset_attach_indexed(waitset: Any, entity: Any, cookie: int) -> None:
+    """Attach ``entity`` to ``waitset`` with ``cookie`` (non-zero) as what ``wait`` returns for it."""
+    ret = waitset._waitset_attach(waitset._ref, entity._ref, cookie)
+    if ret < 0:
+        raise DDSException(ret, f"Occurred while attaching {entity!r} to a waitset")
+    waitset.attached.append((entity, None))
+
+
+def waitset_wait_indexed(waitset: Any, buffer: Any, timeout_ns: int) -> list[int]:
+    """Wait on ``waitset``; the cookies of the entities that triggered (``buffer``: c_void_p array)."""
+    ret = waitset._waitset_wait(waitset._ref, buffer, len(buffer), timeout_ns)
+    if ret < 0:
+        raise DDSException(ret, "Occurred while waiting on a waitset")
+    return [int(buffer[i] or 0) for i in range(min(ret, len(buffer)))]
+
+
+def cookie_buffer(capacity: int) -> Any:
+    """A buffer for :func:`waitset_wait_indexed`."""
+    return (ct.c_void_p * capacity)()
