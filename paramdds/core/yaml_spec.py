@@ -80,11 +80,12 @@ from pathlib import Path
 
 import yaml
 
-from ..errors import InvalidValueError
+from ..errors import InvalidValueError, ParamddsError
 from .custom_validators import lookup_validator
 from .descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
 from .results import ChangeSet
 from .table import ParameterTable
+from .validation import check_validator
 from .values import NOT_SET, ParameterType, ParameterValue
 from .yaml_base import Source, compose, expect_map, items, read_file
 from .yaml_ros import parse_validator
@@ -329,7 +330,12 @@ def _validators(name: str, ptype: ParameterType, node: yaml.Node, walk: _Walk) -
             out.append(parse_validator(kind, knode, args, src, name, None))
             continue
         arg_type = _arg_type(name, kind, ptype, knode, src)
-        out.append(parse_validator(kind, knode, args, src, name, arg_type))
+        validator = parse_validator(kind, knode, args, src, name, arg_type)
+        try:
+            check_validator(ptype, validator)
+        except ParamddsError as exc:
+            raise src.error(f"parameter {name!r}: {exc.message}", knode) from None
+        out.append(validator)
         kinds[kind] = knode
     for kind, excluded in _EXCLUDES.items():
         for other in excluded:

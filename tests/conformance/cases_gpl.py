@@ -1,0 +1,159 @@
+# ruff: noqa: E501  (data tables: one case per entry reads better than wrapped)
+"""Cases from generate_parameter_library (spec parsing, mapped parameters, descriptors) and the
+validators now in PickNikRobotics/RSL (our own specs and values).
+
+Spec text is the body under the root namespace key.
+"""
+
+from __future__ import annotations
+
+from .runner import ERROR, Case
+
+GPL = "PickNikRobotics/generate_parameter_library"
+PARSE_ERR = f"{GPL} generate_parameter_library_py/generate_parameter_library_py/test/YAML_parse_error_test.py"
+MAPPED = f"{GPL} generate_parameter_library_py/generate_parameter_library_py/test/mapped_parameter_test.py"
+NESTED_MAP = f"{GPL} generate_parameter_library_py/generate_parameter_library_py/test/test_nested_map.py"
+DESC = f"{GPL} example/test/descriptor_test_gtest.cpp"
+PARSE = f"{GPL} generate_parameter_library_py/generate_parameter_library_py/parse_yaml.py"
+RSL = "PickNikRobotics/RSL tests/parameter_validators.cpp"
+
+
+def _validator(kind: str, ptype: str, args: str, accept: list[object], refuse: list[object]) -> list[Case]:
+    text = f"p:\n  type: {ptype}\n  default_value: {_yaml(accept[0])}\n  validation:\n    {kind}<>: {args}\n"
+    out = [Case(f"rsl-{kind}-{ptype}-accept-{i}", f"{RSL}: TEST_CASE rsl::{kind}", "spec", text,
+                {"accept": [("p", v)]}) for i, v in enumerate(accept)]
+    out += [Case(f"rsl-{kind}-{ptype}-refuse-{i}", f"{RSL}: TEST_CASE rsl::{kind}", "spec", text,
+                 {"refuse": [("p", v)]}) for i, v in enumerate(refuse)]
+    return out
+
+
+def _yaml(v: object) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return f'"{v}"'
+    if isinstance(v, list):
+        return "[" + ", ".join(_yaml(x) for x in v) + "]"
+    return repr(v)
+
+
+VALIDATORS: list[Case] = [
+    *_validator("bounds", "int", "[2, 6]", [2, 4, 6], [1, 7]),
+    *_validator("bounds", "double", "[-1.0, 1.0]", [0.0, -1.0, 1.0], [1.5, float("nan")]),
+    *_validator("lt", "int", "[10]", [9], [10, 11]),
+    *_validator("gt", "double", "[0.5]", [0.75], [0.5, 0.0]),
+    *_validator("lt_eq", "int", "[3]", [3, -5], [4]),
+    *_validator("gt_eq", "int", "[3]", [3, 9], [2]),
+    *_validator("one_of", "string", '[["red", "green"]]', ["red", "green"], ["blue", ""]),
+    *_validator("one_of", "int", "[[1, 3]]", [1, 3], [2]),
+    *_validator("fixed_size", "int_array", "[2]", [[1, 2]], [[1], [1, 2, 3]]),
+    *_validator("fixed_size", "string", "[3]", ["abc"], ["ab"]),
+    *_validator("size_gt", "string_array", "[1]", [["a", "b"]], [["a"]]),
+    *_validator("size_lt", "double_array", "[3]", [[1.0, 2.0]], [[1.0, 2.0, 3.0]]),
+    *_validator("not_empty", "string", "null", ["x"], [""]),
+    *_validator("not_empty", "int_array", "[]", [[1]], []),
+    *_validator("unique", "string_array", "null", [["a", "b"]], [["a", "a"]]),
+    *_validator("subset_of", "string_array", '[["a", "b", "c"]]', [["a", "c"], ["b"]], [["a", "d"]]),
+    *_validator("element_bounds", "double_array", "[0.0, 1.0]", [[0.0, 0.5, 1.0]], [[0.5, 1.5], [-0.1]]),
+    *_validator("lower_element_bounds", "int_array", "[0]", [[0, 5]], [[-1, 5]]),
+    *_validator("upper_element_bounds", "int_array", "[5]", [[0, 5]], [[6]]),
+]
+
+SPECS: list[Case] = [
+    Case("gpl-valid-file", f"{PARSE_ERR}: test_parse_valid_parameter_file", "spec",
+         "speed:\n  type: double\n  default_value: 1.0\nname:\n  type: string\n  default_value: arm\n",
+         {"names": ["speed", "name"], "values": {"speed": ("double", 1.0), "name": ("string", "arm")}}),
+    Case("gpl-none-type", f"{PARSE_ERR}: test_parse_valid_parameter_file_including_none_type", "spec",
+         "anything:\n  type: none\n  default_value: 3\n", {"names": ["anything"], "accept": [("anything", "s")]}),
+    Case("gpl-wrong-default-type", f"{PARSE_ERR}: test_expected[wrong_default_type.yaml]", "spec",
+         "count:\n  type: int\n  default_value: word\n", ERROR),
+    Case("gpl-missing-type", f"{PARSE_ERR}: test_expected[missing_type.yaml]", "spec",
+         "count:\n  default_value: 1\n", ERROR),
+    Case("gpl-invalid-syntax", f"{PARSE_ERR}: test_expected[invalid_syntax.yaml]", "spec",
+         "count:\n  type: int\n  default_value: [1\n", ERROR),
+    Case("gpl-invalid-type", f"{PARSE_ERR}: test_expected[invalid_parameter_type.yaml]", "spec",
+         "count:\n  type: integer\n  default_value: 1\n", ERROR),
+    Case("gpl-bare-fixed-size", f"{PARSE}: validation arguments that are not a list are wrapped", "spec",
+         "xyz:\n  type: double_array\n  default_value: [0.0, 0.0, 0.0]\n  validation:\n    fixed_size<>: 3\n",
+         {"accept": [("xyz", [1.0, 2.0, 3.0])], "refuse": [("xyz", [1.0])]}),
+    Case("gpl-bare-lower-element-bounds", f"{PARSE}: validation arguments that are not a list are wrapped",
+         "spec", "v:\n  type: double_array\n  default_value: [0.0]\n  validation:\n"
+         "    lower_element_bounds<>: -10.0\n", {"accept": [("v", [-10.0])], "refuse": [("v", [-10.5])]}),
+    Case("gpl-bare-gt-eq", f"{PARSE}: validation arguments that are not a list are wrapped", "spec",
+         "t:\n  type: double\n  default_value: 0.0\n  validation:\n    gt_eq<>: 0.0\n",
+         {"accept": [("t", 0.0)], "refuse": [("t", -0.1)]}),
+    Case("gpl-no-angle-brackets", f"{PARSE}: validator names with or without <>", "spec",
+         "t:\n  type: double\n  default_value: 1.0\n  validation:\n    gt_eq: [0.0]\n",
+         {"refuse": [("t", -1.0)]}),
+    Case("gpl-bounds-with-gt", f"{PARSE}: validators that may not be combined (bounds with gt)", "spec",
+         "t:\n  type: int\n  default_value: 1\n  validation:\n    bounds<>: [0, 5]\n    gt<>: [0]\n", ERROR),
+    Case("gpl-bounds-with-lt-eq", f"{PARSE}: validators that may not be combined (bounds with lt_eq)", "spec",
+         "t:\n  type: int\n  default_value: 1\n  validation:\n    bounds<>: [0, 5]\n    lt_eq<>: [4]\n", ERROR),
+    Case("gpl-element-bounds-with-lower", f"{PARSE}: validators that may not be combined (element bounds)",
+         "spec", "t:\n  type: int_array\n  default_value: [1]\n  validation:\n    element_bounds<>: [0, 5]\n"
+         "    lower_element_bounds<>: [1]\n", ERROR),
+    Case("gpl-gt-with-lt-ok", f"{PARSE}: validators that may not be combined (gt with lt is fine)", "spec",
+         "t:\n  type: int\n  default_value: 1\n  validation:\n    gt<>: [0]\n    lt<>: [5]\n",
+         {"accept": [("t", 4)], "refuse": [("t", 5)], "ranges": {"t": (1, 4)}}),
+    Case("gpl-bounds-lower-above-upper", f"{PARSE}: range validator lower bound above upper bound", "spec",
+         "t:\n  type: int\n  default_value: 1\n  validation:\n    bounds<>: [5, 0]\n", ERROR),
+    Case("gpl-validator-on-wrong-type", f"{PARSE}: validator does not apply to the type", "spec",
+         "t:\n  type: string\n  default_value: a\n  validation:\n    gt<>: [0]\n", ERROR),
+    Case("gpl-required", f"{PARSE}: a parameter without default_value is required", "spec",
+         "port:\n  type: int\n", {"overrides": {"port": 80}, "values": {"port": ("integer", 80)}}),
+    Case("gpl-fixed-string", f"{PARSE}: string_fixed_N", "spec",
+         "code:\n  type: string_fixed_3\n  default_value: ab\n", {"accept": [("code", "abc")],
+                                                                  "refuse": [("code", "abcd")]}),
+    Case("gpl-fixed-array", f"{PARSE}: <type>_array_fixed_N", "spec",
+         "xs:\n  type: int_array_fixed_2\n  default_value: [1]\n", {"accept": [("xs", [1, 2])],
+                                                                    "refuse": [("xs", [1, 2, 3])]}),
+    Case("gpl-read-only", f"{DESC}: DescriptorTest read_only", "spec",
+         "ro:\n  type: int\n  default_value: 1\n  read_only: true\n", {"refuse": [("ro", 2)]}),
+    Case("gpl-descriptor-bounds-range", f"{DESC}: DescriptorTest (bounds fill the integer range)", "spec",
+         "i:\n  type: int\n  default_value: 1\n  validation:\n    bounds<>: [0, 10]\n", {"ranges": {"i": (0, 10)}}),
+    Case("gpl-descriptor-bounds-fp-range", f"{DESC}: DescriptorTest (bounds fill the floating point range)",
+         "spec", "d:\n  type: double\n  default_value: 1.0\n  validation:\n    bounds<>: [0.0, 2.5]\n",
+         {"ranges": {"d": (0.0, 2.5)}}),
+    Case("gpl-descriptor-gt-eq-range", f"{DESC}: DescriptorTest (gt_eq fills the lower end)", "spec",
+         "i:\n  type: int\n  default_value: 3\n  validation:\n    gt_eq<>: [2]\n",
+         {"ranges": {"i": (2, 2**63 - 1)}}),
+    Case("gpl-descriptor-lt-eq-range", f"{DESC}: DescriptorTest (lt_eq fills the upper end)", "spec",
+         "d:\n  type: double\n  default_value: 0.0\n  validation:\n    lt_eq<>: [4.0]\n",
+         {"ranges": {"d": (-1.7976931348623157e308, 4.0)}}),
+    Case("gpl-descriptor-gt-int-exclusive", f"{DESC}: DescriptorTest (gt on an integer is exclusive)", "spec",
+         "i:\n  type: int\n  default_value: 3\n  validation:\n    gt<>: [2]\n", {"ranges": {"i": (3, 2**63 - 1)}}),
+    Case("gpl-descriptor-element-bounds-range", f"{DESC}: DescriptorTest (element bounds fill the range)",
+         "spec", "a:\n  type: double_array\n  default_value: [0.5]\n  validation:\n"
+         "    element_bounds<>: [0.0, 1.0]\n", {"ranges": {"a": (0.0, 1.0)}}),
+    Case("gpl-mapped", f"{MAPPED}: mapped parameters (__map_<array>)", "spec",
+         "joints:\n  type: string_array\n  default_value: [shoulder, elbow]\n"
+         "gains:\n  __map_joints:\n    p:\n      type: double\n      default_value: 1.0\n",
+         {"names": ["joints", "gains.shoulder.p", "gains.elbow.p"], "values": {"gains.elbow.p": ("double", 1.0)}}),
+    Case("gpl-mapped-override", f"{MAPPED}: mapped parameters take their value from overrides", "spec",
+         "joints:\n  type: string_array\n  default_value: [a]\n"
+         "gains:\n  __map_joints:\n    p:\n      type: double\n      default_value: 1.0\n",
+         {"overrides": {"joints": ["j1", "j2"], "gains.j2.p": 7.5},
+          "names": ["joints", "gains.j1.p", "gains.j2.p"], "values": {"gains.j2.p": ("double", 7.5)}}),
+    Case("gpl-mapped-validated", f"{MAPPED}: mapped parameters keep their validators", "spec",
+         "joints:\n  type: string_array\n  default_value: [a]\n"
+         "lim:\n  __map_joints:\n    v:\n      type: double\n      default_value: 1.0\n"
+         "      validation:\n        gt<>: [0.0]\n", {"accept": [("lim.a.v", 2.0)], "refuse": [("lim.a.v", -1.0)]}),
+    Case("gpl-nested-map", f"{NESTED_MAP}: nested __map_ keys give every combination", "spec",
+         "arms:\n  type: string_array\n  default_value: [left, right]\n"
+         "axes:\n  type: string_array\n  default_value: [x, y]\n"
+         "k:\n  __map_arms:\n    __map_axes:\n      gain:\n        type: int\n        default_value: 0\n",
+         {"names": ["arms", "axes", "k.left.x.gain", "k.left.y.gain", "k.right.x.gain", "k.right.y.gain"]}),
+    Case("gpl-map-unknown-key", f"{MAPPED}: the map key must be a string array parameter", "spec",
+         "gains:\n  __map_joints:\n    p:\n      type: double\n      default_value: 1.0\n", ERROR),
+    Case("gpl-custom-unknown-loads", f"{PARSE}: custom validators (ns::fn) are the package's own", "spec",
+         "t:\n  type: int\n  default_value: 1\n  validation:\n    my_pkg::never_registered<>: [1]\n",
+         {"accept": [("t", 99)]}),
+    Case("gpl-custom-gt-eq-or-nan", f"{PARSE}: custom validators (control_filters::gt_eq_or_nan)", "spec",
+         "t:\n  type: double\n  default_value: .nan\n  validation:\n    control_filters::gt_eq_or_nan<>: [0.0]\n",
+         {"accept": [("t", float("nan")), ("t", 0.0)], "refuse": [("t", -1.0)]}),
+    Case("gpl-custom-lt-eq-or-nan", f"{PARSE}: custom validators (control_filters::lt_eq_or_nan)", "spec",
+         "t:\n  type: double\n  default_value: .nan\n  validation:\n    control_filters::lt_eq_or_nan<>: [0.0]\n",
+         {"accept": [("t", float("nan")), ("t", -3.0)], "refuse": [("t", 0.5)]}),
+]
+
+CASES: list[Case] = [*VALIDATORS, *SPECS]
