@@ -491,4 +491,3 @@ class _Refresher:
         new = [e for e in _expand(self.mapped, value_of) if not table.has(e.name)]
         if new:
             table.declare_from([(e.name, e.default, e.descriptor) for e in new])
-
