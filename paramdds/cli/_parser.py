@@ -125,6 +125,18 @@ def _server(p: Parser) -> None:
     )
     p.add_argument("--spec", metavar="FILE", help="generate_parameter_library spec declaring the parameters")
     p.add_argument(
+        "--validators",
+        action="append",
+        default=[],
+        metavar="MODULE",
+        help="import MODULE (a Python module name) that registers custom spec validators; repeat for several",
+    )
+    p.add_argument(
+        "--strict-spec",
+        action="store_true",
+        help="refuse a spec naming a custom validator nobody registered (default: warn, not enforced)",
+    )
+    p.add_argument(
         "--persist",
         metavar="FILE",
         help="keep runtime changes in FILE (created if missing, reloaded at start)",
