@@ -118,3 +118,19 @@ def test_exclusive_double_bounds_move_to_the_next_double_inward() -> None:
     r = entry.descriptor.floating_point_range
     assert r is not None
     assert r.from_value == math.nextafter(0.0, 1.0) and r.to_value == math.nextafter(1.0, 0.0)
+
+
+def test_the_example_validators_module_registers_a_working_validator() -> None:
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "examples" / "custom_validators.py"
+    spec_ = importlib.util.spec_from_file_location("example_custom_validators", path)
+    assert spec_ is not None and spec_.loader is not None
+    spec_.loader.exec_module(importlib.util.module_from_spec(spec_))
+    text = "ns:\n  rpm:\n    type: int\n    default_value: 10\n    validation:\n"
+    table = ParameterTable("n")
+    declare_spec(table, load_spec_str(text + "      robot::multiple_of<>: 5\n", strict=True))
+    assert table.set([Parameter("rpm", PV(T.INTEGER, 15))]).results[0].successful
+    refused = table.set([Parameter("rpm", PV(T.INTEGER, 12))]).results[0]
+    assert not refused.successful and refused.reason.endswith("must be a multiple of 5")
