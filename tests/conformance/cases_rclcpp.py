@@ -172,6 +172,17 @@ CASES: list[Case] = [
     Case("rclcpp-wrong-kind-fp-range-on-string", f"{NODE}: (a floating_point_range does not affect a string)",
          "table", {}, [("declare", "s", "x", {"floating_point_range": (0.0, 1.0, 0.0)}, "ok"),
                        ("set", "s", "z", True)]),
+    Case("rclcpp-range-on-array-elements", "ros2/rclcpp rclcpp/src/rclcpp/node_interfaces/node_parameters.cpp: "
+         "__check_parameter_value_in_range (ranges apply to integer and double scalars only)", "table", {},
+         [("declare", "a", [1, 2], {"integer_range": (0, 10, 1)}, "ok"), ("set", "a", [1, 20], True)],
+         deliberate="a range also bounds each element of an integer or double array",
+         ours=[("declare", "a", [1, 2], {"integer_range": (0, 10, 1)}, "ok"), ("set", "a", [1, 20], False),
+               ("get", "a", ("integer_array", [1, 2]))]),
+    Case("rclcpp-descriptor-type-contradicts-value", "ros2/rclcpp rclcpp/src/rclcpp/node_interfaces/"
+         "node_parameters.cpp: declare_parameter_helper (descriptor.type is overwritten by the value's type)",
+         "table", {}, [("declare", "x", 5, {"type": "string"}, "ok"), ("get", "x", ("integer", 5))],
+         deliberate="a descriptor whose type contradicts the default value is refused",
+         ours=[("declare", "x", 5, {"type": "string"}, "TYPE_MISMATCH"), ("has", "x", False)]),
     Case("rclcpp-int-for-double-widened", f"{NODE}: (rclcpp#979: an integer for a double parameter)", "table",
          {}, [("declare", "d", 1.5, "ok"), ("set", "d", 2, False)],
          deliberate="an integer for a double parameter is widened (`50` → `50.0`, rclcpp#979) unless strict",
