@@ -640,7 +640,8 @@ class ParameterTable:
                 replace(r, reason=f"{r.reason}; {note}" if r.reason else note) if r.successful else r
                 for r in results
             ]
-        return SetOutcome(tuple(results), self.revision, change)
+        # the revision of this commit (commit hooks may have committed more after it)
+        return SetOutcome(tuple(results), change.revision if change is not None else self.revision, change)
 
     def _commit(
         self, stage: _Stage, applied: _Params, *, post_set: bool = True

@@ -27,7 +27,8 @@ is a dynamically typed parameter (descriptor type not_set, dynamic_typing).
 ``read_only``, ``additional_constraints``, ``validation``. Anything else is an
 error, never ignored. A leaf without ``default_value`` is **required**: its
 default is NOT_SET and :func:`declare_spec` needs a value for it from an
-override.
+override. ``default_value`` must fit the type (integers widen to doubles; a
+plain scalar for a string is taken as written; ``[]`` takes the array type).
 
 **Mapped parameters** (``__map_<key>``, as generate_parameter_library defines
 them): ``gains: {__map_joints: {p: {type: double}}}`` declares ``gains.<j>.p``
@@ -37,8 +38,7 @@ combination. When the key array changes at runtime, the parameters of new
 entries are declared (their default, or an override) right after the set that
 changed it; those of removed entries stay declared, as the library's
 ``refresh_dynamic_parameters`` does ("TODO remove any destroyed dynamic
-parameters"). ``default_value`` must fit the type (integers widen to doubles; a
-plain scalar for a string is taken as written; ``[]`` takes the array type).
+parameters"). An entry written twice in the array gives its parameters once.
 
 **Validators** are spelled as that library does, ``name<>: [args]`` (the ``<>``
 may be left out), with names from
@@ -142,7 +142,7 @@ class MappedEntry:
     def expand(self, key_values: Sequence[Sequence[str]]) -> list[SpecEntry]:
         """One entry per combination of key values (``gains.__map_joints.p`` → ``gains.j1.p``…)."""
         out = []
-        for combo in itertools.product(*key_values):
+        for combo in itertools.product(*(dict.fromkeys(v) for v in key_values)):
             parts = iter(combo)
             name = ".".join(
                 next(parts) if seg.startswith(_MAP) else seg for seg in self.entry.name.split(".")

@@ -35,8 +35,8 @@ def test_mapped_parameters_follow_the_key_array_at_runtime() -> None:
     declare_spec(table, load_spec_str(MAPPED))
     assert table.names() == ["gains.j1.p", "joints"]
     revision = table.revision
-    outcome = table.set([Parameter("joints", PV(T.STRING_ARRAY, ("j2", "j3")))])
-    assert outcome.results[0].successful
+    outcome = table.set([Parameter("joints", PV(T.STRING_ARRAY, ("j2", "j3", "j2")))])
+    assert outcome.results[0].successful and outcome.revision == revision + 1
     # new entries are declared right after the set (their default, or an override), in a revision of
     # their own; the removed entry stays declared, as generate_parameter_library does
     assert table.names() == ["gains.j1.p", "gains.j2.p", "gains.j3.p", "joints"]
