@@ -52,7 +52,7 @@ with_descriptors=True)``; ROS tools cannot read this form) sit beside
           dynamic_typing: true
           integer_range: [0, 10, 1]          # from, to, step
           floating_point_range: [0.0, 5.0, 0.0]
-          validators:                         # in order; names from VALIDATOR_ARITY
+          validators:                         # in order; VALIDATOR_ARITY names or custom ns::fn
             - bounds: [0.0, 5.0]
             - one_of: [["a", "b"]]
             - unique: []
