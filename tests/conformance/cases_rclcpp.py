@@ -13,6 +13,7 @@ NODE = "ros2/rclcpp rclcpp/test/rclcpp/test_node.cpp"
 SET_NA = f"{NODE}: TestNode.set_parameter_undeclared_parameters_not_allowed"
 ATOMIC_NA = f"{NODE}: TestNode.set_parameters_atomically_undeclared_parameters_not_allowed"
 ATOMIC_A = f"{NODE}: TestNode.set_parameters_atomically_undeclared_parameters_allowed"
+SERVICE = "ros2/rclcpp rclcpp/test/rclcpp/test_parameter_service.cpp"
 
 
 def _ranges() -> list[Case]:
@@ -119,19 +120,20 @@ CASES: list[Case] = [
          [("declare", "", 5, "INVALID_NAME")]),
     Case("rclcpp-declare-override", f"{NODE}: TestNode.declare_parameter_with_overrides", "table",
          {"overrides": {"x": 43}}, [("declare", "x", 42, "ok"), ("get", "x", ("integer", 43))]),
-    Case("rclcpp-declare-override-wrong-type", f"{NODE}: TestNode.declare_parameter_with_overrides", "table",
+    Case("rclcpp-declare-override-wrong-type", f"{NODE}: TestNode.declare_parameter_with_overrides "
+         "(default type and initial value type do not match)", "table",
          {"overrides": {"x": "text"}}, [("declare", "x", 42, "TYPE_MISMATCH"), ("has", "x", False)]),
-    Case("rclcpp-declare-override-out-of-range", f"{NODE}: TestNode.declare_parameter_with_overrides", "table",
+    Case("rclcpp-declare-override-out-of-range", f"{SET_NA} (integer range descriptor and wrong default value)", "table",
          {"overrides": {"x": 99}}, [("declare", "x", 1, {"integer_range": (0, 10, 1)}, "OUT_OF_RANGE")]),
-    Case("rclcpp-declare-type-no-value", f"{NODE}: TestNode.declare_parameter_with_no_initial_values "
-         "(a type and no value; get throws ParameterUninitializedException)", "table", {},
+    Case("rclcpp-declare-type-no-value", f"{NODE}: TestNode.static_and_dynamic_typing "
+         "(integer_override_not_given, integer_set_after_declare)", "table", {},
          [("declare", "t", None, {"type": "integer"}, "ok"), ("has", "t", True), ("get", "t", "INVALID_VALUE"),
           ("describe", "t", {"type": "integer"}), ("set", "t", 4, True), ("get", "t", ("integer", 4))]),
-    Case("rclcpp-declare-type-no-value-override", f"{NODE}: TestNode.declare_parameter_with_overrides "
-         "(a type and an override)", "table", {"overrides": {"t": 8}},
+    Case("rclcpp-declare-type-no-value-override", f"{NODE}: TestNode.static_and_dynamic_typing "
+         "(integer_must_provide_override)", "table", {"overrides": {"t": 8}},
          [("declare", "t", None, {"type": "integer"}, "ok"), ("get", "t", ("integer", 8))]),
-    Case("rclcpp-declare-type-no-value-wrong-set", f"{NODE}: TestNode.declare_parameter_with_no_initial_values "
-         "(statically typed, unset, other type)", "table", {},
+    Case("rclcpp-declare-type-no-value-wrong-set", f"{NODE}: TestNode.static_and_dynamic_typing "
+         "(a statically typed parameter without a value keeps its type)", "table", {},
          [("declare", "t", None, {"type": "string"}, "ok"), ("set", "t", 3, False), ("set", "t", "s", True)]),
     Case("rclcpp-static-vs-dynamic", f"{NODE}: TestNode.static_and_dynamic_typing", "table", {},
          [("declare", "s", 1, "ok"), ("set", "s", "x", False), ("declare", "d", 1, {"dynamic_typing": True}, "ok"),
@@ -140,12 +142,12 @@ CASES: list[Case] = [
          [("declare", "d", 1, {"dynamic_typing": True}, "ok"), ("undeclare", "d", "ok"), ("has", "d", False)]),
     Case("rclcpp-undeclare-unknown", f"{NODE}: TestNode.undeclare_parameter", "table", {},
          [("undeclare", "ghost", "NOT_FOUND")]),
-    Case("rclcpp-undeclare-read-only", f"{NODE}: TestNode.undeclare_parameter", "table", {},
-         [("declare", "r", 1, {"read_only": True, "dynamic_typing": True}, "ok"), ("undeclare", "r", "READ_ONLY")]),
+    Case("rclcpp-undeclare-read-only", f"{NODE}: TestNode.undeclare_parameter (read only parameter throws)", "table", {},
+         [("declare", "r", 42, {"read_only": True}, "ok"), ("undeclare", "r", "READ_ONLY"), ("has", "r", True)]),
     Case("rclcpp-undeclare-static", f"{NODE}: TestNode.undeclare_parameter (statically typed)", "table", {},
          [("declare", "s", 1, "ok"), ("undeclare", "s", "TYPE_MISMATCH"), ("has", "s", True)]),
-    Case("rclcpp-read-only-set", f"{NODE}: TestNode.set_parameter_undeclared_parameters_not_allowed "
-         "(read-only)", "table", {}, [("declare", "r", 1, {"read_only": True}, "ok"), ("set", "r", 2, False),
+    Case("rclcpp-read-only-set", f"{NODE}: TestNode.declare_parameter_with_no_initial_values "
+         "(custom parameter descriptor, read_only)", "table", {}, [("declare", "r", 1, {"read_only": True}, "ok"), ("set", "r", 2, False),
                                       ("get", "r", ("integer", 1))]),
     Case("rclcpp-has", f"{NODE}: TestNode.has_parameter", "table", {},
          [("has", "h", False), ("declare", "h", 1, "ok"), ("has", "h", True)]),
@@ -163,13 +165,13 @@ CASES: list[Case] = [
     Case("rclcpp-list-all", f"{NODE}: TestNode.list_parameters_undeclared_parameters_not_allowed", "table", {},
          [("declare", "grp.a", 1, "ok"), ("declare", "top", 3, "ok"),
           ("list", [], 0, (["grp.a", "top"], ["grp"]))]),
-    Case("rclcpp-wrong-kind-fp-range-on-int", f"{NODE}: (a floating_point_range does not affect an integer)",
+    Case("rclcpp-wrong-kind-fp-range-on-int", "ros2/rclcpp rclcpp/src/rclcpp/node_interfaces/node_parameters.cpp: __check_parameter_value_in_range (a range applies only to a value of its type)",
          "table", {}, [("declare", "i", 50, {"floating_point_range": (0.0, 1.0, 0.0)}, "ok"), ("set", "i", 99, True)]),
-    Case("rclcpp-wrong-kind-int-range-on-string", f"{NODE}: (an integer_range does not affect a string)",
+    Case("rclcpp-wrong-kind-int-range-on-string", "ros2/rclcpp rclcpp/src/rclcpp/node_interfaces/node_parameters.cpp: __check_parameter_value_in_range (a range applies only to a value of its type)",
          "table", {}, [("declare", "s", "x", {"integer_range": (0, 1, 1)}, "ok"), ("set", "s", "y", True)]),
-    Case("rclcpp-wrong-kind-int-range-on-double", f"{NODE}: (an integer_range does not affect a double)",
+    Case("rclcpp-wrong-kind-int-range-on-double", "ros2/rclcpp rclcpp/src/rclcpp/node_interfaces/node_parameters.cpp: __check_parameter_value_in_range (a range applies only to a value of its type)",
          "table", {}, [("declare", "d", 5.5, {"integer_range": (0, 1, 1)}, "ok"), ("set", "d", 7.5, True)]),
-    Case("rclcpp-wrong-kind-fp-range-on-string", f"{NODE}: (a floating_point_range does not affect a string)",
+    Case("rclcpp-wrong-kind-fp-range-on-string", "ros2/rclcpp rclcpp/src/rclcpp/node_interfaces/node_parameters.cpp: __check_parameter_value_in_range (a range applies only to a value of its type)",
          "table", {}, [("declare", "s", "x", {"floating_point_range": (0.0, 1.0, 0.0)}, "ok"),
                        ("set", "s", "z", True)]),
     Case("rclcpp-range-on-array-elements", "ros2/rclcpp rclcpp/src/rclcpp/node_interfaces/node_parameters.cpp: "
@@ -183,6 +185,65 @@ CASES: list[Case] = [
          "table", {}, [("declare", "x", 5, {"type": "string"}, "ok"), ("get", "x", ("integer", 5))],
          deliberate="a descriptor whose type contradicts the default value is refused",
          ours=[("declare", "x", 5, {"type": "string"}, "TYPE_MISMATCH"), ("has", "x", False)]),
+    Case("rclcpp-override-ignored", f"{NODE}: TestNode.declare_parameter_with_overrides "
+         "(int default, with override and ignoring it)", "table", {"overrides": {"x": 42}},
+         [("declare_ignoring_override", "x", 43, "ok"), ("get", "x", ("integer", 43))]),
+    Case("rclcpp-override-read-only", f"{NODE}: TestNode.declare_parameter_with_overrides "
+         "(int default, with initial, custom parameter descriptor)", "table", {"overrides": {"x": 42}},
+         [("declare", "x", 43, {"read_only": True}, "ok"), ("get", "x", ("integer", 42)),
+          ("describe", "x", {"read_only": True})]),
+    Case("rclcpp-static-override-wrong-type", f"{NODE}: TestNode.static_and_dynamic_typing "
+         "(string_parameter_override_should_throw)", "table", {"overrides": {"s": 43}},
+         [("declare", "s", "a string", "TYPE_MISMATCH"), ("has", "s", False)]),
+    Case("rclcpp-static-override-ok", f"{NODE}: TestNode.static_and_dynamic_typing (integer_parameter_override_ok)",
+         "table", {"overrides": {"i": 43}}, [("declare", "i", 42, "ok"), ("get", "i", ("integer", 43))]),
+    Case("rclcpp-type-and-dynamic-typing", f"{NODE}: TestNode.declare_parameter_with_overrides "
+         "(cannot pass an expected type and a descriptor with dynamic_typing=True)", "table", {},
+         [("declare", "t", None, {"type": "integer", "dynamic_typing": True}, "INVALID_VALUE")]),
+    Case("rclcpp-allow-undeclared-static-kept", f"{NODE}: TestNode.declare_parameter_with_allow_undeclared_parameters "
+         "(declared parameters static typing is still enforced)", "table", {"options": {"allow_undeclared": True}},
+         [("declare", "p", 5, "ok"), ("set", "p", "asd", False), ("get", "p", ("integer", 5))]),
+    Case("rclcpp-allow-undeclared-implicit-dynamic", f"{NODE}: TestNode.declare_parameter_with_allow_undeclared_parameters "
+         "(not for automatically declared parameters)", "table", {"options": {"allow_undeclared": True}},
+         [("set", "p", 5, True), ("set", "p", "asd", True), ("get", "p", ("string", "asd"))]),
+    Case("rclcpp-allow-undeclared-declare-after-set", f"{NODE}: TestNode.declare_parameter_with_allow_undeclared_parameters "
+         "(declare after set is invalid)", "table", {"options": {"allow_undeclared": True}},
+         [("set", "p", 5, True), ("declare", "p", 5, "ALREADY_DECLARED")]),
+    Case("rclcpp-declare-parameters-namespace", f"{NODE}: TestNode.declare_parameters_with_no_initial_values "
+         "(with namespace: the namespace itself is not a parameter)", "table", {},
+         [("declare", "ns1.a", 42, "ok"), ("declare", "ns1.b", 2**63 - 43, "ok"), ("has", "ns1", False),
+          ("get", "ns1.b", ("integer", 2**63 - 43))]),
+    Case("rclcpp-list-after-undeclare", f"{NODE}: TestNode.list_parameters", "table", {},
+         [("declare", "d", None, {"dynamic_typing": True}, "ok"), ("list", [], 1, (["d"], [])),
+          ("undeclare", "d", "ok"), ("list", [], 1, ([], []))]),
+    Case("rclcpp-get-types-undeclared-node-level", f"{NODE}: TestNode.get_parameter_types_undeclared_parameters_allowed "
+         "(undeclared names are NOT_SET, same order as input)", "table", {"options": {"allow_undeclared": True}},
+         [("type", "ghost", "not_set")]),
+    Case("rclcpp-node-parameters-list", "ros2/rclcpp rclcpp/test/rclcpp/node_interfaces/test_node_parameters.cpp: "
+         "TestNodeParameters.list_parameters", "table", {},
+         [("list", [], 1, ([], [])), ("declare", "new_parameter", True, "ok"), ("list", [], 1, (["new_parameter"], []))]),
+    Case("rclcpp-service-get", f"{SERVICE}: TestParameterService.get_parameters", "table", {},
+         [("declare", "p1", 42, "ok"), ("get", "p1", ("integer", 42)), ("get", "undeclared", "NOT_FOUND")]),
+    Case("rclcpp-service-get-types", f"{SERVICE}: TestParameterService.get_parameter_types", "table", {},
+         [("declare", "p1", 42, "ok"), ("type", "p1", "integer"), ("get_types", ["p2"], [])],
+         deliberate="get and describe report a status per name instead of an empty reply",
+         ours=[("declare", "p1", 42, "ok"), ("type", "p1", "integer"), ("get_types", ["p2"], ["not_set"])]),
+    Case("rclcpp-service-set", f"{SERVICE}: TestParameterService.set_parameters", "table", {},
+         [("declare", "p1", 42, "ok"), ("set", "p1", 0, True), ("get", "p1", ("integer", 0))]),
+    Case("rclcpp-service-set-atomically", f"{SERVICE}: TestParameterService.set_parameters_atomically", "table", {},
+         [("declare", "p1", 42, "ok"), ("atomic", [("p1", 0)], True), ("get", "p1", ("integer", 0))]),
+    Case("rclcpp-service-list", f"{SERVICE}: TestParameterService.list_parameters", "table", {},
+         [("declare", "p1", 42, "ok"), ("list", [], 1, (["p1"], []))]),
+    Case("rclcpp-service-describe", f"{SERVICE}: TestParameterService.describe_parameters", "table", {},
+         [("declare", "p1", 42, "ok"), ("describe", "p1", {"name": "p1", "type": "integer"}),
+          ("describe", "undeclared", "NOT_FOUND")]),
+    Case("rclcpp-service-descriptor", f"{SERVICE}: TestParameterService.parameter_descriptor", "table", {},
+         [("declare", "int_parameter", 1, {"description": "description", "additional_constraints": "constraints",
+                                           "integer_range": (0, 10, 1)}, "ok"),
+          ("describe", "int_parameter", {"type": "integer", "description": "description",
+                                         "additional_constraints": "constraints", "read_only": False,
+                                         "dynamic_typing": False}),
+          ("get", "int_parameter", ("integer", 1))]),
     Case("rclcpp-int-for-double-widened", f"{NODE}: (rclcpp#979: an integer for a double parameter)", "table",
          {}, [("declare", "d", 1.5, "ok"), ("set", "d", 2, False)],
          deliberate="an integer for a double parameter is widened (`50` → `50.0`, rclcpp#979) unless strict",

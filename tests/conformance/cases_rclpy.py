@@ -17,17 +17,24 @@ _NAMES = ["use_sim_time", "alpha_grp.x", "alpha_grp.y", "alpha_grp.deep.z", "bet
 
 
 def _int_range() -> list[Case]:
-    sets = [(0, True), (4, True), (10, True), (5, False), (12, False), (-2, False)]
-    return [Case(f"rclpy-int-range-{v}", f"{NODE}: TestNode.test_integer_range_descriptor", "range",
-                 {"type": "integer", "range": (0, 10, 2), "default": 0, "value": v}, ok) for v, ok in sets]
+    src = f"{NODE}: TestNode.test_integer_range_descriptor"
+    rows = [((0, 10, 2), 0, [(0, True), (4, True), (10, True), (5, False), (12, False), (-2, False)]),
+            ((-20, 0, 30), -20, [(-20, True), (0, True), (-8, False), (30, False)]),
+            ((-20, 20, 0), -20, [(7, True), (20, True), (21, False)])]
+    return [Case(f"rclpy-int-range-{lo}-{hi}-{step}-{v}", src, "range",
+                 {"type": "integer", "range": (lo, hi, step), "default": d, "value": v}, ok)
+            for (lo, hi, step), d, sets in rows for v, ok in sets]
 
 
 def _fp_range() -> list[Case]:
-    sets = [(0.0, True), (3.5, True), (10.0, True), (3.7, False), (10.5, False), (-0.5, False),
-            (1.0000000001, True)]
-    return [Case(f"rclpy-fp-range-{v}", f"{NODE}: TestNode.test_floating_point_range_descriptor (tolerance "
-                 "1e-6 as PARAM_REL_TOL)", "range",
-                 {"type": "double", "range": (0.0, 10.0, 0.5), "default": 0.0, "value": v}, ok) for v, ok in sets]
+    src = f"{NODE}: TestNode.test_floating_point_range_descriptor"
+    rows = [((0.0, 10.0, 0.5), 0.0, [(0.0, True), (3.5, True), (10.0, True), (3.25, False), (12.5, False),
+                                     (-0.5, False), (1.0000000001, True)]),
+            ((-20.0, 0.0, 30.0), -20.0, [(-20.0, True), (0.0, True), (-8.5, False), (30.0, False)]),
+            ((-20.0, 20.0, 0.0), -20.0, [(6.37, True), (20.0, True), (20.5, False)])]
+    return [Case(f"rclpy-fp-range-{lo}-{hi}-{step}-{v}", src + (" (within 1e-6, PARAM_REL_TOL)" if v == 1.0000000001 else ""),
+                 "range", {"type": "double", "range": (lo, hi, step), "default": d, "value": v}, ok)
+            for (lo, hi, step), d, sets in rows for v, ok in sets]
 
 
 def _listing() -> list[Case]:
@@ -60,15 +67,25 @@ CASES: list[Case] = [
          [("declare", "p1", 1, "ok"), ("declare", "p1", 2, "ALREADY_DECLARED")]),
     Case("rclpy-declare-invalid-name", f"{NODE}: TestNode.test_declare_parameter", "table", {},
          [("declare", "bad name!", 1, "INVALID_NAME")]),
-    Case("rclpy-declare-type-only", f"{NODE}: TestNode.test_declare_parameter (a type, no value)", "table", {},
-         [("declare", "t", None, {"type": "double"}, "ok"), ("has", "t", True), ("get", "t", "INVALID_VALUE"),
-          ("set", "t", 1.5, True), ("get", "t", ("double", 1.5))],
-         note="rclpy returns an unset Parameter from get_parameter; rclcpp throws. We follow rclcpp."),
-    Case("rclpy-declare-no-type-no-value", f"{NODE}: TestNode.test_declare_parameter (no type, no value)",
-         "table", {}, [("declare", "x", None, "INVALID_VALUE"), ("has", "x", False)],
-         note="rclpy declares it NOT_SET with a deprecation warning; rclcpp refuses a statically typed "
-              "parameter without a type. We follow rclcpp."),
-    Case("rclpy-declare-dynamic-unset", f"{NODE}: TestNode.test_declare_parameter (dynamic_typing, no value)",
+    Case("rclpy-declare-type-only", f"{NODE}: TestNode.test_static_dynamic_typing (int_param_no_default)", "table", {},
+         [("declare", "t", None, {"type": "integer"}, "ok"), ("has", "t", True), ("get", "t", "INVALID_VALUE"),
+          ("set", "t", "asd", False), ("set", "t", 3, True), ("get", "t", ("integer", 3)), ("set", "t", None, False)]),
+    Case("rclpy-static-int-param", f"{NODE}: TestNode.test_static_dynamic_typing (int_param)", "table", {},
+         [("declare", "i", 0, "ok"), ("set", "i", "asd", False), ("set", "i", 3, True)]),
+    Case("rclpy-set-many-with-undeclared", f"{NODE}: TestNode.test_node_set_parameters (the fourth is not declared)",
+         "table", {}, [("declare", "foo", 42, "ok"), ("declare", "bar", "hello", "ok"), ("declare", "baz", 2.41, "ok"),
+                       ("set_many", [("foo", 24), ("bar", "bye"), ("baz", 1.42), ("foobar", 1.42)], [True, True, True, False]),
+                       ("get", "baz", ("double", 1.42)), ("has", "foobar", False)]),
+    Case("rclpy-set-many-read-only", f"{NODE}: TestNode.test_node_set_parameters_read_only", "table", {},
+         [("declare", "imm_a", 42, {"read_only": True}, "ok"), ("declare", "b", "hello", "ok"),
+          ("declare", "imm_c", 2.41, {"read_only": True}, "ok"),
+          ("set_many", [("imm_a", 24), ("b", "bye"), ("imm_c", 1.42)], [False, True, False]),
+          ("get", "imm_a", ("integer", 42)), ("get", "b", ("string", "bye"))]),
+    Case("rclpy-atomic-with-undeclared", f"{NODE}: TestNode.test_node_set_parameters_atomically (the fourth is not declared)",
+         "table", {}, [("declare", "foo", 42, "ok"), ("declare", "bar", "hello", "ok"),
+                       ("atomic", [("foo", 24), ("bar", "bye"), ("foobar", 1.42)], False),
+                       ("get", "foo", ("integer", 42)), ("has", "foobar", False)]),
+    Case("rclpy-declare-dynamic-unset", f"{NODE}: TestNode.test_static_dynamic_typing (dynamic_param)",
          "table", {}, [("declare", "x", None, {"dynamic_typing": True}, "ok"), ("type", "x", "not_set")]),
     Case("rclpy-read-only", f"{NODE}: TestNode.test_node_set_parameters_read_only", "table", {},
          [("declare", "r", 3, {"read_only": True}, "ok"), ("set", "r", 4, False), ("get", "r", ("integer", 3))]),
@@ -80,7 +97,7 @@ CASES: list[Case] = [
     Case("rclpy-set-undeclared-allowed", f"{NODE}: TestNode.test_node_set_undeclared_parameters "
          "(allow_undeclared_parameters)", "table", {"options": {"allow_undeclared": True}},
          [("set", "ghost", 1.5, True), ("get", "ghost", ("double", 1.5))]),
-    Case("rclpy-static-type-change", f"{NODE}: TestNode.test_static_dynamic_typing", "table", {},
+    Case("rclpy-static-type-change", f"{NODE}: TestNode.test_static_dynamic_typing (a static type stays)", "table", {},
          [("declare", "s", 1, "ok"), ("set", "s", 1.5, False), ("set", "s", "x", False), ("set", "s", 2, True)]),
     Case("rclpy-dynamic-type-change", f"{NODE}: TestNode.test_static_dynamic_typing", "table", {},
          [("declare", "d", 1, {"dynamic_typing": True}, "ok"), ("set", "d", "x", True), ("set", "d", [1, 2], True),
@@ -95,12 +112,21 @@ CASES: list[Case] = [
     Case("rclpy-describe", f"{NODE}: TestNode.test_describe_parameter", "table", {},
          [("declare", "p", "v", {"description": "words", "additional_constraints": "short"}, "ok"),
           ("describe", "p", {"type": "string", "description": "words", "additional_constraints": "short"})]),
-    Case("rclpy-wrong-kind-fp-range-on-string", f"{NODE}: TestNode.test_declare_parameter "
-         "(a floating_point_range on a string does not affect it)", "table", {},
-         [("declare", "s", "text", {"floating_point_range": (0.0, 1.0, 0.0)}, "ok"), ("set", "s", "more", True)]),
-    Case("rclpy-wrong-kind-int-range-on-double", f"{NODE}: TestNode.test_declare_parameter "
-         "(an integer_range on a double does not affect it)", "table", {},
-         [("declare", "d", 0.5, {"integer_range": (0, 1, 1)}, "ok"), ("set", "d", 9.5, True)]),
+    Case("rclpy-wrong-kind-fp-range-on-string", f"{NODE}: TestNode.test_floating_point_range_descriptor "
+         "(non-floats are not affected by the range)", "table", {},
+         [("declare", "s", "text", {"floating_point_range": (0.0, 10.0, 0.5)}, "ok"), ("set", "s", "more", True)]),
+    Case("rclpy-wrong-kind-fp-range-on-int", f"{NODE}: TestNode.test_floating_point_range_descriptor "
+         "(non-floats are not affected by the range)", "table", {},
+         [("declare", "i", 123, {"floating_point_range": (0.0, 10.0, 0.5)}, "ok"), ("get", "i", ("integer", 123))]),
+    Case("rclpy-wrong-kind-int-range-on-double", f"{NODE}: TestNode.test_integer_range_descriptor "
+         "(non-integers are not affected by the range)", "table", {},
+         [("declare", "d", 123.0, {"integer_range": (0, 10, 2)}, "ok"), ("set", "d", 9.5, True)]),
+    Case("rclpy-wrong-kind-int-range-on-string", f"{NODE}: TestNode.test_integer_range_descriptor "
+         "(non-integers are not affected by the range)", "table", {},
+         [("declare", "s", "no integer", {"integer_range": (0, 10, 2)}, "ok"), ("get", "s", ("string", "no integer"))]),
+    Case("rclpy-range-bad-declaration-refused", f"{NODE}: TestNode.test_integer_range_descriptor (out_of_range "
+         "is not declared)", "table", {}, [("declare", "o", 30, {"integer_range": (-10, 0, 30)}, "OUT_OF_RANGE"),
+                                             ("has", "o", False)]),
     Case("rclpy-byte-array", f"{PARAM}: TestParameter.test_create_byte_array_parameter", "table", {},
          [("declare", "b", b"\x01\xff", "ok"), ("type", "b", "byte_array")]),
     Case("rclpy-bool-array", f"{PARAM}: TestParameter.test_create_bool_array_parameter", "table", {},

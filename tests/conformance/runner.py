@@ -158,7 +158,8 @@ def _step(table: ParameterTable, step: tuple[Any, ...]) -> str | None:
     ops: ``declare name value [descriptor-fields]``, ``set name value`` (outcome True/False:
     successful), ``set_many [(name, value)] [True/False…]``, ``atomic [(name, value)] True/False``,
     ``get name (label, value) | code``, ``has name bool``, ``type name label``,
-    ``describe name {field: value}``, ``undeclare name outcome``,
+    ``describe name {field: value}``, ``undeclare name outcome``, ``get_types [names] [labels]``,
+    ``declare_ignoring_override name value outcome``,
     ``list prefixes depth (names, prefixes)``.
     """
     op, *args, want = step
@@ -168,6 +169,14 @@ def _step(table: ParameterTable, step: tuple[Any, ...]) -> str | None:
         default_value = NOT_SET if default is None else value(default)
         got, _ = _outcome(lambda: table.declare(name, default_value, desc))
         return None if got == want else f"{got}, upstream {want}"
+    if op == "declare_ignoring_override":
+        name, default = args
+        got, _ = _outcome(lambda: table.declare(name, value(default), ignore_override=True))
+        return None if got == want else f"{got}, upstream {want}"
+    if op == "get_types":
+        (names,) = args
+        labels = [t.label for t in table.get_types(names)]
+        return None if labels == want else f"types {labels}, upstream {want}"
     if op == "set":
         name, v = args
         ok = table.set([Parameter(name, NOT_SET if v is None else value(v))]).results[0].successful
