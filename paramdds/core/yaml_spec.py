@@ -60,18 +60,20 @@ naming it and a note in ``additional_constraints`` that it is not enforced, or i
 an error with ``strict=True`` (``--strict-spec``).
 
 **Ranges.** The descriptor's integer/floating-point range (step 0) is filled from
-the validators so ROS tools can show it: ``bounds`` gives ``[lo, hi]``; ``gt_eq``/
-``lower_bounds`` a lower and ``lt_eq``/``upper_bounds`` an upper bound, the other
-end being the type's limit; ``gt``/``lt`` are exclusive, so an integer bound moves
-by 1 and a double bound to the next representable double inward; on integer and
-double arrays the element-bounds validators do the same for the elements.
+the validators so ROS tools can show it, by generate_parameter_library's rules (its
+``descriptor_test_gtest.cpp`` pins them): ``bounds`` gives ``[lo, hi]``; ``gt``,
+``gt_eq`` and ``lower_bounds`` give the lower end, ``lt``, ``lt_eq`` and
+``upper_bounds`` the upper end, each at the bound itself (a range is inclusive, so
+for ``gt``/``lt`` the validator keeps the bound out); an open end is the type's limit
+as the library writes it (``std::numeric_limits<int>``, 32-bit, for integers; the
+lowest and largest double for doubles); on integer and double arrays the
+element-bounds validators do the same for the elements.
 """
 
 from __future__ import annotations
 
 import itertools
 import logging
-import math
 import re
 import sys
 from collections.abc import Callable, Iterable, Sequence
@@ -95,7 +97,7 @@ __all__ = ["MappedEntry", "Spec", "SpecEntry", "declare_spec", "load_spec", "loa
 
 log = logging.getLogger(__name__)
 _MAP = "__map_"
-_INT64_MIN, _INT64_MAX = -(2**63), 2**63 - 1
+_INT_MIN, _INT_MAX = -(2**31), 2**31 - 1  # std::numeric_limits<int>, as the library's generated code
 _DBL_MAX = sys.float_info.max
 
 T = ParameterType
@@ -374,20 +376,14 @@ def _ranges(
         if v.kind == both:
             lo, hi = _tighter(lo, nums[0], True), _tighter(hi, nums[1], False)
         elif v.kind in lower_kinds:
-            b = nums[0]
-            if v.kind == "gt":
-                b = int(b) + 1 if is_int else math.nextafter(float(b), math.inf)
-            lo = _tighter(lo, b, True)
+            lo = _tighter(lo, nums[0], True)
         elif v.kind in upper_kinds:
-            b = nums[0]
-            if v.kind == "lt":
-                b = int(b) - 1 if is_int else math.nextafter(float(b), -math.inf)
-            hi = _tighter(hi, b, False)
+            hi = _tighter(hi, nums[0], False)
     if lo is None and hi is None:
         return None, None
     if is_int:
-        ilo = _INT64_MIN if lo is None else int(lo)
-        return IntegerRange(ilo, _INT64_MAX if hi is None else int(hi)), None
+        ilo = _INT_MIN if lo is None else int(lo)
+        return IntegerRange(ilo, _INT_MAX if hi is None else int(hi)), None
     flo = -_DBL_MAX if lo is None else float(lo)
     return None, FloatingPointRange(flo, _DBL_MAX if hi is None else float(hi))
 

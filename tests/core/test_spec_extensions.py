@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import logging
-import math
 
 import pytest
 
@@ -111,13 +110,15 @@ def test_an_unknown_custom_validator_warns_is_shown_as_not_enforced_and_strict_r
     assert info.value.line == 6
 
 
-def test_exclusive_double_bounds_move_to_the_next_double_inward() -> None:
+def test_exclusive_bounds_fill_the_range_at_the_bound_and_the_validator_keeps_it_out() -> None:
     text = "ns:\n  d:\n    type: double\n    default_value: 0.5\n    validation:\n"
     text += "      gt<>: [0.0]\n      lt<>: [1.0]\n"
-    (entry,) = load_spec_str(text)
-    r = entry.descriptor.floating_point_range
-    assert r is not None
-    assert r.from_value == math.nextafter(0.0, 1.0) and r.to_value == math.nextafter(1.0, 0.0)
+    table = ParameterTable("n")
+    declare_spec(table, load_spec_str(text))
+    r = table.describe_one("d").floating_point_range
+    assert r is not None and (r.from_value, r.to_value) == (0.0, 1.0)
+    assert not table.set([Parameter("d", PV(T.DOUBLE, 0.0))]).results[0].successful  # in the range, not > 0
+    assert table.set([Parameter("d", PV(T.DOUBLE, 0.25))]).results[0].successful
 
 
 def test_the_example_validators_module_registers_a_working_validator() -> None:
