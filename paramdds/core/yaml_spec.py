@@ -32,11 +32,12 @@ plain scalar for a string is taken as written; ``[]`` takes the array type).
 
 **Mapped parameters** (``__map_<key>``, as generate_parameter_library defines
 them): ``gains: {__map_joints: {p: {type: double}}}`` declares ``gains.<j>.p``
-for every string ``<j>`` of the ``string_array`` parameter ``joints`` (the full
-name after ``__map_``, declared by the same spec). Nested maps give every
-combination. When the key array changes at runtime, the parameters of new
-entries are declared (their default, or an override) right after the set that
-changed it; those of removed entries stay declared, as the library's
+for every string ``<j>`` of the ``string_array`` parameter ``joints``, which the
+same spec declares: ``gains.joints`` when it exists, else the root ``joints`` (the
+library's ``get_dynamic_mapped_parameter``). Nested maps give every combination.
+When the key array changes at runtime, the parameters of new entries are
+declared (their default, or an override) right after the set that changed it;
+those of removed entries stay declared, as the library's
 ``refresh_dynamic_parameters`` does ("TODO remove any destroyed dynamic
 parameters"). An entry written twice in the array gives its parameters once.
 
@@ -168,6 +169,9 @@ class Spec(list[SpecEntry]):
         self.unenforced: tuple[str, ...] = tuple(unenforced)
 
 
+_MapKeys = tuple[tuple[str, str], ...]  # per __map_ key: (the static group path above it, the key)
+
+
 class _Walk:
     """What a walk over the spec collects."""
 
@@ -175,7 +179,7 @@ class _Walk:
         self.src = src
         self.strict = strict
         self.entries: list[SpecEntry] = []
-        self.mapped: list[MappedEntry] = []
+        self.mapped: list[tuple[SpecEntry, _MapKeys, int]] = []
         self.unenforced: dict[str, None] = {}
 
 
@@ -192,14 +196,10 @@ def load_spec_str(text: str, *, source: str = "<string>", strict: bool = False) 
     walk = _Walk(src, strict)
     _walk(expect_map(body, src, "namespace"), "", (), walk)
     types = {e.name: e.descriptor.type for e in walk.entries}
-    for m in walk.mapped:
-        for key in m.keys:
-            if types.get(key) is not ParameterType.STRING_ARRAY:
-                raise src.error(
-                    f"parameter {m.entry.name!r}: {_MAP}{key} needs a string_array parameter {key!r} "
-                    "declared by this spec (outside any map)",
-                    line=m.line,
-                )
+    mapped = [
+        MappedEntry(entry, tuple(_resolve(entry, raw, types, src, line) for raw in keys), line)
+        for entry, keys, line in walk.mapped
+    ]
     for name in walk.unenforced:
         log.warning(
             "%s: custom validator %r is not registered and will NOT be enforced (register it with "
@@ -208,7 +208,27 @@ def load_spec_str(text: str, *, source: str = "<string>", strict: bool = False) 
             source,
             name,
         )
-    return Spec(walk.entries, walk.mapped, walk.unenforced)
+    return Spec(walk.entries, mapped, walk.unenforced)
+
+
+def _resolve(
+    entry: SpecEntry, raw: tuple[str, str], types: dict[str, ParameterType], src: Source, line: int
+) -> str:
+    """The array a ``__map_<key>`` names: ``<group>.<key>`` if the spec declares it, else ``<key>``.
+
+    As generate_parameter_library's ``get_dynamic_mapped_parameter``: ``nested.__map_entries``
+    uses ``nested.entries`` when declared, ``pid.__map_joints`` the root ``joints``.
+    """
+    group, key = raw
+    for name in (f"{group}.{key}" if group else key, key):
+        if types.get(name) is ParameterType.STRING_ARRAY:
+            return name
+    where = f"{group}.{key}' or '{key}" if group else key
+    raise src.error(
+        f"parameter {entry.name!r}: {_MAP}{key} needs a string_array parameter '{where}' "
+        "declared by this spec (outside any map)",
+        line=line,
+    )
 
 
 def load_spec(path: str | Path, *, strict: bool = False) -> Spec:
@@ -223,13 +243,14 @@ def _is_leaf(node: yaml.MappingNode) -> bool:
     )
 
 
-def _walk(node: yaml.MappingNode, prefix: str, keys: tuple[str, ...], walk: _Walk) -> None:
+def _walk(node: yaml.MappingNode, prefix: str, keys: _MapKeys, walk: _Walk) -> None:
     src = walk.src
     for key, knode, vnode in items(node, src, f"group {prefix!r}" if prefix else "namespace"):
         name = f"{prefix}.{key}" if prefix else key
         inner = keys
         if key.startswith(_MAP) and len(key) > len(_MAP):
-            inner = (*keys, key[len(_MAP) :])
+            group = ".".join(seg for seg in prefix.split(".") if seg and not seg.startswith(_MAP))
+            inner = (*keys, (group, key[len(_MAP) :]))
         elif key.startswith("__"):
             raise src.error(f"parameter {name!r}: {key!r} is not a parameter name nor {_MAP}<array>", knode)
         if not isinstance(vnode, yaml.MappingNode):
@@ -241,7 +262,7 @@ def _walk(node: yaml.MappingNode, prefix: str, keys: tuple[str, ...], walk: _Wal
                 )
             entry = _leaf(name, vnode, walk)
             if inner:
-                walk.mapped.append(MappedEntry(entry, inner, knode.start_mark.line + 1))
+                walk.mapped.append((entry, inner, knode.start_mark.line + 1))
             else:
                 walk.entries.append(entry)
         else:

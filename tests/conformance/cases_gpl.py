@@ -134,25 +134,44 @@ SPECS: list[Case] = [
     Case("gpl-descriptor-lt-eq-double", f"{DESC}: DescriptorTest.check_lt_eq (on a double: the lowest double)",
          "spec", "d:\n  type: double\n  default_value: 0.0\n  validation:\n    lt_eq<>: [4.0]\n",
          {"ranges": {"d": (-1.7976931348623157e308, 4.0)}}),
-    Case("gpl-mapped", f"{MAPPED}: mapped parameters (__map_<array>)", "spec",
+    Case("gpl-mapped", f"{MAPPED}: test_get_dynamic_mapped_parameter_nested (pid.__map_joints.p: the root joints)", "spec",
          "joints:\n  type: string_array\n  default_value: [shoulder, elbow]\n"
          "gains:\n  __map_joints:\n    p:\n      type: double\n      default_value: 1.0\n",
          {"names": ["joints", "gains.shoulder.p", "gains.elbow.p"], "values": {"gains.elbow.p": ("double", 1.0)}}),
+    Case("gpl-mapped-group-key", f"{MAPPED}: test_get_dynamic_mapped_parameter_nested (nested.__map_entries: nested.entries)",
+         "spec", "cfg:\n  entries:\n    type: string_array\n    default_value: [e1]\n"
+         "  __map_entries:\n    v:\n      type: int\n      default_value: 3\n",
+         {"names": ["cfg.entries", "cfg.e1.v"]}),
+    Case("gpl-mapped-deep-group-key", f"{MAPPED}: test_get_dynamic_mapped_parameter_nested (level1.level2.__map_items)",
+         "spec", "l1:\n  l2:\n    things:\n      type: string_array\n      default_value: [t]\n"
+         "    __map_things:\n      w:\n        type: bool\n        default_value: true\n",
+         {"names": ["l1.l2.things", "l1.l2.t.w"]}),
+    Case("gpl-mapped-group-key-preferred", f"{MAPPED}: test_get_dynamic_mapped_parameter_nested (the group's array first)",
+         "spec", "things:\n  type: string_array\n  default_value: [root_one]\n"
+         "grp:\n  things:\n    type: string_array\n    default_value: [grp_one]\n"
+         "  __map_things:\n    w:\n      type: int\n      default_value: 1\n",
+         {"names": ["things", "grp.things", "grp.grp_one.w"]}),
     Case("gpl-mapped-override", f"{MAPPED}: mapped parameters take their value from overrides", "spec",
          "joints:\n  type: string_array\n  default_value: [a]\n"
          "gains:\n  __map_joints:\n    p:\n      type: double\n      default_value: 1.0\n",
          {"overrides": {"joints": ["j1", "j2"], "gains.j2.p": 7.5},
           "names": ["joints", "gains.j1.p", "gains.j2.p"], "values": {"gains.j2.p": ("double", 7.5)}}),
-    Case("gpl-mapped-validated", f"{MAPPED}: mapped parameters keep their validators", "spec",
+    Case("gpl-mapped-validated", f"{NESTED_MAP}: test_single_map_parameter_names (a mapped leaf keeps its validation)", "spec",
          "joints:\n  type: string_array\n  default_value: [a]\n"
          "lim:\n  __map_joints:\n    v:\n      type: double\n      default_value: 1.0\n"
-         "      validation:\n        gt<>: [0.0]\n", {"accept": [("lim.a.v", 2.0)], "refuse": [("lim.a.v", -1.0)]}),
-    Case("gpl-nested-map", f"{NESTED_MAP}: nested __map_ keys give every combination", "spec",
+         "      validation:\n        gt_eq<>: [0.0]\n", {"accept": [("lim.a.v", 2.0)], "refuse": [("lim.a.v", -1.0)]}),
+    Case("gpl-nested-map", f"{NESTED_MAP}: test_nested_map_parameter_names (a leaf and a nested map side by side)", "spec",
          "arms:\n  type: string_array\n  default_value: [left, right]\n"
-         "axes:\n  type: string_array\n  default_value: [x, y]\n"
-         "k:\n  __map_arms:\n    __map_axes:\n      gain:\n        type: int\n        default_value: 0\n",
-         {"names": ["arms", "axes", "k.left.x.gain", "k.left.y.gain", "k.right.x.gain", "k.right.y.gain"]}),
-    Case("gpl-map-unknown-key", f"{MAPPED}: the map key must be a string array parameter", "spec",
+         "axes:\n  type: string_array\n  default_value: [x]\n"
+         "k:\n  __map_arms:\n    limit:\n      type: double\n      default_value: 1.0\n"
+         "    __map_axes:\n      gain:\n        type: int\n        default_value: 0\n",
+         {"names": ["arms", "axes", "k.left.limit", "k.right.limit", "k.left.x.gain", "k.right.x.gain"]}),
+    Case("gpl-nested-map-undeclared-keys", f"{NESTED_MAP}: test_nested_map_parameter_names (the keys are not declared)",
+         "spec", "k:\n  __map_arms:\n    limit:\n      type: double\n      default_value: 1.0\n",
+         {"names": []},
+         deliberate="a spec's `__map_<key>` must name a string-array parameter the same spec declares",
+         ours=ERROR),
+    Case("gpl-map-unknown-key", f"{MAPPED}: test_get_dynamic_mapped_parameter_nested (the key resolves to a declared array)", "spec",
          "gains:\n  __map_joints:\n    p:\n      type: double\n      default_value: 1.0\n", ERROR),
     Case("gpl-custom-unknown-loads", f"{PARSE}: custom validators (ns::fn) are the package's own", "spec",
          "t:\n  type: int\n  default_value: 1\n  validation:\n    my_pkg::never_registered<>: [1]\n",
