@@ -7,7 +7,7 @@ Spec text is the body under the root namespace key.
 
 from __future__ import annotations
 
-from .runner import ERROR, Case
+from .runner import ERROR, Case, Typed
 
 GPL = "PickNikRobotics/generate_parameter_library"
 PARSE_ERR = f"{GPL} generate_parameter_library_py/generate_parameter_library_py/test/YAML_parse_error_test.py"
@@ -18,16 +18,9 @@ PARSE = f"{GPL} generate_parameter_library_py/generate_parameter_library_py/pars
 RSL = "PickNikRobotics/RSL tests/parameter_validators.cpp"
 
 
-def _validator(kind: str, ptype: str, args: str, accept: list[object], refuse: list[object]) -> list[Case]:
-    text = f"p:\n  type: {ptype}\n  default_value: {_yaml(accept[0])}\n  validation:\n    {kind}<>: {args}\n"
-    out = [Case(f"rsl-{kind}-{ptype}-accept-{i}", f"{RSL}: TEST_CASE rsl::{kind}", "spec", text,
-                {"accept": [("p", v)]}) for i, v in enumerate(accept)]
-    out += [Case(f"rsl-{kind}-{ptype}-refuse-{i}", f"{RSL}: TEST_CASE rsl::{kind}", "spec", text,
-                 {"refuse": [("p", v)]}) for i, v in enumerate(refuse)]
-    return out
-
-
 def _yaml(v: object) -> str:
+    if isinstance(v, Typed):
+        return _yaml(v.value)
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, str):
@@ -37,27 +30,78 @@ def _yaml(v: object) -> str:
     return repr(v)
 
 
-VALIDATORS: list[Case] = [
-    *_validator("bounds", "int", "[2, 6]", [2, 4, 6], [1, 7]),
-    *_validator("bounds", "double", "[-1.0, 1.0]", [0.0, -1.0, 1.0], [1.5, float("nan")]),
-    *_validator("lt", "int", "[10]", [9], [10, 11]),
-    *_validator("gt", "double", "[0.5]", [0.75], [0.5, 0.0]),
-    *_validator("lt_eq", "int", "[3]", [3, -5], [4]),
-    *_validator("gt_eq", "int", "[3]", [3, 9], [2]),
-    *_validator("one_of", "string", '[["red", "green"]]', ["red", "green"], ["blue", ""]),
-    *_validator("one_of", "int", "[[1, 3]]", [1, 3], [2]),
-    *_validator("fixed_size", "int_array", "[2]", [[1, 2]], [[1], [1, 2, 3]]),
-    *_validator("fixed_size", "string", "[3]", ["abc"], ["ab"]),
-    *_validator("size_gt", "string_array", "[1]", [["a", "b"]], [["a"]]),
-    *_validator("size_lt", "double_array", "[3]", [[1.0, 2.0]], [[1.0, 2.0, 3.0]]),
-    *_validator("not_empty", "string", "null", ["x"], [""]),
-    *_validator("not_empty", "int_array", "[]", [[1]], []),
-    *_validator("unique", "string_array", "null", [["a", "b"]], [["a", "a"]]),
-    *_validator("subset_of", "string_array", '[["a", "b", "c"]]', [["a", "c"], ["b"]], [["a", "d"]]),
-    *_validator("element_bounds", "double_array", "[0.0, 1.0]", [[0.0, 0.5, 1.0]], [[0.5, 1.5], [-0.1]]),
-    *_validator("lower_element_bounds", "int_array", "[0]", [[0, 5]], [[-1, 5]]),
-    *_validator("upper_element_bounds", "int_array", "[5]", [[0, 5]], [[6]]),
+def _e(label: str) -> Typed:
+    return Typed(label, [])
+
+
+# (validator, parameter type, arguments, default, values RSL accepts, values it refuses): the
+# relationships each TEST_CASE checks, with our own values.
+_ROWS: list[tuple[str, str, str, object, list[object], list[object]]] = [
+    ("unique", "string_array", "null", ["", "a", "b"], [["", "a", "b"], _e("string_array")], [["x", "x"]]),
+    ("unique", "double_array", "null", [0.5, 1.5, 0.25], [_e("double_array")], [[0.25, 0.25]]),
+    ("unique", "int_array", "null", [4, 5, 6], [_e("integer_array")], [[-3, -3]]),
+    ("unique", "bool_array", "null", [True, False], [_e("bool_array")], [[True, True]]),
+    ("subset_of", "string_array", '[["", "a", "b", "four"]]', ["", "a"], [_e("string_array")], [["zz", "zz"]]),
+    ("subset_of", "double_array", "[[0.5, 1.5]]", [0.5, 1.5], [_e("double_array")], [[0.75, 0.75]]),
+    ("subset_of", "int_array", "[[4, 5, 6]]", [4, 5, 6], [_e("integer_array")], [[-2, -2]]),
+    ("subset_of", "bool_array", "[[true]]", [True], [[True, True]], [[False, False]]),
+    ("fixed_size", "string", "[4]", "abcd", [], ["abc", "abcde"]),
+    ("fixed_size", "string", "[0]", "", [], ["x"]),
+    ("fixed_size", "string_array", "[3]", ["", "a", "b"], [], [["x", "x"]]),
+    ("fixed_size", "double_array", "[0]", _e("double_array"), [], [[0.5, 0.5]]),
+    ("fixed_size", "int_array", "[3]", [4, 5, 6], [], [[-1, -1]]),
+    ("fixed_size", "bool_array", "[2]", [True, False], [], [[True]]),
+    ("size_gt", "string", "[2]", "xyz", [], ["xy"]),
+    ("size_gt", "string", "[0]", "x", [], [""]),
+    ("size_gt", "int_array", "[0]", [-1, -1], [], [_e("integer_array")]),
+    ("size_gt", "double_array", "[2]", [1.0, 2.0, 3.0], [], [[1.0, 1.0]]),
+    ("size_lt", "string", "[3]", "ab", [], ["abc"]),
+    ("size_lt", "string_array", "[3]", ["a", "a"], [], [["", "1", "2"]]),
+    ("size_lt", "bool_array", "[3]", [True, False], [], [[True, True, True]]),
+    ("not_empty", "string", "null", "x", [], [""]),
+    ("not_empty", "string_array", "[]", ["", "1"], [], [_e("string_array")]),
+    ("not_empty", "double_array", "null", [1.0], [], [_e("double_array")]),
+    ("not_empty", "int_array", "[]", [1, 2], [], [_e("integer_array")]),
+    ("not_empty", "bool_array", "null", [False], [], [_e("bool_array")]),
+    ("element_bounds", "double_array", "[0.0, 3.0]", [1.0, 2.5, 1.5], [_e("double_array")], [[3.5]]),
+    ("element_bounds", "int_array", "[-5, 0]", [-1, 0], [_e("integer_array")], [[1, 2, 3]]),
+    ("lower_element_bounds", "double_array", "[0.0]", [1.0, 2.5], [_e("double_array")], [[-0.5]]),
+    ("lower_element_bounds", "int_array", "[3]", [3, 4], [], [[1, 2, 3]]),
+    ("upper_element_bounds", "double_array", "[0.0]", [-1.0], [_e("double_array")], [[1.0, 2.5, 1.5]]),
+    ("upper_element_bounds", "int_array", "[3]", [1, 2, 3], [_e("integer_array")], [[4]]),
+    ("bounds", "double", "[1.0, 5.0]", 1.0, [4.5, 5.0], [-4.5, 10.5]),
+    ("bounds", "int", "[1, 5]", 1, [4, 5], [-4, 10]),
+    ("lt", "double", "[2.0]", -4.5, [], [2.0, 4.5]),
+    ("lt", "int", "[1]", -4, [], [1, 4]),
+    ("gt", "double", "[2.0]", 4.5, [], [2.0, -4.5]),
+    ("gt", "int", "[1]", 4, [], [1, -4]),
+    ("lt_eq", "double", "[2.0]", 2.0, [-4.5], [4.5]),
+    ("lt_eq", "int", "[1]", 1, [-4], [4]),
+    ("gt_eq", "double", "[2.0]", 2.0, [4.5], [-4.5]),
+    ("gt_eq", "int", "[1]", 1, [4], [-4]),
+    ("one_of", "double", "[[2.0]]", 2.0, [], [0.0]),
+    ("one_of", "double", "[[1.0, 2.0, 3.5]]", 2.0, [3.5], [0.0]),
+    ("one_of", "int", "[[1, 2, 3, 4]]", 1, [4], [0]),
+    ("one_of", "bool", "[[false, true]]", True, [False], []),
+    ("one_of", "bool", "[[false]]", False, [], [True]),
+    ("one_of", "string", '[["foo", "baz"]]', "foo", ["baz"], [""]),
 ]
+
+
+def _validator_cases() -> list[Case]:
+    out = []
+    for n, (kind, ptype, args, default, accept, refuse) in enumerate(_ROWS):
+        text = f"p:\n  type: {ptype}\n  default_value: {_yaml(default)}\n  validation:\n    {kind}<>: {args}\n"
+        src = f"{RSL}: TEST_CASE rsl::{kind}"
+        out.append(Case(f"rsl-{n:02d}-{kind}-{ptype}-default", src, "spec", text, {"accept": [("p", default)]}))
+        out += [Case(f"rsl-{n:02d}-{kind}-{ptype}-accept-{i}", src, "spec", text, {"accept": [("p", v)]})
+                for i, v in enumerate(accept)]
+        out += [Case(f"rsl-{n:02d}-{kind}-{ptype}-refuse-{i}", src, "spec", text, {"refuse": [("p", v)]})
+                for i, v in enumerate(refuse)]
+    return out
+
+
+VALIDATORS: list[Case] = _validator_cases()
 
 SPECS: list[Case] = [
     Case("gpl-valid-file", f"{PARSE_ERR}: test_parse_valid_parameter_file", "spec",

@@ -66,7 +66,17 @@ def run(case: Case) -> str | None:
     return runner(case.input, expected)
 
 
+@dataclass(frozen=True)
+class Typed:
+    """A value with its type spelled out, for what Python cannot type alone (an empty list)."""
+
+    label: str
+    value: object
+
+
 def value(obj: object, label: str | None = None) -> ParameterValue:
+    if isinstance(obj, Typed):
+        return ParameterValue.of(TYPES[obj.label], obj.value)
     if label is not None:
         return ParameterValue.of(TYPES[label], obj)
     return ParameterValue.from_python(obj)
