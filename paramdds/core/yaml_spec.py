@@ -21,7 +21,8 @@
 string_array``; ``string_fixed_N`` is a ``string`` of at most N characters and
 ``<t>_array_fixed_N`` (t = bool, int, double, string) an array of at most N
 elements — both become the type plus a ``size_lt<>: [N + 1]`` validator; ``none``
-is a dynamically typed parameter (descriptor type not_set, dynamic_typing).
+is a dynamically typed parameter (descriptor type not_set, dynamic_typing), which
+the library leaves to other code: without a default it is declared unset, not required.
 
 **Leaf keys**: ``type`` (required), ``default_value``, ``description``,
 ``read_only``, ``additional_constraints``, ``validation``. Anything else is an
@@ -131,7 +132,8 @@ class SpecEntry:
 
     @property
     def required(self) -> bool:
-        return self.default.type is ParameterType.NOT_SET
+        """No default, and not of type ``none`` (which other code sets: it starts unset)."""
+        return self.default.type is ParameterType.NOT_SET and not self.descriptor.dynamic_typing
 
 
 @dataclass(frozen=True, slots=True)

@@ -16,6 +16,77 @@ NESTED_MAP = f"{GPL} generate_parameter_library_py/generate_parameter_library_py
 DESC = f"{GPL} example/test/descriptor_test_gtest.cpp"
 PARSE = f"{GPL} generate_parameter_library_py/generate_parameter_library_py/parse_yaml.py"
 RSL = "PickNikRobotics/RSL tests/parameter_validators.cpp"
+VCFG = f"{GPL} generate_parameter_library_py/generate_parameter_library_py/test/test_validate_config.py"
+
+# A spec of the shape test_validate_config.py checks configurations against (our own names).
+_NODE_SPEC = (
+    "freq:\n  type: double\n  default_value: 5.0\n  validation:\n    gt<>: [0.0]\n"
+    "label:\n  type: string\n  default_value: arm\n"
+    "required_gain:\n  type: double\n"
+    "speed:\n  type: string\n  default_value: fast\n  validation:\n    one_of<>: [[fast, slow]]\n"
+    "links:\n  type: string_array\n  default_value: [l1, l2]\n"
+    "trims:\n  type: double_array_fixed_2\n  default_value: [0.0, 0.0]\n"
+    "cpp_checked:\n  type: int\n  default_value: 4\n  validation:\n    acme_pkg::is_four<>: [4]\n"
+    "colour:\n  g:\n    type: int\n    default_value: 0\n    validation:\n      bounds<>: [0, 255]\n"
+)
+_MAPPED_SPEC = (
+    "joints:\n  type: string_array\n  default_value: [hip, knee]\n"
+    "pid:\n  __map_joints:\n    p:\n      type: double\n      default_value: 1.0\n"
+    "      validation:\n        gt<>: [0.0]\n"
+)
+
+
+def _cfg(body: str, node: str = "n") -> tuple[str, str]:
+    return f"{node}:\n  ros__parameters:\n" + "".join(f"    {line}\n" for line in body.splitlines()), node
+
+
+CONFIGS: list[Case] = [
+    Case("gpl-cfg-valid", f"{VCFG}: test_valid_config_reports_nothing", "spec", _NODE_SPEC,
+         {"config": _cfg("freq: 25.0\nrequired_gain: 2.5\nspeed: slow\ncolour:\n  g: 100"),
+          "values": {"freq": ("double", 25.0), "colour.g": ("integer", 100)}}),
+    Case("gpl-cfg-missing-mandatory", f"{VCFG}: test_missing_mandatory_parameter_is_an_error", "spec", _NODE_SPEC,
+         {"config": _cfg("freq: 25.0"), "declare_error": "INVALID_VALUE"}),
+    Case("gpl-cfg-integer-for-double", f"{VCFG}: test_integer_for_a_double_is_reported", "spec", _NODE_SPEC,
+         {"config": _cfg("freq: 25\nrequired_gain: 2.5"), "declare_error": "TYPE_MISMATCH"},
+         deliberate="an integer for a double parameter is widened (`50` → `50.0`, rclcpp#979) unless strict",
+         ours={"config": _cfg("freq: 25\nrequired_gain: 2.5"), "values": {"freq": ("double", 25.0)}}),
+    Case("gpl-cfg-wrong-scalar-type", f"{VCFG}: test_wrong_scalar_type_is_reported", "spec", _NODE_SPEC,
+         {"config": _cfg("freq: quick\nrequired_gain: 2.5"), "declare_error": "TYPE_MISMATCH"}),
+    Case("gpl-cfg-out-of-bounds", f"{VCFG}: test_value_out_of_bounds_is_reported", "spec", _NODE_SPEC,
+         {"config": _cfg("required_gain: 2.5\ncolour:\n  g: 400"), "declare_error": "OUT_OF_RANGE"}),
+    Case("gpl-cfg-outside-one-of", f"{VCFG}: test_value_outside_one_of_is_reported", "spec", _NODE_SPEC,
+         {"config": _cfg("required_gain: 2.5\nspeed: medium"), "declare_error": "INVALID_VALUE"}),
+    Case("gpl-cfg-array-element-type", f"{VCFG}: test_array_element_type_is_checked", "spec", _NODE_SPEC,
+         {"config": _cfg("required_gain: 2.5\nlinks: [l1, 3]"), "declare_error": "FILE_FORMAT"}),
+    Case("gpl-cfg-fixed-size", f"{VCFG}: test_fixed_size_array_is_checked", "spec", _NODE_SPEC,
+         {"config": _cfg("required_gain: 2.5\ntrims: [0.0, 1.0, 2.0]"), "declare_error": "INVALID_VALUE"}),
+    Case("gpl-cfg-custom-validator-skipped", f"{VCFG}: test_custom_cpp_validator_is_skipped_with_a_warning", "spec",
+         _NODE_SPEC, {"config": _cfg("required_gain: 2.5\ncpp_checked: 9"), "values": {"cpp_checked": ("integer", 9)}}),
+    Case("gpl-cfg-wildcard-supplies", f"{VCFG}: test_wildcard_node_supplies_values", "spec", _NODE_SPEC,
+         {"config": ("/**:\n  ros__parameters:\n    required_gain: 2.5\nn:\n  ros__parameters:\n    freq: 4.0\n", "n"),
+          "values": {"required_gain": ("double", 2.5), "freq": ("double", 4.0)}}),
+    Case("gpl-cfg-wildcard-only", f"{VCFG}: test_wildcard_only_config_is_validated", "spec", _NODE_SPEC,
+         {"config": ("/**:\n  ros__parameters:\n    freq: -2.0\n    required_gain: 2.5\n", "n"),
+          "declare_error": "OUT_OF_RANGE"}),
+    Case("gpl-cfg-namespaced-section", f"{VCFG}: test_node_name_with_namespace_or_leading_slash_matches", "spec",
+         _NODE_SPEC, {"config": ("grp:\n  n:\n    ros__parameters:\n      freq: -2.0\n      required_gain: 2.5\n",
+                                 "grp/n"), "declare_error": "OUT_OF_RANGE"}),
+    Case("gpl-cfg-mapped-expand", f"{VCFG}: test_mapped_parameters_expand_from_the_config", "spec", _MAPPED_SPEC,
+         {"config": _cfg("joints: [hip, ankle]\npid:\n  hip:\n    p: 3.0\n  ankle:\n    p: -1.0"),
+          "declare_error": "OUT_OF_RANGE"}),
+    Case("gpl-cfg-mapped-expand-ok", f"{VCFG}: test_mapped_parameters_expand_from_the_config (valid values)", "spec",
+         _MAPPED_SPEC, {"config": _cfg("joints: [hip, ankle]\npid:\n  ankle:\n    p: 4.0"),
+                        "names": ["joints", "pid.hip.p", "pid.ankle.p"], "values": {"pid.ankle.p": ("double", 4.0)}}),
+    Case("gpl-cfg-mapped-default-keys", f"{VCFG}: test_mapped_keys_fall_back_to_the_declared_default", "spec",
+         _MAPPED_SPEC, {"config": _cfg("pid:\n  hip:\n    p: -2.0\n  knee:\n    p: 3.0"), "declare_error": "OUT_OF_RANGE"}),
+    Case("gpl-cfg-none-type", f"{VCFG}: test_none_typed_parameters_are_left_alone", "spec",
+         "plain:\n  type: string\n  default_value: hi\nexternal:\n  type: none\n",
+         {"config": _cfg("plain: hi\nexternal:\n  filt:\n    kind: LowPass"), "names": ["plain", "external"]}),
+    Case("gpl-cfg-scientific", f"{VCFG}: test_scientific_notation_is_a_double", "spec", _NODE_SPEC,
+         {"config": _cfg("freq: 2e4\nrequired_gain: 3e-3"), "values": {"freq": ("double", 20000.0)}}),
+    Case("gpl-cfg-empty-array", f"{VCFG}: test_empty_array_is_reported (ROS 2 leaves [] unset)", "spec", _NODE_SPEC,
+         {"config": _cfg("required_gain: 2.5\nlinks: []"), "declare_error": "FILE_FORMAT"}),
+]
 
 
 def _yaml(v: object) -> str:
@@ -228,4 +299,4 @@ SPECS: list[Case] = [
          {"accept": [("t", float("nan")), ("t", -3.0)], "refuse": [("t", 0.5)]}),
 ]
 
-CASES: list[Case] = [*VALIDATORS, *SPECS]
+CASES: list[Case] = [*VALIDATORS, *SPECS, *CONFIGS]

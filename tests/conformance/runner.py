@@ -23,7 +23,9 @@ Kinds and their data:
 ``spec``
     input spec text (the body under the root namespace); expect ``ERROR`` or
     ``{"names": [...], "ranges": {name: (from, to)}, "accept": [(name, value)],
-    "refuse": [(name, value)], "overrides": {...}}``.
+    "refuse": [(name, value)], "overrides": {...}, "config": (ros_file_text, node),
+    "declare_error": code}`` (the values of ``config`` are overrides; ``declare_error``:
+    the file or the declaration must fail with that error code).
 ``list``
     input ``(names, prefixes, depth)``; expect ``(names, prefixes)``.
 """
@@ -39,7 +41,7 @@ from paramdds.core.descriptors import FloatingPointRange, IntegerRange, Paramete
 from paramdds.core.listing import list_names
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import NOT_SET, Parameter, ParameterType, ParameterValue
-from paramdds.core.yaml_ros import load_ros_text_full
+from paramdds.core.yaml_ros import load_ros_params_str, load_ros_text_full
 from paramdds.core.yaml_spec import declare_spec, load_spec_str
 from paramdds.errors import ParamddsError
 
@@ -249,11 +251,21 @@ def _spec(text: str, expected: object) -> str | None:
         return f"accepted the spec ({[e.name for e in spec]})"
     assert isinstance(expected, dict)
     overrides = {k: value(v) for k, v in expected.get("overrides", {}).items()}
+    if "config" in expected:  # a ROS 2 parameter file and the node it configures
+        config, node = expected["config"]
+        try:
+            overrides.update(load_ros_params_str(config, node, source="case_config.yaml"))
+        except ParamddsError as exc:
+            return None if expected.get("declare_error") == exc.code.value else f"refused the file: {exc}"
     table = ParameterTable("n", overrides=overrides)
     try:
         declare_spec(table, spec)
     except ParamddsError as exc:
+        if expected.get("declare_error") == exc.code.value:
+            return None
         return f"refused the declaration: {exc}"
+    if "declare_error" in expected:
+        return f"declared it, upstream reports an error ({expected['declare_error']})"
     if "names" in expected and table.names() != sorted(expected["names"]):
         return f"names {table.names()}, upstream {sorted(expected['names'])}"
     for name, want in expected.get("values", {}).items():
