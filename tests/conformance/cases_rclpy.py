@@ -57,7 +57,72 @@ def _listing() -> list[Case]:
             for key, prefixes, depth, names, found in rows]
 
 
+YAML_DICT = f"{PARAM}: TestParameter.test_parameter_dict_from_yaml_file (target_nodes, wildcards on)"
+_TARGETS = """\
+/tgt:
+  ros__parameters:
+    abs_node: true
+tgt:
+  ros__parameters:
+    base_node: true
+/ns1/tgt:
+  ros__parameters:
+    abs_ns1_node: true
+/ns1:
+  tgt:
+    ros__parameters:
+      abs_ns1_base: true
+/ns2/tgt:
+  ros__parameters:
+    abs_ns2_node: false
+/**:
+  ros__parameters:
+    everywhere: true
+/*:
+  tgt2:
+    ros__parameters:
+      star_ns_base: false
+/**/tgt3:
+  ros__parameters:
+    anyns_tgt3: true
+/q1:
+  tgt2:
+    ros__parameters:
+      q1_base: true
+/**/tgt2:
+  ros__parameters:
+    anyns_tgt2: false
+/w/x/y/z:
+  tgt3:
+    ros__parameters:
+      deep_base_tgt3: false
+tgt3:
+  ros__parameters:
+    base_tgt3: true
+"""
+
+
+def _bools(**names: bool) -> dict[str, tuple[str, bool]]:
+    return {n: ("bool", v) for n, v in names.items()}
+
+
+TARGETS: list[Case] = [
+    Case("rclpy-targets-root-node", YAML_DICT, "yaml", (_TARGETS, "tgt"),
+         _bools(everywhere=True, abs_node=True, base_node=True)),
+    Case("rclpy-targets-namespaced", YAML_DICT, "yaml", (_TARGETS, "/ns1/tgt"),
+         _bools(everywhere=True, abs_ns1_node=True, abs_ns1_base=True)),
+    Case("rclpy-targets-single-level-ns", YAML_DICT, "yaml", (_TARGETS, "/q1/tgt2"),
+         _bools(everywhere=True, star_ns_base=False, q1_base=True, anyns_tgt2=False)),
+    Case("rclpy-targets-deep-ns", YAML_DICT, "yaml", (_TARGETS, "/w/x/y/z/tgt3"),
+         _bools(everywhere=True, anyns_tgt3=True, deep_base_tgt3=False)),
+    Case("rclpy-targets-root-node-and-star-star", YAML_DICT, "yaml", (_TARGETS, "tgt3"),
+         _bools(everywhere=True, base_tgt3=True, anyns_tgt3=True),
+         note="rclpy leaves out /**/tgt3 for the root node tgt3; rclcpp's parameter_map_from turns /** "
+              "into (/\\w+)* and so matches it (zero namespaces). We follow rclcpp."),
+]
+
 CASES: list[Case] = [
+    *TARGETS,
     *_int_range(),
     *_fp_range(),
     *_listing(),
@@ -127,13 +192,13 @@ CASES: list[Case] = [
     Case("rclpy-range-bad-declaration-refused", f"{NODE}: TestNode.test_integer_range_descriptor (out_of_range "
          "is not declared)", "table", {}, [("declare", "o", 30, {"integer_range": (-10, 0, 30)}, "OUT_OF_RANGE"),
                                              ("has", "o", False)]),
-    Case("rclpy-byte-array", f"{PARAM}: TestParameter.test_create_byte_array_parameter", "table", {},
+    Case("rclpy-byte-array", f"{PARAM}: TestParameter.test_create_bytes_parameter", "table", {},
          [("declare", "b", b"\x01\xff", "ok"), ("type", "b", "byte_array")]),
-    Case("rclpy-bool-array", f"{PARAM}: TestParameter.test_create_bool_array_parameter", "table", {},
+    Case("rclpy-bool-array", f"{PARAM}: TestParameter.test_create_boolean_array_parameter", "table", {},
          [("declare", "b", [True, False], "ok"), ("get", "b", ("bool_array", [True, False]))]),
     Case("rclpy-string-array", f"{PARAM}: TestParameter.test_create_string_array_parameter", "table", {},
          [("declare", "s", ["a", "b"], "ok"), ("get", "s", ("string_array", ["a", "b"]))]),
-    Case("rclpy-double-array", f"{PARAM}: TestParameter.test_create_double_array_parameter", "table", {},
+    Case("rclpy-double-array", f"{PARAM}: TestParameter.test_create_float_array_parameter", "table", {},
          [("declare", "d", [1.5, 2.5], "ok"), ("get", "d", ("double_array", [1.5, 2.5]))]),
     Case("rclpy-integer-array", f"{PARAM}: TestParameter.test_create_integer_array_parameter", "table", {},
          [("declare", "i", [1, 2], "ok"), ("get", "i", ("integer_array", [1, 2]))]),
