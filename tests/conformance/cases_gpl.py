@@ -14,7 +14,9 @@ PARSE_ERR = f"{GPL} generate_parameter_library_py/generate_parameter_library_py/
 MAPPED = f"{GPL} generate_parameter_library_py/generate_parameter_library_py/test/mapped_parameter_test.py"
 NESTED_MAP = f"{GPL} generate_parameter_library_py/generate_parameter_library_py/test/test_nested_map.py"
 DESC = f"{GPL} example/test/descriptor_test_gtest.cpp"
-PARSE = f"{GPL} generate_parameter_library_py/generate_parameter_library_py/parse_yaml.py"
+PARSE = (f"{GPL} generate_parameter_library_py: validate_parameter_definitions (the semantic checks kept "
+         "out of the JSON schema)")
+CONTROL = "ros-controls/control_toolbox control_filters (the definition of gt_eq_or_nan / lt_eq_or_nan)"
 RSL = "PickNikRobotics/RSL tests/parameter_validators.cpp"
 VCFG = f"{GPL} generate_parameter_library_py/generate_parameter_library_py/test/test_validate_config.py"
 
@@ -188,41 +190,41 @@ SPECS: list[Case] = [
          "count:\n  type: int\n  default_value: [1\n", ERROR),
     Case("gpl-invalid-type", f"{PARSE_ERR}: test_expected[invalid_parameter_type.yaml]", "spec",
          "count:\n  type: integer\n  default_value: 1\n", ERROR),
-    Case("gpl-bare-fixed-size", f"{PARSE}: validation arguments that are not a list are wrapped", "spec",
+    Case("gpl-bare-fixed-size", f"{PARSE}: arguments that are not a list are wrapped (_as_list)", "spec",
          "xyz:\n  type: double_array\n  default_value: [0.0, 0.0, 0.0]\n  validation:\n    fixed_size<>: 3\n",
          {"accept": [("xyz", [1.0, 2.0, 3.0])], "refuse": [("xyz", [1.0])]}),
-    Case("gpl-bare-lower-element-bounds", f"{PARSE}: validation arguments that are not a list are wrapped",
+    Case("gpl-bare-lower-element-bounds", f"{PARSE}: arguments that are not a list are wrapped (_as_list)",
          "spec", "v:\n  type: double_array\n  default_value: [0.0]\n  validation:\n"
          "    lower_element_bounds<>: -10.0\n", {"accept": [("v", [-10.0])], "refuse": [("v", [-10.5])]}),
-    Case("gpl-bare-gt-eq", f"{PARSE}: validation arguments that are not a list are wrapped", "spec",
+    Case("gpl-bare-gt-eq", f"{PARSE}: arguments that are not a list are wrapped (_as_list)", "spec",
          "t:\n  type: double\n  default_value: 0.0\n  validation:\n    gt_eq<>: 0.0\n",
          {"accept": [("t", 0.0)], "refuse": [("t", -0.1)]}),
-    Case("gpl-no-angle-brackets", f"{PARSE}: validator names with or without <>", "spec",
+    Case("gpl-no-angle-brackets", f"{PARSE}: validator names with or without <> (removesuffix)", "spec",
          "t:\n  type: double\n  default_value: 1.0\n  validation:\n    gt_eq: [0.0]\n",
          {"refuse": [("t", -1.0)]}),
-    Case("gpl-bounds-with-gt", f"{PARSE}: validators that may not be combined (bounds with gt)", "spec",
+    Case("gpl-bounds-with-gt", f"{PARSE}: _check_validator_combinations (bounds excludes gt)", "spec",
          "t:\n  type: int\n  default_value: 1\n  validation:\n    bounds<>: [0, 5]\n    gt<>: [0]\n", ERROR),
-    Case("gpl-bounds-with-lt-eq", f"{PARSE}: validators that may not be combined (bounds with lt_eq)", "spec",
+    Case("gpl-bounds-with-lt-eq", f"{PARSE}: _check_validator_combinations (bounds excludes lt_eq)", "spec",
          "t:\n  type: int\n  default_value: 1\n  validation:\n    bounds<>: [0, 5]\n    lt_eq<>: [4]\n", ERROR),
-    Case("gpl-element-bounds-with-lower", f"{PARSE}: validators that may not be combined (element bounds)",
+    Case("gpl-element-bounds-with-lower", f"{PARSE}: _check_validator_combinations (element_bounds excludes lower_element_bounds)",
          "spec", "t:\n  type: int_array\n  default_value: [1]\n  validation:\n    element_bounds<>: [0, 5]\n"
          "    lower_element_bounds<>: [1]\n", ERROR),
-    Case("gpl-gt-with-lt-ok", f"{PARSE}: validators that may not be combined (gt with lt is fine)", "spec",
+    Case("gpl-gt-with-lt-ok", f"{PARSE}: _check_validator_combinations (gt with lt is allowed)", "spec",
          "t:\n  type: int\n  default_value: 1\n  validation:\n    gt<>: [0]\n    lt<>: [5]\n",
          {"accept": [("t", 4)], "refuse": [("t", 5), ("t", 0)], "ranges": {"t": (0, 5)}}),
-    Case("gpl-bounds-lower-above-upper", f"{PARSE}: range validator lower bound above upper bound", "spec",
+    Case("gpl-bounds-lower-above-upper", f"{PARSE}: _check_validator (a range's lower bound above its upper bound)", "spec",
          "t:\n  type: int\n  default_value: 1\n  validation:\n    bounds<>: [5, 0]\n", ERROR),
-    Case("gpl-validator-on-wrong-type", f"{PARSE}: validator does not apply to the type", "spec",
+    Case("gpl-validator-on-wrong-type", f"{PARSE}: _check_validator (a validator that does not apply to the type)", "spec",
          "t:\n  type: string\n  default_value: a\n  validation:\n    gt<>: [0]\n", ERROR),
-    Case("gpl-required", f"{PARSE}: a parameter without default_value is required", "spec",
+    Case("gpl-required", f"{VCFG}: test_missing_mandatory_parameter_is_an_error (given by the file, it declares)", "spec",
          "port:\n  type: int\n", {"overrides": {"port": 80}, "values": {"port": ("integer", 80)}}),
-    Case("gpl-fixed-string", f"{PARSE}: string_fixed_N", "spec",
+    Case("gpl-fixed-string", f"{PARSE}: _check_default_value (a fixed size bounds the length)", "spec",
          "code:\n  type: string_fixed_3\n  default_value: ab\n", {"accept": [("code", "abc")],
                                                                   "refuse": [("code", "abcd")]}),
-    Case("gpl-fixed-array", f"{PARSE}: <type>_array_fixed_N", "spec",
+    Case("gpl-fixed-array", f"{VCFG}: test_fixed_size_array_is_checked", "spec",
          "xs:\n  type: int_array_fixed_2\n  default_value: [1]\n", {"accept": [("xs", [1, 2])],
                                                                     "refuse": [("xs", [1, 2, 3])]}),
-    Case("gpl-read-only", f"{DESC}: DescriptorTest read_only", "spec",
+    Case("gpl-read-only", "PickNikRobotics/generate_parameter_library README.md: read_only (the parameter cannot change after start)", "spec",
          "ro:\n  type: int\n  default_value: 1\n  read_only: true\n", {"refuse": [("ro", 2)]}),
     Case("gpl-descriptor-bounds-range", f"{DESC}: DescriptorTest.check_integer_descriptors (bounds<> on an int)",
          "spec", "port:\n  type: int\n  default_value: 2000\n  validation:\n    bounds<>: [1500, 9000]\n",
@@ -288,13 +290,13 @@ SPECS: list[Case] = [
          ours=ERROR),
     Case("gpl-map-unknown-key", f"{MAPPED}: test_get_dynamic_mapped_parameter_nested (the key resolves to a declared array)", "spec",
          "gains:\n  __map_joints:\n    p:\n      type: double\n      default_value: 1.0\n", ERROR),
-    Case("gpl-custom-unknown-loads", f"{PARSE}: custom validators (ns::fn) are the package's own", "spec",
+    Case("gpl-custom-unknown-loads", f"{PARSE}: custom, namespace-qualified validators are not checked", "spec",
          "t:\n  type: int\n  default_value: 1\n  validation:\n    my_pkg::never_registered<>: [1]\n",
          {"accept": [("t", 99)]}),
-    Case("gpl-custom-gt-eq-or-nan", f"{PARSE}: custom validators (control_filters::gt_eq_or_nan)", "spec",
+    Case("gpl-custom-gt-eq-or-nan", CONTROL, "spec",
          "t:\n  type: double\n  default_value: .nan\n  validation:\n    control_filters::gt_eq_or_nan<>: [0.0]\n",
          {"accept": [("t", float("nan")), ("t", 0.0)], "refuse": [("t", -1.0)]}),
-    Case("gpl-custom-lt-eq-or-nan", f"{PARSE}: custom validators (control_filters::lt_eq_or_nan)", "spec",
+    Case("gpl-custom-lt-eq-or-nan", CONTROL, "spec",
          "t:\n  type: double\n  default_value: .nan\n  validation:\n    control_filters::lt_eq_or_nan<>: [0.0]\n",
          {"accept": [("t", float("nan")), ("t", -3.0)], "refuse": [("t", 0.5)]}),
 ]

@@ -146,9 +146,10 @@ CASES: list[Case] = [
          [("declare", "r", 42, {"read_only": True}, "ok"), ("undeclare", "r", "READ_ONLY"), ("has", "r", True)]),
     Case("rclcpp-undeclare-static", f"{NODE}: TestNode.undeclare_parameter (statically typed)", "table", {},
          [("declare", "s", 1, "ok"), ("undeclare", "s", "TYPE_MISMATCH"), ("has", "s", True)]),
-    Case("rclcpp-read-only-set", f"{NODE}: TestNode.declare_parameter_with_no_initial_values "
-         "(custom parameter descriptor, read_only)", "table", {}, [("declare", "r", 1, {"read_only": True}, "ok"), ("set", "r", 2, False),
-                                      ("get", "r", ("integer", 1))]),
+    Case("rclcpp-read-only-described", f"{NODE}: TestNode.declare_parameter_with_no_initial_values "
+         "(int default, no initial, custom parameter descriptor)", "table", {},
+         [("declare", "r", 42, {"read_only": True}, "ok"), ("get", "r", ("integer", 42)),
+          ("describe", "r", {"read_only": True})]),
     Case("rclcpp-has", f"{NODE}: TestNode.has_parameter", "table", {},
          [("has", "h", False), ("declare", "h", 1, "ok"), ("has", "h", True)]),
     Case("rclcpp-describe-undeclared", f"{NODE}: TestNode.describe_parameter_undeclared_parameters_not_allowed",
