@@ -22,7 +22,9 @@ it; the validator is kept in the descriptor (``describe`` shows it) and the
 descriptor's ``additional_constraints`` says it is not enforced. ``load_spec(...,
 strict=True)`` (``--strict-spec``) refuses such a spec instead.
 
-Shipped here, with the definition control_toolbox gives them:
+Shipped here, as ros2_controllers (``custom_validators.hpp``) and control_toolbox's
+``control_filters`` define them, RSL's ``gt_eq``/``lt_eq`` checked only when the value
+is not NaN:
 
 * ``control_filters::gt_eq_or_nan`` ``[b]``: the value is NaN or ``>= b``;
 * ``control_filters::lt_eq_or_nan`` ``[b]``: the value is NaN or ``<= b``.

@@ -16,7 +16,8 @@ NESTED_MAP = f"{GPL} generate_parameter_library_py/generate_parameter_library_py
 DESC = f"{GPL} example/test/descriptor_test_gtest.cpp"
 PARSE = (f"{GPL} generate_parameter_library_py: validate_parameter_definitions (the semantic checks kept "
          "out of the JSON schema)")
-CONTROL = "ros-controls/control_toolbox control_filters (the definition of gt_eq_or_nan / lt_eq_or_nan)"
+CONTROL = ("ros-controls/ros2_controllers diff_drive_controller custom_validators.hpp, since moved to control_toolbox's "
+           "control_filters: gt_eq_or_nan / lt_eq_or_nan check gt_eq / lt_eq only when the value is not NaN")
 RSL = "PickNikRobotics/RSL tests/parameter_validators.cpp"
 VCFG = f"{GPL} generate_parameter_library_py/generate_parameter_library_py/test/test_validate_config.py"
 
