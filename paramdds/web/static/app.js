@@ -49,7 +49,8 @@ function showRangeEnd(x, type) { return type.startsWith("double") ? showScalar(x
 function constraintsText(d) {
   const parts = [];
   const r = d.integer_range || d.floating_point_range;
-  if (r) parts.push(`[${r.from_value}, ${r.to_value}]` + (r.step ? ` step ${r.step}` : ""));
+  const t = d.floating_point_range ? "double" : "integer";
+  if (r) parts.push(`[${showRangeEnd(r.from_value, t)}, ${showRangeEnd(r.to_value, t)}]` + (r.step ? ` step ${r.step}` : ""));
   for (const v of d.validators) parts.push(v.args.length ? `${v.kind}(${v.args.map((a) => JSON.stringify(a)).join(", ")})` : v.kind);
   if (d.additional_constraints) parts.push(d.additional_constraints);
   return parts.join("; ");
@@ -480,6 +481,7 @@ async function start() {
   $("#apply").hidden = data.read_only;
   $("#discard").hidden = data.read_only;
   $("#token").addEventListener("change", () => sessionStorage.setItem("paramdds-token", $("#token").value.trim()));
+  $("#token-box").addEventListener("submit", (e) => e.preventDefault());
   let timer = null;
   $("#search").addEventListener("input", () => {
     clearTimeout(timer);
