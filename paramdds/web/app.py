@@ -41,7 +41,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from ..core.descriptors import ParameterDescriptor
 from ..core.names import canonical_node_id, validate_name
-from ..core.values import Parameter
+from ..core.values import Parameter, ParameterValue
 from ..errors import ErrorCode, FileFormatError, ParamddsError
 from .hub import Hub, sse
 from .model import Row, checked, parameter_row, result_row, typed_values
@@ -351,14 +351,15 @@ class Console:
         return JSONResponse(body, status_code=status_of(code))
 
 
-def _file_entries(text: str, node: str) -> list[tuple[str, Any, ParameterDescriptor | None]]:
-    from ..runtime import _entries, is_seed_format, parse_ros_text
+def _file_entries(text: str, node: str) -> list[tuple[str, ParameterValue, ParameterDescriptor | None]]:
+    """The entries an uploaded parameter file gives ``node`` (seed or ROS 2 format, as ``paramdds load``)."""
+    from ..runtime import is_seed_format, parse_ros_text
 
     source = "upload"
     if is_seed_format(text, source):
         from ..core.yaml_seed import load_seed_params_str
 
-        return _entries(load_seed_params_str(text, source=source))
+        return [(p.name, p.value, None) for p in load_seed_params_str(text, source=source)]
     return parse_ros_text(text, source, node)
 
 

@@ -8,6 +8,7 @@ request of the same route that succeeds (the positive control).
 from __future__ import annotations
 
 import json
+import signal
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -367,3 +368,21 @@ def test_offline_node_is_503_unavailable(domain: int, console: Console) -> None:
     while time.monotonic() < deadline and node(console, "brief")["summary"]["online"]:  # type: ignore[index]
         time.sleep(0.05)
     assert error(post(console, "set", {"node": "brief", "values": {"gain": 2}})) == (503, "UNAVAILABLE")
+
+
+def test_sigterm_ends_open_streams_and_exits_0(domain: int, console: Console) -> None:
+    extra = Console(domain)
+    with httpx.stream("GET", extra.url + "api/events", params={"node": "arm"}, timeout=10) as r:
+        lines = r.iter_lines()
+        assert _next_event(lines)[0] == "node"
+        extra.proc.popen.send_signal(signal.SIGTERM)
+        for _ in lines:  # the server ends the stream instead of waiting for the browser
+            pass
+    extra.proc.popen.wait(10)
+    assert extra.proc.stop() == 0  # already gone: stop() only collects the code and closes the pipes
+
+
+def test_a_busy_port_is_a_usage_error(domain: int, console: Console) -> None:
+    port = console.url.rstrip("/").rsplit(":", 1)[1]
+    r = run_cli(domain, "web", "--bind", f"127.0.0.1:{port}")
+    assert r.returncode == 2 and "cannot listen" in r.stderr

@@ -7,8 +7,10 @@ a screenshot of the page in its pytest output directory (see conftest.py).
 
 from __future__ import annotations
 
+import re
 import signal
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 from playwright.sync_api import Locator, Page, expect
@@ -199,3 +201,22 @@ def test_read_only_console_offers_no_editor(page: Page, read_only_console: Conso
     expect(row(page, "speed")).to_be_visible()
     expect(page.locator('#params [data-role="input"]')).to_have_count(0)
     expect(page.locator("#apply")).to_be_hidden()
+
+
+def test_dump_downloads_a_file_and_load_reports_each_parameter(
+    page: Page, console: Console, tmp_path: Path
+) -> None:
+    open_node(page, console, "base")
+    with page.expect_download() as download:
+        page.click("#dump")
+    assert download.value.suggested_filename == "base.yaml"
+    assert "ros__parameters" in Path(download.value.path()).read_text()
+    upload = tmp_path / "base.yaml"
+    upload.write_text("base:\n  ros__parameters:\n    gain: 8\n    speed: 11.0\n")
+    page.set_input_files("#load", str(upload))
+    banner = page.locator("#banner")
+    expect(banner).to_contain_text("Loaded base.yaml: 1 set, 1 refused.")
+    expect(banner.locator("li")).to_have_text(
+        ["gain: ok", re.compile(r"speed: Parameter 'speed' .* must be within")]
+    )
+    expect(current(page, "gain")).to_have_text("8")

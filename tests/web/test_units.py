@@ -105,3 +105,16 @@ def test_a_burst_is_coalesced_into_one_message_per_kind() -> None:
     params = messages[0]
     assert params.count('"name":"gain"') == 1 and '"value":499' in params  # last value wins
     assert '"skipped":450' in messages[2]  # the log keeps the newest 50 of a burst
+
+
+def test_a_missing_web_extra_is_a_clear_usage_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    import importlib.util
+
+    from paramdds.cli import _web
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda name, *a: None if name == "uvicorn" else real(name, *a)
+    )
+    with pytest.raises(UsageError, match=r"uvicorn not installed.*pip install 'paramdds\[web\]'"):
+        _web.run_web(argparse.Namespace())
