@@ -16,7 +16,7 @@ import pytest
 from playwright.sync_api import Locator, Page, expect
 
 from ..cli._support import run_cli, start_server
-from ._support import CONSOLE_PARAMS, Console
+from ._support import CONSOLE_PARAMS, Console, write_token
 from .conftest import wait_for_nodes
 
 expect.set_options(timeout=10_000)
@@ -220,3 +220,24 @@ def test_dump_downloads_a_file_and_load_reports_each_parameter(
         ["gain: ok", re.compile(r"speed: Parameter 'speed' .* must be within")]
     )
     expect(current(page, "gain")).to_have_text("8")
+
+
+def test_token_console_asks_for_the_token_before_a_write(
+    page: Page, domain: int, console: Console, tmp_path: Path
+) -> None:
+    token = "browser-token-0123456789"
+    guarded = Console(domain, "--token-file", str(write_token(tmp_path, token)))
+    try:
+        wait_for_nodes(guarded.url, {"arm"})
+        open_node(page, guarded, "arm")
+        field = row(page, "gain").locator('[data-role="input"]')
+        field.fill("1")
+        field.press("Enter")
+        expect(row(page, "gain").locator(".error")).to_contain_text("bearer token")
+        expect(page.locator("#token")).to_be_visible()
+        page.fill("#token", token)
+        field.press("Enter")
+        expect(row(page, "gain").locator(".error")).to_have_text("")
+        expect(current(page, "gain")).to_have_text("1")
+    finally:
+        guarded.stop()
