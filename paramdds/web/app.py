@@ -9,6 +9,7 @@ GET      /api/nodes         ``?q=&offset=&limit=`` → ``{"total", "offset", "no
 GET      /api/node          ``?node=`` → ``{"summary", "rows": [row]}``
 GET      /api/dump          ``?node=&descriptors=0|1`` → a ROS 2 parameter file (text/yaml)
 GET      /api/events        ``?node=`` → server-sent events: node, params, nodes, log, resync
+GET      /api/openapi.json  the OpenAPI schema of these routes
 POST     /api/set           ``{"node", "values": {name: value}, "atomic", "if_revision"}``
 POST     /api/delete        ``{"node", "names": [name]}``
 POST     /api/load          ``{"node", "text", "atomic"}`` (the text of a parameter file)
@@ -36,6 +37,7 @@ from starlette.exceptions import HTTPException
 from starlette.requests import Request
 from starlette.responses import FileResponse, JSONResponse, PlainTextResponse, Response, StreamingResponse
 from starlette.routing import Mount, Route
+from starlette.schemas import SchemaGenerator
 from starlette.staticfiles import StaticFiles
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
@@ -181,12 +183,29 @@ class Console:
     # -- reads ------------------------------------------------------------------------------
 
     async def info(self, _request: Request) -> Response:
+        """What this console allows.
+        ---
+        summary: The console's options
+        responses:
+          200: {description: '{"read_only": bool, "token_required": bool, "domain": int}'}
+        """
         o = self.options
         return JSONResponse(
             {"read_only": o.read_only, "token_required": o.token is not None, "domain": o.domain}
         )
 
     async def nodes(self, request: Request) -> Response:
+        """One page of the node list.
+        ---
+        summary: One page of the node list, filtered
+        parameters:
+          - {name: q, in: query, schema: {type: string}, description: part of a node id or a name}
+          - {name: offset, in: query, schema: {type: integer, minimum: 0, default: 0}}
+          - {name: limit, in: query, schema: {type: integer, minimum: 1, maximum: 200, default: 50}}
+        responses:
+          200: {description: '{"total", "offset", "nodes": [summary]}'}
+          400: {description: BAD_REQUEST}
+        """
         query = request.query_params.get("q", "")[:200]
         offset = _int_arg(request, "offset", 0, 0, 10**9)
         limit = _int_arg(request, "limit", 50, 1, PAGE_LIMIT)
@@ -196,10 +215,29 @@ class Console:
         )
 
     async def node(self, request: Request) -> Response:
+        """One node's parameters with descriptors.
+        ---
+        summary: A node's summary and parameter rows
+        parameters:
+          - {name: node, in: query, required: true, schema: {type: string}}
+        responses:
+          200: {description: '{"summary", "rows": [{"name", "value", "type", "descriptor"}]}'}
+          404: {description: NOT_FOUND (unknown node)}
+        """
         detail = self._detail(_node_arg(request.query_params.get("node")))
         return JSONResponse({"summary": detail.summary.to_json(), "rows": self._rows(detail)})
 
     async def dump(self, request: Request) -> Response:
+        """A node as a parameter file.
+        ---
+        summary: A node as a ROS 2 parameter file (text/yaml attachment)
+        parameters:
+          - {name: node, in: query, required: true, schema: {type: string}}
+          - {name: descriptors, in: query, schema: {type: integer, enum: [0, 1], default: 1}}
+        responses:
+          200: {description: the file}
+          404: {description: NOT_FOUND}
+        """
         from ..runtime import dump_text
 
         node = _node_arg(request.query_params.get("node"))
@@ -215,6 +253,14 @@ class Console:
         )
 
     async def events(self, request: Request) -> Response:
+        """The live event stream.
+        ---
+        summary: 'Server-sent events: node, params, nodes, log, resync'
+        parameters:
+          - {name: node, in: query, schema: {type: string}, description: the node whose rows are sent}
+        responses:
+          200: {description: text/event-stream}
+        """
         raw = request.query_params.get("node", "")
         node = _node_arg(raw) if raw else ""
         sub = self.hub.subscribe(node)
@@ -269,6 +315,23 @@ class Console:
                 raise WebError(WebCode.UNAUTHORIZED, "this console needs the bearer token for writes")
 
     async def set(self, request: Request) -> Response:
+        """Set parameters (plain or atomic, optionally compare-and-set).
+        ---
+        summary: 'Set parameters: {"node", "values": {name: value}, "atomic", "if_revision"}'
+        requestBody: {required: true, content: {application/json: {}}}
+        responses:
+          200: {description: '{"node", "revision", "results": [{"name", "successful", "reason", "code"}]}'}
+          400: {description: BAD_REQUEST}
+          401: {description: UNAUTHORIZED}
+          403: {description: READ_ONLY or CROSS_ORIGIN}
+          404: {description: NOT_FOUND}
+          409: {description: CONFLICT (with the current summary and rows)}
+          413: {description: TOO_LARGE}
+          415: {description: UNSUPPORTED_MEDIA}
+          422: {description: TYPE_MISMATCH, OUT_OF_RANGE, INVALID_VALUE, INVALID_NAME}
+          503: {description: UNAVAILABLE}
+          504: {description: TIMEOUT}
+        """
         self._check_write(request)
         body = await _body(request)
         node = _node_arg(body.get("node"))
@@ -289,6 +352,13 @@ class Console:
         return self._set_response(node, reply.revision, [result_row(r) for r in reply.results])
 
     async def delete(self, request: Request) -> Response:
+        """Delete parameters.
+        ---
+        summary: 'Delete parameters: {"node", "names": [name]}'
+        requestBody: {required: true, content: {application/json: {}}}
+        responses:
+          200: {description: '{"node", "revision", "results"}'}
+        """
         self._check_write(request)
         body = await _body(request)
         node = _node_arg(body.get("node"))
@@ -302,6 +372,14 @@ class Console:
         return self._set_response(node, reply.revision, [result_row(r) for r in reply.results])
 
     async def load(self, request: Request) -> Response:
+        """Set a node's parameters from the text of a parameter file.
+        ---
+        summary: 'Load a parameter file: {"node", "text", "atomic"}'
+        requestBody: {required: true, content: {application/json: {}}}
+        responses:
+          200: {description: '{"node", "revision", "results"}, one result per parameter'}
+          422: {description: FILE_FORMAT (with file and line) or a refused value}
+        """
         self._check_write(request)
         body = await _body(request)
         node = _node_arg(body.get("node"))
@@ -405,8 +483,18 @@ def build_app(view: StateView, hub: Hub, client: Any, options: WebOptions) -> AS
     async def page(_request: Request) -> Response:
         return FileResponse(index, media_type="text/html", headers={"Cache-Control": "no-store"})
 
+    from importlib.metadata import version
+
+    schemas = SchemaGenerator(
+        {"openapi": "3.0.0", "info": {"title": "paramdds web console", "version": version("paramdds")}}
+    )
+
+    async def openapi(request: Request) -> Response:
+        return JSONResponse(schemas.get_schema(routes=request.app.routes))
+
     routes = [
-        Route("/", page),
+        Route("/", page, include_in_schema=False),
+        Route("/api/openapi.json", openapi, include_in_schema=False),
         Route("/api/info", console.info),
         Route("/api/nodes", console.nodes),
         Route("/api/node", console.node),

@@ -386,3 +386,19 @@ def test_a_busy_port_is_a_usage_error(domain: int, console: Console) -> None:
     port = console.url.rstrip("/").rsplit(":", 1)[1]
     r = run_cli(domain, "web", "--bind", f"127.0.0.1:{port}")
     assert r.returncode == 2 and "cannot listen" in r.stderr
+
+
+def test_openapi_schema_lists_the_routes(console: Console) -> None:
+    schema = httpx.get(console.url + "api/openapi.json", timeout=5).json()
+    assert schema["openapi"].startswith("3.")
+    paths = schema["paths"]
+    assert {
+        "/api/nodes",
+        "/api/node",
+        "/api/dump",
+        "/api/events",
+        "/api/set",
+        "/api/delete",
+        "/api/load",
+    } <= set(paths)
+    assert "409" in paths["/api/set"]["post"]["responses"] and "get" in paths["/api/nodes"]
