@@ -11,6 +11,7 @@ Modules:
 
 * :mod:`.status`  the one table from error codes to HTTP statuses;
 * :mod:`.model`   JSON shapes of nodes, parameters and events; typing of values sent by a browser;
+* :mod:`.view`    the monitor's live state read under its lock, one page or one node at a time;
 * :mod:`.hub`     monitor events → per-subscriber coalesced SSE batches;
 * :mod:`.app`     the Starlette application (routes, safety checks);
 * :mod:`.serve`   wiring monitor, client and uvicorn together (the CLI verb).
