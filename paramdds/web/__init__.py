@@ -13,7 +13,9 @@ Modules:
 * :mod:`.model`   JSON shapes of nodes, parameters and events; typing of values sent by a browser;
 * :mod:`.view`    the monitor's live state read under its lock, one page or one node at a time;
 * :mod:`.hub`     monitor events → per-subscriber coalesced SSE batches;
-* :mod:`.app`     the Starlette application (routes, safety checks);
+* :mod:`.inputs`  query arguments and JSON bodies, read with a size cap;
+* :mod:`.guard`   the Host check and security headers in front of every route;
+* :mod:`.app`     the Starlette application (routes, the write checks);
 * :mod:`.serve`   wiring monitor, client and uvicorn together (the CLI verb).
 
 Needs the ``web`` extra (``pip install 'paramdds[web]'``): Starlette and uvicorn.

@@ -18,7 +18,7 @@ POST     /api/load          ``{"node", "text", "atomic"}`` (the text of a parame
 Safety, checked before a route runs: the ``Host`` header must name this server
 (a DNS-rebinding page cannot read or write); a write must come from this origin
 (``Origin``/``Sec-Fetch-Site``), carry ``Content-Type: application/json``, the
-bearer token when one is configured, and a body of at most :data:`MAX_BODY`
+bearer token when one is configured, and a body of at most :data:`.inputs.MAX_BODY`
 bytes. Every error is a JSON body with a code; its status comes from
 :data:`paramdds.web.status.STATUS`.
 """
@@ -26,7 +26,6 @@ bytes. Every error is a JSON body with a code; its status comes from
 from __future__ import annotations
 
 import hmac
-import json
 import logging
 from collections.abc import AsyncIterator
 from dataclasses import dataclass
@@ -39,23 +38,22 @@ from starlette.responses import FileResponse, JSONResponse, PlainTextResponse, R
 from starlette.routing import Mount, Route
 from starlette.schemas import SchemaGenerator
 from starlette.staticfiles import StaticFiles
-from starlette.types import ASGIApp, Message, Receive, Scope, Send
+from starlette.types import ASGIApp
 
-from ..core.descriptors import ParameterDescriptor
-from ..core.names import canonical_node_id, validate_name
-from ..core.values import Parameter, ParameterValue
+from ..core.names import validate_name
+from ..core.values import Parameter
 from ..errors import ErrorCode, FileFormatError, ParamddsError
+from .guard import LOOPBACK_NAMES, Guard, error_response
 from .hub import Hub, sse
+from .inputs import bool_field, file_entries, int_arg, node_arg, read_body, revision_field
 from .model import Row, checked, parameter_row, result_row, typed_values
 from .status import WebCode, WebError, code_of, error_body, status_of
 from .view import NodeDetail, StateView
 
 log = logging.getLogger(__name__)
 
-MAX_BODY = 1024 * 1024  # bytes
 PAGE_LIMIT = 200  # nodes per page at most
 KEEPALIVE = 15.0  # seconds between comments on an idle event stream
-LOOPBACK_NAMES = ("localhost", "127.0.0.1", "::1")
 
 
 @dataclass(frozen=True)
@@ -68,12 +66,6 @@ class WebOptions:
 
 
 # -- errors ------------------------------------------------------------------------------
-
-
-def error_response(code: str, message: str, **extra: object) -> JSONResponse:
-    body = error_body(code, message)
-    body.update(extra)
-    return JSONResponse(body, status_code=status_of(code))
 
 
 async def _paramdds_error(_request: Request, exc: Exception) -> Response:
@@ -93,69 +85,6 @@ async def _internal_error(_request: Request, exc: Exception) -> Response:
 
 
 # -- input -------------------------------------------------------------------------------
-
-
-def _host_name(host_header: str) -> str:
-    if host_header.startswith("["):
-        return host_header[1:].partition("]")[0]
-    return host_header.rpartition(":")[0] if ":" in host_header else host_header
-
-
-def _node_arg(raw: object) -> str:
-    if not isinstance(raw, str) or not raw:
-        raise WebError(WebCode.BAD_REQUEST, "'node' must be a non-empty string")
-    return canonical_node_id(raw)
-
-
-def _int_arg(request: Request, name: str, default: int, lo: int, hi: int) -> int:
-    text = request.query_params.get(name)
-    if text is None:
-        return default
-    try:
-        value = int(text)
-    except ValueError:
-        raise WebError(WebCode.BAD_REQUEST, f"{name!r} must be an integer, got {text[:40]!r}") from None
-    if not lo <= value <= hi:
-        raise WebError(WebCode.BAD_REQUEST, f"{name!r} must be within [{lo}, {hi}], got {value}")
-    return value
-
-
-async def _body(request: Request) -> dict[str, Any]:
-    """The JSON object of a write, read with a size cap."""
-    ctype = request.headers.get("content-type", "").split(";")[0].strip().lower()
-    if ctype != "application/json":
-        raise WebError(WebCode.UNSUPPORTED_MEDIA, "a write needs Content-Type: application/json")
-    declared = request.headers.get("content-length")
-    if declared is not None and declared.isdigit() and int(declared) > MAX_BODY:
-        raise WebError(ErrorCode.TOO_LARGE, f"the body is {declared} bytes; the limit is {MAX_BODY}")
-    data = bytearray()
-    async for chunk in request.stream():
-        data += chunk
-        if len(data) > MAX_BODY:
-            raise WebError(ErrorCode.TOO_LARGE, f"the body is over the limit of {MAX_BODY} bytes")
-    try:
-        body = json.loads(data)
-    except (ValueError, RecursionError) as exc:
-        raise WebError(WebCode.BAD_REQUEST, f"the body is not valid JSON: {exc}") from None
-    if not isinstance(body, dict):
-        raise WebError(WebCode.BAD_REQUEST, "the body must be a JSON object")
-    return body
-
-
-def _bool_field(body: dict[str, Any], name: str) -> bool:
-    value = body.get(name, False)
-    if not isinstance(value, bool):
-        raise WebError(WebCode.BAD_REQUEST, f"{name!r} must be true or false")
-    return value
-
-
-def _revision_field(body: dict[str, Any]) -> int | None:
-    value = body.get("if_revision")
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-        raise WebError(WebCode.BAD_REQUEST, "'if_revision' must be null or a non-negative integer")
-    return value
 
 
 # -- the app -----------------------------------------------------------------------------
@@ -207,8 +136,8 @@ class Console:
           400: {description: BAD_REQUEST}
         """
         query = request.query_params.get("q", "")[:200]
-        offset = _int_arg(request, "offset", 0, 0, 10**9)
-        limit = _int_arg(request, "limit", 50, 1, PAGE_LIMIT)
+        offset = int_arg(request, "offset", 0, 0, 10**9)
+        limit = int_arg(request, "limit", 50, 1, PAGE_LIMIT)
         page = self.view.page(query, offset, limit)
         return JSONResponse(
             {"total": page.total, "offset": page.offset, "nodes": [s.to_json() for s in page.nodes]}
@@ -224,7 +153,7 @@ class Console:
           200: {description: '{"summary", "rows": [{"name", "value", "type", "descriptor"}]}'}
           404: {description: NOT_FOUND (unknown node)}
         """
-        detail = self._detail(_node_arg(request.query_params.get("node")))
+        detail = self._detail(node_arg(request.query_params.get("node")))
         return JSONResponse({"summary": detail.summary.to_json(), "rows": self._rows(detail)})
 
     async def dump(self, request: Request) -> Response:
@@ -240,7 +169,7 @@ class Console:
         """
         from ..runtime import dump_text
 
-        node = _node_arg(request.query_params.get("node"))
+        node = node_arg(request.query_params.get("node"))
         detail = self._detail(node)
         with_descriptors = request.query_params.get("descriptors", "1") != "0"
         snapshot = [(n, v, d) for n, (v, d) in sorted(detail.parameters.items())]
@@ -262,7 +191,7 @@ class Console:
           200: {description: text/event-stream}
         """
         raw = request.query_params.get("node", "")
-        node = _node_arg(raw) if raw else ""
+        node = node_arg(raw) if raw else ""
         sub = self.hub.subscribe(node)
 
         async def stream() -> AsyncIterator[str]:
@@ -333,13 +262,13 @@ class Console:
           504: {description: TIMEOUT}
         """
         self._check_write(request)
-        body = await _body(request)
-        node = _node_arg(body.get("node"))
+        body = await read_body(request)
+        node = node_arg(body.get("node"))
         values = body.get("values")
         if not isinstance(values, dict) or not values:
             raise WebError(WebCode.BAD_REQUEST, "'values' must be a non-empty object of name: value")
-        atomic = _bool_field(body, "atomic")
-        if_revision = _revision_field(body)
+        atomic = bool_field(body, "atomic")
+        if_revision = revision_field(body)
         detail = self._detail(node)
         typed = typed_values(values, detail.parameters)
         reply = await self.client.set(
@@ -360,8 +289,8 @@ class Console:
           200: {description: '{"node", "revision", "results"}'}
         """
         self._check_write(request)
-        body = await _body(request)
-        node = _node_arg(body.get("node"))
+        body = await read_body(request)
+        node = node_arg(body.get("node"))
         names = body.get("names")
         if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
             raise WebError(WebCode.BAD_REQUEST, "'names' must be a non-empty list of strings")
@@ -381,14 +310,14 @@ class Console:
           422: {description: FILE_FORMAT (with file and line) or a refused value}
         """
         self._check_write(request)
-        body = await _body(request)
-        node = _node_arg(body.get("node"))
+        body = await read_body(request)
+        node = node_arg(body.get("node"))
         text = body.get("text")
         if not isinstance(text, str) or not text.strip():
             raise WebError(WebCode.BAD_REQUEST, "'text' must be the non-empty text of a parameter file")
-        atomic = _bool_field(body, "atomic")
+        atomic = bool_field(body, "atomic")
         detail = self._detail(node)
-        entries = _file_entries(text, node)
+        entries = file_entries(text, node)
         if not entries:
             raise FileFormatError(f"no parameters for node {node!r} in this file", file="upload")
         sendable: list[Parameter] = []
@@ -427,50 +356,6 @@ class Console:
                 body["summary"] = detail.summary.to_json()
                 body["rows"] = self._rows(detail)
         return JSONResponse(body, status_code=status_of(code))
-
-
-def _file_entries(text: str, node: str) -> list[tuple[str, ParameterValue, ParameterDescriptor | None]]:
-    """The entries an uploaded parameter file gives ``node`` (seed or ROS 2 format, as ``paramdds load``)."""
-    from ..runtime import is_seed_format, parse_ros_text
-
-    source = "upload"
-    if is_seed_format(text, source):
-        from ..core.yaml_seed import load_seed_params_str
-
-        return [(p.name, p.value, None) for p in load_seed_params_str(text, source=source)]
-    return parse_ros_text(text, source, node)
-
-
-class _Guard:
-    """ASGI middleware: the Host check and the security headers on every response."""
-
-    def __init__(self, app: ASGIApp, allowed_hosts: tuple[str, ...]) -> None:
-        self.app = app
-        self.allowed = {h.lower() for h in allowed_hosts}
-
-    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] != "http":
-            await self.app(scope, receive, send)
-            return
-        headers = {k.decode("latin-1").lower(): v.decode("latin-1") for k, v in scope["headers"]}
-        host = _host_name(headers.get("host", "")).lower()
-        if self.allowed and host not in self.allowed:
-            response = error_response(WebCode.CROSS_ORIGIN.value, f"unexpected Host {host[:100]!r}")
-            await response(scope, receive, send)
-            return
-
-        async def send_with_headers(message: Message) -> None:
-            if message["type"] == "http.response.start":
-                message.setdefault("headers", [])
-                message["headers"] = [
-                    *message["headers"],
-                    (b"content-security-policy", b"default-src 'self'; frame-ancestors 'none'"),
-                    (b"x-content-type-options", b"nosniff"),
-                    (b"referrer-policy", b"no-referrer"),
-                ]
-            await send(message)
-
-        await self.app(scope, receive, send_with_headers)
 
 
 def build_app(view: StateView, hub: Hub, client: Any, options: WebOptions) -> ASGIApp:
@@ -516,4 +401,4 @@ def build_app(view: StateView, hub: Hub, client: Any, options: WebOptions) -> AS
             Exception: _internal_error,
         },
     )
-    return _Guard(app, options.allowed_hosts)
+    return Guard(app, options.allowed_hosts)

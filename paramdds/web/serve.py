@@ -20,7 +20,8 @@ import uvicorn
 
 from ..cli._errors import Exit, UsageError
 from ..cli._session import Session
-from .app import LOOPBACK_NAMES, WebOptions, build_app
+from .app import WebOptions, build_app
+from .guard import LOOPBACK_NAMES
 from .hub import Hub
 from .view import StateView
 
