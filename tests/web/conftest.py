@@ -11,6 +11,7 @@ from typing import Any
 
 import httpx
 import pytest
+from playwright.sync_api import expect
 
 from ..cli._support import Proc, next_domain, start_server
 from ._support import CONSOLE_PARAMS, Console
@@ -56,6 +57,8 @@ def wait_for_nodes(url: str, nodes: set[str], params: int = 9, timeout: float = 
 
 
 # -- the browser ---------------------------------------------------------------------------------
+
+expect.set_options(timeout=15_000)  # a loaded 2-core CI machine; a passing check returns at once
 
 CHROMIUM_FLAGS = [
     "--headless",

@@ -19,8 +19,6 @@ from ..cli._support import run_cli, start_server
 from ._support import CONSOLE_PARAMS, Console, write_token
 from .conftest import wait_for_nodes
 
-expect.set_options(timeout=10_000)
-
 
 def row(page: Page, name: str) -> Locator:
     return page.locator(f'#params tbody tr[data-name="{name}"]')
