@@ -19,8 +19,6 @@ if TYPE_CHECKING:
 
 log = logging.getLogger(__name__)
 
-PRESENCE_GRACE = 2.5  # seconds
-
 
 class Session:
     """Lazily built DDS objects for one command run; use as a context manager."""
@@ -54,9 +52,9 @@ class Session:
     def client(self) -> ParameterClient:
         from ..dds.client import ParameterClient
 
-        # a node unseen after the grace counts as absent (exit 3); loaded machines need more than 1 s
-        grace = min(self.args.timeout, PRESENCE_GRACE)
-        client = ParameterClient(self.participant, self.qos, timeout=self.args.timeout, presence_grace=grace)
+        # a node never seen counts as absent (exit 3) only once discovery has settled
+        # (paramdds.dds.discovery); until then the call waits, up to --timeout
+        client = ParameterClient(self.participant, self.qos, timeout=self.args.timeout)
         self._closers.append(client)
         return client
 

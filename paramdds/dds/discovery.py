@@ -1,0 +1,203 @@
+"""When may a client say a node is absent? What its participant knows about discovery.
+
+A node is present when this client holds its presence instance (a ``ParameterEvents``
+sample, TRANSIENT_LOCAL). Its *absence* cannot be observed, only inferred: on a
+lossy link the participant of the node's server, its endpoints, or the historical
+data of its state writer can arrive seconds after the client started. A fixed grace
+period therefore either reports a node that is there as absent (lossy link) or makes
+every answer about a ghost slow (healthy link).
+
+The rule (:meth:`DiscoveryWatch.settled`): a node with no presence instance is
+*absent* only once discovery has **settled**, which is when all three hold:
+
+1. **something that could hold it was found**: at least one ``ParameterEvents``
+   writer (local or remote: a parameter server) is matched to our presence reader.
+   Before that nothing can be concluded, and the caller keeps waiting up to its own
+   timeout (then it reports a timeout that says discovery found no server);
+2. **every matched state writer has delivered**: each writer matched to the presence
+   reader has delivered at least one sample to it (every server writes a presence
+   instance per node it serves, so a matched writer that has delivered nothing still
+   owes us its historical data);
+3. **discovery is quiet**: nothing has changed for ``max(min_quiet, time from start
+   to the last change)``: no participant appeared or left (builtin
+   ``DCPSParticipant`` reader), no endpoint matched or unmatched on the presence
+   reader or on the caller-supplied request/reply endpoints, no new ``ParameterEvents``
+   sample arrived. The quiet period scales with how slowly discovery has gone so far:
+   on a healthy link everything is known within milliseconds and the quiet period is
+   ``min_quiet``; on a lossy one, where the last thing arrived after 2 s, the client
+   waits another 2 s of silence before concluding anything.
+
+The watch reads only sample *infos* of new ``ParameterEvents`` samples (never decodes
+them) and only new participant samples, and does its work at most every
+:data:`POLL_INTERVAL` seconds however often it is asked.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from enum import Enum
+from typing import Any
+
+from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsParticipant
+from cyclonedds.core import DDSException, InstanceState, ReadCondition, SampleState, ViewState
+
+from ._binding import read_new_infos
+
+__all__ = ["MIN_QUIET", "POLL_INTERVAL", "DiscoveryState", "DiscoveryWatch", "Presence"]
+
+MIN_QUIET = 0.5  # seconds of unchanged discovery before a node without presence counts as absent
+POLL_INTERVAL = 0.05  # seconds: the watch refreshes at most this often
+_NEW = SampleState.NotRead | ViewState.Any | InstanceState.Any
+_BATCH = 4096  # infos read per call while catching up
+_U64 = (1 << 64) - 1
+
+
+class Presence(str, Enum):
+    """What a client can say about a node right now."""
+
+    ONLINE = "online"  # its presence instance is alive
+    OFFLINE = "offline"  # it was seen and has gone (instance not alive)
+    ABSENT = "absent"  # never seen, and discovery has settled: it is not there
+    UNKNOWN = "unknown"  # never seen, and discovery is still going on: it may yet appear
+
+
+@dataclass(frozen=True)
+class DiscoveryState:
+    """A snapshot of what the watch knows (seconds are counted from the watch's start)."""
+
+    participants: int  # remote participants known now
+    state_writers: int  # ParameterEvents writers matched to the presence reader
+    pending_writers: int  # ... of which nothing has been delivered yet
+    last_change: float  # when discovery last changed
+    quiet_needed: float  # the silence rule 3 asks for, from last_change
+    elapsed: float
+    settled: bool
+
+    def describe(self) -> str:
+        """A short human account, for error messages."""
+        if self.settled:
+            return (
+                f"discovery settled: {self.state_writers} parameter server writer(s) "
+                f"from {self.participants} remote participant(s), all delivered"
+            )
+        if self.state_writers == 0:
+            return f"no parameter server discovered yet ({self.participants} remote participant(s) known)"
+        if self.pending_writers:
+            return (
+                f"discovery in progress: {self.pending_writers} of {self.state_writers} "
+                "server(s) still sending their state"
+            )
+        return f"discovery in progress: last change {self.elapsed - self.last_change:.1f} s ago"
+
+
+class DiscoveryWatch:
+    """Tracks discovery progress of one participant as seen by one presence reader.
+
+    ``presence_reader`` is the client's ``ParameterEvents`` reader; ``endpoints`` are
+    further readers/writers whose matches count as discovery progress (the client's
+    request writers and reply readers). Thread-safe.
+    """
+
+    def __init__(
+        self,
+        participant: Any,
+        presence_reader: Any,
+        endpoints: Sequence[Any] = (),
+        *,
+        min_quiet: float = MIN_QUIET,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self._reader = presence_reader
+        self._endpoints = list(endpoints)
+        self._min_quiet = min_quiet
+        self._clock = clock
+        self._lock = threading.Lock()
+        self._me = participant.guid
+        self._participants = BuiltinDataReader(participant, BuiltinTopicDcpsParticipant)
+        self._new_participants = ReadCondition(self._participants, _NEW)
+        self._remote: set[Any] = set()
+        self._delivered: set[int] = set()  # publication handles that have delivered a sample
+        self._samples = 0
+        self._signature: tuple[int, ...] = ()
+        self._started = clock()
+        self._last_change = self._started
+        self._polled = float("-inf")
+        self._state = self._snapshot(self._started, 0, 0)
+        self._poll(self._started)  # what is known at creation (on loopback: usually everything)
+
+    def state(self) -> DiscoveryState:
+        """The current state (refreshed if the last refresh is older than :data:`POLL_INTERVAL`)."""
+        with self._lock:
+            now = self._clock()
+            if now - self._polled >= POLL_INTERVAL:
+                self._poll(now)
+            return self._state
+
+    def settled(self) -> bool:
+        return self.state().settled
+
+    def _poll(self, now: float) -> None:
+        self._polled = now
+        self._read_participants()
+        self._read_deliveries()
+        try:
+            # the binding gives these handles signed, sample infos unsigned
+            matched = {h & _U64 for h in self._reader.get_matched_publications()}
+        except DDSException:
+            matched = set()
+        matches = [len(matched)]
+        for entity in self._endpoints:
+            status = (
+                entity.get_subscription_matched_status()
+                if hasattr(entity, "get_subscription_matched_status")
+                else entity.get_publication_matched_status()
+            )
+            matches += [status.total_count, status.current_count]
+        signature = (len(self._remote), self._samples, *matches)
+        if signature != self._signature:
+            self._signature = signature
+            self._last_change = now
+        pending = len(matched - self._delivered)
+        self._state = self._snapshot(now, len(matched), pending)
+
+    def _snapshot(self, now: float, writers: int, pending: int) -> DiscoveryState:
+        since = self._last_change - self._started
+        quiet = max(self._min_quiet, since)
+        settled = writers > 0 and pending == 0 and now - self._last_change >= quiet
+        return DiscoveryState(
+            participants=len(self._remote),
+            state_writers=writers,
+            pending_writers=pending,
+            last_change=since,
+            quiet_needed=quiet,
+            elapsed=now - self._started,
+            settled=settled,
+        )
+
+    def _read_participants(self) -> None:
+        for sample in self._participants.read(N=_BATCH, condition=self._new_participants):
+            key = getattr(sample, "key", None)
+            if key is None or key == self._me:
+                continue
+            if sample.sample_info.instance_state == InstanceState.Alive:
+                self._remote.add(key)
+            else:
+                self._remote.discard(key)
+
+    def _read_deliveries(self) -> None:
+        while True:
+            infos = read_new_infos(self._reader, _NEW, _BATCH)
+            for info in infos:
+                self._delivered.add(info.publication_handle & _U64)
+            self._samples += len(infos)
+            if len(infos) < _BATCH:
+                return
+
+    def close(self) -> None:
+        """Delete the builtin reader this watch created."""
+        with self._lock:
+            self._endpoints.clear()
+            self._participants.__del__()
