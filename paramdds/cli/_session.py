@@ -19,6 +19,9 @@ if TYPE_CHECKING:
 
 log = logging.getLogger(__name__)
 
+# verbs that stay up: their participants keep Cyclone's default announcement interval
+LONG_LIVED_VERBS = frozenset({"server", "client", "watch", "assign"})
+
 
 class Session:
     """Lazily built DDS objects for one command run; use as a context manager."""
@@ -36,7 +39,10 @@ class Session:
             from ..dds.participant import make_participant
 
             self._participant = make_participant(
-                self.args.domain, localhost=self.args.localhost, app_name=self._app_name
+                self.args.domain,
+                localhost=self.args.localhost,
+                app_name=self._app_name,
+                short_lived=getattr(self.args, "verb", None) not in LONG_LIVED_VERBS,
             )
         return self._participant
 

@@ -365,11 +365,11 @@ class ParameterClient:
         """The error for a node not (or no longer) online after ``waited`` seconds."""
         state = self.presence(node)
         if state is Presence.OFFLINE:
-            return UnavailableError(f"node {node!r} is offline (waited {waited:g} s)")
+            return UnavailableError(f"node {node!r} is offline (waited {waited:.2g} s)")
         why = self._discovery.state().describe()
         if state is Presence.ABSENT:
-            return UnavailableError(f"node {node!r} is not present (waited {waited:g} s; {why})")
-        return TimeoutError_(f"node {node!r} not seen within {waited:g} s ({why})")
+            return UnavailableError(f"node {node!r} is not present ({why}; waited {waited:.2g} s)")
+        return TimeoutError_(f"node {node!r} not seen within {waited:.2g} s: {why}")
 
     def _slices(self, pending: _Pending, timeout: float | None) -> Iterator[float]:
         """How long to wait for the reply next; raises once the call cannot succeed.

@@ -27,6 +27,18 @@ The rule (:meth:`DiscoveryWatch.settled`): a node with no presence instance is
    ``min_quiet``; on a lossy one, where the last thing arrived after 2 s, the client
    waits another 2 s of silence before concluding anything.
 
+Asking again. A peer answers a *new* participant's announcement (SPDP) with its own,
+four times, one second apart, and otherwise announces itself only every 8 s (Cyclone's
+default: lease minus 2 s). On a link that drops 30 % of packets, all four answers
+are lost for about one process in 120, which then learns of nobody for up to 8 s.
+While no remote participant is known and discovery has not settled, the watch
+therefore creates a **probe**: an empty participant in the same domain (so the same
+process and sockets) every :data:`PROBE_AFTER` seconds, at most :data:`MAX_PROBES`
+times. Each probe is new to every peer, so each peer answers it four more times,
+and since Cyclone keeps what it discovers per domain, not per participant, the
+answer serves the client's own participant too. A probe costs a peer what one more
+short-lived CLI process costs it; probes live until the watch is closed.
+
 The watch reads only sample *infos* of new ``ParameterEvents`` samples (never decodes
 them) and only new participant samples, and does its work at most every
 :data:`POLL_INTERVAL` seconds however often it is asked.
@@ -42,12 +54,22 @@ from enum import Enum
 from typing import Any
 
 from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsParticipant
-from cyclonedds.core import DDSException, InstanceState, ReadCondition, SampleState, ViewState
+from cyclonedds.core import DDSException, Entity, InstanceState, ReadCondition, SampleState, ViewState
 
 from ._binding import read_new_infos
 
-__all__ = ["MIN_QUIET", "POLL_INTERVAL", "DiscoveryState", "DiscoveryWatch", "Presence"]
+__all__ = [
+    "MAX_PROBES",
+    "MIN_QUIET",
+    "POLL_INTERVAL",
+    "PROBE_AFTER",
+    "DiscoveryState",
+    "DiscoveryWatch",
+    "Presence",
+]
 
+PROBE_AFTER = 3.5  # seconds without any remote participant before asking again (4 answers, 1 s apart)
+MAX_PROBES = 3
 MIN_QUIET = 0.5  # seconds of unchanged discovery before a node without presence counts as absent
 POLL_INTERVAL = 0.05  # seconds: the watch refreshes at most this often
 _NEW = SampleState.NotRead | ViewState.Any | InstanceState.Any
@@ -115,7 +137,9 @@ class DiscoveryWatch:
         self._min_quiet = min_quiet
         self._clock = clock
         self._lock = threading.Lock()
-        self._me = participant.guid
+        self._domain_id = participant.get_domain_id()
+        self._own = {participant.guid}  # our participant and our probes
+        self._probes: list[Any] = []
         self._participants = BuiltinDataReader(participant, BuiltinTopicDcpsParticipant)
         self._new_participants = ReadCondition(self._participants, _NEW)
         self._remote: set[Any] = set()
@@ -162,6 +186,18 @@ class DiscoveryWatch:
             self._last_change = now
         pending = len(matched - self._delivered)
         self._state = self._snapshot(now, len(matched), pending)
+        if not self._remote and not self._state.settled:
+            self._maybe_probe(now)
+
+    def _maybe_probe(self, now: float) -> None:
+        if len(self._probes) >= MAX_PROBES or now - self._started < PROBE_AFTER * (len(self._probes) + 1):
+            return
+        from cyclonedds.domain import DomainParticipant
+        from cyclonedds.qos import Policy, Qos
+
+        probe = DomainParticipant(self._domain_id, qos=Qos(Policy.EntityName("paramdds-probe")))
+        self._own.add(probe.guid)
+        self._probes.append(probe)
 
     def _snapshot(self, now: float, writers: int, pending: int) -> DiscoveryState:
         since = self._last_change - self._started
@@ -180,7 +216,7 @@ class DiscoveryWatch:
     def _read_participants(self) -> None:
         for sample in self._participants.read(N=_BATCH, condition=self._new_participants):
             key = getattr(sample, "key", None)
-            if key is None or key == self._me:
+            if key is None or key in self._own:
                 continue
             if sample.sample_info.instance_state == InstanceState.Alive:
                 self._remote.add(key)
@@ -196,8 +232,15 @@ class DiscoveryWatch:
             if len(infos) < _BATCH:
                 return
 
+    @property
+    def probes(self) -> int:
+        """How many probe participants this watch has created."""
+        return len(self._probes)
+
     def close(self) -> None:
-        """Delete the builtin reader this watch created."""
+        """Delete the builtin reader and the probes this watch created."""
         with self._lock:
             self._endpoints.clear()
-            self._participants.__del__()
+            Entity.__del__(self._participants)
+            while self._probes:
+                Entity.__del__(self._probes.pop())
