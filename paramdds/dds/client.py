@@ -204,16 +204,19 @@ class ParameterClient:
         if handle is None:
             return None
         try:
-            samples = self._presence.read(N=1, instance_handle=handle)
+            samples: list[Any] = self._presence.read(N=1, instance_handle=handle)
         except DDSException:
             # the handle is process-wide: another entity here may know the key while
             # this reader holds no such instance (PRECONDITION_NOT_MET)
             return None
+        self._discovery.note_read(s.sample_info for s in samples)
         return _node_info(samples[0]) if samples else None
 
     def nodes(self) -> list[NodeInfo]:
         """Every node whose presence this client holds (alive or not), sorted by name."""
-        found = [_node_info(s) for s in self._presence.read(N=_READ_ALL)]
+        samples: list[Any] = self._presence.read(N=_READ_ALL)
+        self._discovery.note_read(s.sample_info for s in samples)
+        found = [_node_info(s) for s in samples]
         return sorted((n for n in found if n is not None), key=lambda n: n.node)
 
     def node_info(self, node: str) -> NodeInfo | None:

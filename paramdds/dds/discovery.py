@@ -48,7 +48,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from enum import Enum
 from typing import Any
@@ -223,14 +223,28 @@ class DiscoveryWatch:
             else:
                 self._remote.discard(key)
 
+    def note_read(self, infos: Iterable[Any]) -> None:
+        """Tell the watch about samples someone else read from the presence reader.
+
+        Reading marks a sample read, so the watch's own pass (new samples only) would
+        never see one the client read first: every other read of the presence reader
+        passes its SampleInfos here.
+        """
+        with self._lock:
+            self._count(infos)
+
+    def _count(self, infos: Iterable[Any]) -> int:
+        n = 0
+        for info in infos:
+            n += 1
+            self._delivered.add(info.publication_handle & _U64)
+            if info.sample_state == SampleState.NotRead:
+                self._samples += 1
+        return n
+
     def _read_deliveries(self) -> None:
-        while True:
-            infos = read_new_infos(self._reader, _NEW, _BATCH)
-            for info in infos:
-                self._delivered.add(info.publication_handle & _U64)
-            self._samples += len(infos)
-            if len(infos) < _BATCH:
-                return
+        while self._count(read_new_infos(self._reader, _NEW, _BATCH)) == _BATCH:
+            pass
 
     @property
     def probes(self) -> int:

@@ -1,0 +1,76 @@
+"""The client's presence rule on real Cyclone (loopback, in process): when is a node "not present"?
+
+:mod:`paramdds.dds.discovery` says a node never seen is absent only once discovery
+has settled: a state writer was found, every matched one has delivered, and
+discovery has been quiet. Each test first shows the path works (a present node is
+ONLINE and answers), then holds one condition open and checks that a ghost is
+UNKNOWN, never "not present", until it closes.
+"""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+from cyclonedds.core import Entity
+from cyclonedds.pub import DataWriter
+from cyclonedds.topic import Topic
+
+from paramdds.core.table import ParameterTable
+from paramdds.dds import types as wire
+from paramdds.dds.discovery import Presence
+from paramdds.dds.qos import QosProfiles
+from paramdds.errors import TimeoutError_, UnavailableError
+
+from .conftest import DDS, wait
+
+
+def test_a_state_writer_that_has_not_delivered_keeps_a_ghost_unknown(dds: DDS, domain_id: int) -> None:
+    dds.server(domain_id, ParameterTable("present"))
+    dp = dds.participant(domain_id)
+    silent = DataWriter(
+        dp, Topic(dp, "ParameterEvents", wire.ParameterEvent), QosProfiles.load().writer("ParameterEvents")
+    )
+    client = dds.client(domain_id)
+    assert client.wait_for_node("present", timeout=5.0).online  # positive control
+    assert client.presence("present") is Presence.ONLINE
+
+    state = client.discovery()
+    assert (state.state_writers, state.pending_writers) == (2, 1), state
+    time.sleep(1.0)  # well past the quiet period: only the silent writer holds the answer back
+    assert client.presence("ghost") is Presence.UNKNOWN
+    with pytest.raises(TimeoutError_, match="1 of 2 server"):
+        client.get("ghost", ["x"], timeout=0.8)
+
+    Entity.__del__(silent)  # it goes without ever having delivered: nothing is owed any more
+    assert wait(lambda: client.presence("ghost") is Presence.ABSENT, timeout=5.0)
+    started = time.monotonic()
+    with pytest.raises(UnavailableError, match="'ghost' is not present"):
+        client.get("ghost", ["x"], timeout=10.0)
+    assert time.monotonic() - started < 0.5
+
+
+def test_with_no_parameter_server_anywhere_a_ghost_is_a_timeout_not_absent(dds: DDS, domain_id: int) -> None:
+    client = dds.client(domain_id)
+    started = time.monotonic()
+    with pytest.raises(TimeoutError_, match="no parameter server discovered"):
+        client.get("ghost", ["x"], timeout=1.0)
+    assert 1.0 <= time.monotonic() - started < 2.0  # the call's own timeout, no fixed grace
+    with pytest.raises(TimeoutError_, match="'late' not seen within"):
+        client.wait_for_node("late", timeout=0.5)
+    assert client.presence("late") is Presence.UNKNOWN
+
+    dds.server(domain_id, ParameterTable("late"))  # the same client finds it once it exists
+    assert client.wait_for_node("late", timeout=5.0).online
+    assert client.list("late").names == ()
+    assert wait(lambda: client.presence("ghost") is Presence.ABSENT, timeout=5.0)
+
+
+def test_a_node_that_went_away_is_offline_at_once(dds: DDS, domain_id: int) -> None:
+    server = dds.server(domain_id, ParameterTable("brief"))
+    client = dds.client(domain_id)
+    assert client.wait_for_node("brief", timeout=5.0).online
+    server.close()
+    assert wait(lambda: client.presence("brief") is Presence.OFFLINE, timeout=5.0)
+    with pytest.raises(UnavailableError, match="'brief' is offline"):
+        client.wait_for_node("brief", timeout=0.3)
