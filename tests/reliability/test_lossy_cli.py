@@ -23,6 +23,7 @@ from __future__ import annotations
 import json
 import statistics
 import subprocess
+import sys
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -37,6 +38,8 @@ from .test_lossy_network import DROP_PERCENT, Hosts
 lossy_hosts = lossy.hosts  # that module's fixture, here by this name: two namespaces, removed at the end
 
 NODE = "far"
+API_ROUNDS = 30
+FRESH_CLIENTS = str(Path(__file__).with_name("netns_fresh_clients.py"))
 PAIRS = 100
 LANES = 4
 TIMEOUT = "10"
@@ -116,4 +119,35 @@ def test_fresh_cli_pairs_on_a_lossy_link_never_report_a_present_node_absent(
         f"lossy CLI: {len(times)} processes, whole-process seconds: "
         f"median {statistics.median(times):.2f}, p90 {_percentile(times, 0.9):.2f}, "
         f"p99 {_percentile(times, 0.99):.2f}, max {max(times):.2f}"
+    )
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(300)
+def test_fresh_api_clients_on_a_lossy_link_never_report_a_present_node_absent(
+    lossy_hosts: Hosts, domain_id: int, params_file: Path, procs: list[Proc]
+) -> None:
+    """The API's presence rule and ``wait_for_node``: a new participant and client per round."""
+    hosts = lossy_hosts
+    hosts.drop_in_client(DROP_PERCENT)
+    argv = hosts.exec(0, PARAMDDS, "server", "-n", NODE, "-p", str(params_file))
+    server = Proc(argv, hosts.env(0, domain_id))
+    procs.append(server)
+    server.wait_for("[SERVER] Serving node", timeout=20)
+    run = subprocess.run(
+        hosts.exec(1, sys.executable, FRESH_CLIENTS, NODE, "robot.wheel_count", "4", str(API_ROUNDS)),
+        env=hosts.env(1, domain_id),
+        capture_output=True,
+        text=True,
+        timeout=280,
+    )
+    assert run.returncode == 0, run.stderr[-2000:]
+    seen = json.loads(run.stdout.strip().splitlines()[-1])
+    assert hosts.dropped() > 50, "the loss rule dropped (almost) nothing: the test proved nothing"
+    assert seen["errors"] == [], seen["errors"][:5]
+    assert len(seen["seconds"]) == API_ROUNDS
+    times = seen["seconds"]
+    print(
+        f"lossy API: {API_ROUNDS} fresh clients, seconds: median {statistics.median(times):.2f}, "
+        f"max {max(times):.2f}"
     )
