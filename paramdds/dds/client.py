@@ -132,7 +132,11 @@ class _Pending:
 
 
 class ParameterClient:
-    """A synchronous client. Thread-safe; use one per process (or several: they never mix)."""
+    """A synchronous client. Thread-safe; use one per process (or several: they never mix).
+
+    ``presence_grace`` is the least time discovery must stay quiet before a node never
+    seen counts as absent (:mod:`.discovery`); it is no longer a fixed deadline.
+    """
 
     def __init__(
         self,

@@ -66,6 +66,8 @@ __all__ = [
     "DiscoveryState",
     "DiscoveryWatch",
     "Presence",
+    "is_settled",
+    "quiet_needed",
 ]
 
 PROBE_AFTER = 3.5  # seconds without any remote participant before asking again (4 answers, 1 s apart)
@@ -84,6 +86,16 @@ class Presence(str, Enum):
     OFFLINE = "offline"  # it was seen and has gone (instance not alive)
     ABSENT = "absent"  # never seen, and discovery has settled: it is not there
     UNKNOWN = "unknown"  # never seen, and discovery is still going on: it may yet appear
+
+
+def quiet_needed(last_change: float, min_quiet: float) -> float:
+    """Rule 3's silence: as long as discovery took until its last change, at least ``min_quiet``."""
+    return max(min_quiet, last_change)
+
+
+def is_settled(writers: int, pending: int, last_change: float, elapsed: float, min_quiet: float) -> bool:
+    """The rule of this module; times are seconds since the watch started."""
+    return writers > 0 and pending == 0 and elapsed - last_change >= quiet_needed(last_change, min_quiet)
 
 
 @dataclass(frozen=True)
@@ -201,16 +213,15 @@ class DiscoveryWatch:
 
     def _snapshot(self, now: float, writers: int, pending: int) -> DiscoveryState:
         since = self._last_change - self._started
-        quiet = max(self._min_quiet, since)
-        settled = writers > 0 and pending == 0 and now - self._last_change >= quiet
+        elapsed = now - self._started
         return DiscoveryState(
             participants=len(self._remote),
             state_writers=writers,
             pending_writers=pending,
             last_change=since,
-            quiet_needed=quiet,
-            elapsed=now - self._started,
-            settled=settled,
+            quiet_needed=quiet_needed(since, self._min_quiet),
+            elapsed=elapsed,
+            settled=is_settled(writers, pending, since, elapsed, self._min_quiet),
         )
 
     def _read_participants(self) -> None:

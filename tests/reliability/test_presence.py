@@ -18,11 +18,26 @@ from cyclonedds.topic import Topic
 
 from paramdds.core.table import ParameterTable
 from paramdds.dds import types as wire
-from paramdds.dds.discovery import Presence
+from paramdds.dds.discovery import Presence, is_settled
 from paramdds.dds.qos import QosProfiles
 from paramdds.errors import TimeoutError_, UnavailableError
 
 from .conftest import DDS, wait
+
+
+@pytest.mark.parametrize(
+    ("writers", "pending", "last_change", "elapsed", "settled"),
+    [
+        (1, 0, 0.0, 0.5, True),  # healthy loopback: known at once, then 0.5 s of quiet
+        (1, 0, 0.0, 0.49, False),
+        (0, 0, 0.0, 60.0, False),  # no server found: never settled, the call's timeout decides
+        (2, 1, 0.0, 60.0, False),  # a matched server that has delivered nothing
+        (1, 0, 2.0, 3.9, False),  # slow discovery (last change at 2 s) needs 2 s of quiet
+        (1, 0, 2.0, 4.0, True),
+    ],
+)
+def test_the_rule(writers: int, pending: int, last_change: float, elapsed: float, settled: bool) -> None:
+    assert is_settled(writers, pending, last_change, elapsed, min_quiet=0.5) is settled
 
 
 def test_a_state_writer_that_has_not_delivered_keeps_a_ghost_unknown(dds: DDS, domain_id: int) -> None:
