@@ -22,10 +22,12 @@ The rule (:meth:`DiscoveryWatch.settled`): a node with no presence instance is
    to the last change)``: no participant appeared or left (builtin
    ``DCPSParticipant`` reader), no endpoint matched or unmatched on the presence
    reader or on the caller-supplied request/reply endpoints, no new ``ParameterEvents``
-   sample arrived. The quiet period scales with how slowly discovery has gone so far:
-   on a healthy link everything is known within milliseconds and the quiet period is
-   ``min_quiet``; on a lossy one, where the last thing arrived after 2 s, the client
-   waits another 2 s of silence before concluding anything.
+   *instance* arrived (updates of known instances do not count: a busy system, where
+   some parameter changes every few milliseconds, still settles). The quiet period
+   scales with how slowly discovery has gone so far: on a healthy link everything is
+   known within milliseconds and the quiet period is ``min_quiet``; on a lossy one,
+   where the last thing arrived after 2 s, the client waits another 2 s of silence
+   before concluding anything.
 
 Asking again. A peer answers a *new* participant's announcement (SPDP) with its own,
 four times, one second apart, and otherwise announces itself only every 8 s (Cyclone's
@@ -156,7 +158,7 @@ class DiscoveryWatch:
         self._new_participants = ReadCondition(self._participants, _NEW)
         self._remote: set[Any] = set()
         self._delivered: set[int] = set()  # publication handles that have delivered a sample
-        self._samples = 0
+        self._instances = 0
         self._signature: tuple[int, ...] = ()
         self._started = clock()
         self._last_change = self._started
@@ -192,7 +194,7 @@ class DiscoveryWatch:
                 else entity.get_publication_matched_status()
             )
             matches += [status.total_count, status.current_count]
-        signature = (len(self._remote), self._samples, *matches)
+        signature = (len(self._remote), self._instances, *matches)
         if signature != self._signature:
             self._signature = signature
             self._last_change = now
@@ -249,8 +251,8 @@ class DiscoveryWatch:
         for info in infos:
             n += 1
             self._delivered.add(info.publication_handle & _U64)
-            if info.sample_state == SampleState.NotRead:
-                self._samples += 1
+            if info.sample_state == SampleState.NotRead and info.view_state == ViewState.New:
+                self._instances += 1  # a node or parameter not seen before
         return n
 
     def _read_deliveries(self) -> None:

@@ -9,10 +9,11 @@ zero wrong values.
 
 Concurrency: :data:`LANES` pairs run at once, each lane on a parameter of its own
 (so a lane's get can only see its own set). Concurrent processes do not help each
-other discover: each has its own participant and Cyclone drops packets per
-process socket. What concurrency distorts is CPU time (start-up is ~0.5 s of
-Python on a loaded 2-core machine), which is in the reported times, not in the
-pass criterion. Four lanes keep the test near a minute.
+other discover: each process has its own participant, its own sockets, and peers
+answer each one separately. What concurrency distorts is CPU time: start-up and
+discovery run slower, which stretches the printed times and, if anything, makes a
+false "not present" more likely (a harder test, not an easier one). Four lanes take
+the test from about 200 s (one at a time) to well under half that on an idle machine.
 
 Needs root, iproute2 and nftables (``.ci/run`` installs them); skips with the
 reason when namespaces cannot be created.

@@ -9,6 +9,7 @@ UNKNOWN, never "not present", until it closes.
 
 from __future__ import annotations
 
+import threading
 import time
 
 import pytest
@@ -89,3 +90,33 @@ def test_a_node_that_went_away_is_offline_at_once(dds: DDS, domain_id: int) -> N
     assert wait(lambda: client.presence("brief") is Presence.OFFLINE, timeout=5.0)
     with pytest.raises(UnavailableError, match="'brief' is offline"):
         client.wait_for_node("brief", timeout=0.3)
+
+
+def test_a_busy_system_still_settles(dds: DDS, domain_id: int) -> None:
+    table = ParameterTable("busy")
+    table.declare("tick", 0)
+    dds.server(domain_id, table)
+    writer = dds.client(domain_id)
+    assert writer.wait_for_node("busy", timeout=5.0).online
+    stop = threading.Event()
+
+    def churn() -> None:  # a parameter changing every 20 ms: updates, never new instances
+        k = 0
+        while not stop.is_set():
+            k += 1
+            writer.set("busy", {"tick": k})
+            stop.wait(0.02)
+
+    thread = threading.Thread(target=churn, daemon=True)
+    thread.start()
+    try:
+        client = dds.client(domain_id)
+        assert client.wait_for_node("busy", timeout=5.0).online  # positive control
+        started = time.monotonic()
+        with pytest.raises(UnavailableError, match="'ghost' is not present"):
+            client.get("ghost", ["x"], timeout=10.0)
+        assert time.monotonic() - started < 2.0
+        assert writer.get_value("busy", "tick").value > 10  # it really was busy
+    finally:
+        stop.set()
+        thread.join(5)
