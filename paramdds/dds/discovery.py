@@ -18,16 +18,19 @@ The rule (:meth:`DiscoveryWatch.settled`): a node with no presence instance is
    reader has delivered at least one sample to it (every server writes a presence
    instance per node it serves, so a matched writer that has delivered nothing still
    owes us its historical data);
-3. **discovery is quiet**: nothing has changed for ``max(min_quiet, time from start
-   to the last change)``: no participant appeared or left (builtin
+3. **discovery is quiet**: nothing has changed for ``max(min_quiet, length of the
+   current burst of changes)``: no participant appeared or left (builtin
    ``DCPSParticipant`` reader), no endpoint matched or unmatched on the presence
    reader or on the caller-supplied request/reply endpoints, no new ``ParameterEvents``
    *instance* arrived (updates of known instances do not count: a busy system, where
    some parameter changes every few milliseconds, still settles). The quiet period
-   scales with how slowly discovery has gone so far: on a healthy link everything is
-   known within milliseconds and the quiet period is ``min_quiet``; on a lossy one,
-   where the last thing arrived after 2 s, the client waits another 2 s of silence
-   before concluding anything.
+   scales with how slowly discovery has gone: on a healthy link everything is known
+   within milliseconds and the quiet period is ``min_quiet``; on a lossy one, where
+   the last thing arrived 2 s after the first, the client waits another 2 s of
+   silence before concluding anything. A burst starts at the watch's start, and
+   again at the first change after a quiet period, so a long-lived client (a web
+   console) that sees a new participant an hour later needs only ``min_quiet`` of
+   silence after it, not an hour.
 
 Asking again. A peer answers a *new* participant's announcement (SPDP) with its own,
 four times, one second apart, and otherwise announces itself only every 8 s (Cyclone's
@@ -90,14 +93,14 @@ class Presence(str, Enum):
     UNKNOWN = "unknown"  # never seen, and discovery is still going on: it may yet appear
 
 
-def quiet_needed(last_change: float, min_quiet: float) -> float:
-    """Rule 3's silence: as long as discovery took until its last change, at least ``min_quiet``."""
-    return max(min_quiet, last_change)
+def quiet_needed(burst: float, min_quiet: float) -> float:
+    """Rule 3's silence: as long as the current burst of changes has lasted, at least ``min_quiet``."""
+    return max(min_quiet, burst)
 
 
-def is_settled(writers: int, pending: int, last_change: float, elapsed: float, min_quiet: float) -> bool:
-    """The rule of this module; times are seconds since the watch started."""
-    return writers > 0 and pending == 0 and elapsed - last_change >= quiet_needed(last_change, min_quiet)
+def is_settled(writers: int, pending: int, burst: float, quiet_for: float, min_quiet: float) -> bool:
+    """The rule of this module: ``burst`` is first to last change, ``quiet_for`` last change to now."""
+    return writers > 0 and pending == 0 and quiet_for >= quiet_needed(burst, min_quiet)
 
 
 @dataclass(frozen=True)
@@ -108,6 +111,7 @@ class DiscoveryState:
     state_writers: int  # ParameterEvents writers matched to the presence reader
     pending_writers: int  # ... of which nothing has been delivered yet
     last_change: float  # when discovery last changed
+    burst: float  # how long the current burst of changes has lasted (first to last change)
     quiet_needed: float  # the silence rule 3 asks for, from last_change
     elapsed: float
     settled: bool
@@ -162,6 +166,7 @@ class DiscoveryWatch:
         self._signature: tuple[int, ...] = ()
         self._started = clock()
         self._last_change = self._started
+        self._burst_start = self._started
         self._polled = float("-inf")
         self._state = self._snapshot(self._started, 0, 0)
         self._poll(self._started)  # what is known at creation (on loopback: usually everything)
@@ -196,6 +201,9 @@ class DiscoveryWatch:
             matches += [status.total_count, status.current_count]
         signature = (len(self._remote), self._instances, *matches)
         if signature != self._signature:
+            burst = self._last_change - self._burst_start
+            if now - self._last_change >= quiet_needed(burst, self._min_quiet):
+                self._burst_start = now  # the first change after a quiet period starts a new burst
             self._signature = signature
             self._last_change = now
         pending = len(matched - self._delivered)
@@ -214,16 +222,16 @@ class DiscoveryWatch:
         self._probes.append(probe)
 
     def _snapshot(self, now: float, writers: int, pending: int) -> DiscoveryState:
-        since = self._last_change - self._started
-        elapsed = now - self._started
+        burst = self._last_change - self._burst_start
         return DiscoveryState(
             participants=len(self._remote),
             state_writers=writers,
             pending_writers=pending,
-            last_change=since,
-            quiet_needed=quiet_needed(since, self._min_quiet),
-            elapsed=elapsed,
-            settled=is_settled(writers, pending, since, elapsed, self._min_quiet),
+            last_change=self._last_change - self._started,
+            burst=burst,
+            quiet_needed=quiet_needed(burst, self._min_quiet),
+            elapsed=now - self._started,
+            settled=is_settled(writers, pending, burst, now - self._last_change, self._min_quiet),
         )
 
     def _read_participants(self) -> None:

@@ -27,18 +27,18 @@ from .conftest import DDS, wait
 
 
 @pytest.mark.parametrize(
-    ("writers", "pending", "last_change", "elapsed", "settled"),
+    ("writers", "pending", "burst", "quiet_for", "settled"),
     [
         (1, 0, 0.0, 0.5, True),  # healthy loopback: known at once, then 0.5 s of quiet
         (1, 0, 0.0, 0.49, False),
         (0, 0, 0.0, 60.0, False),  # no server found: never settled, the call's timeout decides
         (2, 1, 0.0, 60.0, False),  # a matched server that has delivered nothing
-        (1, 0, 2.0, 3.9, False),  # slow discovery (last change at 2 s) needs 2 s of quiet
-        (1, 0, 2.0, 4.0, True),
+        (1, 0, 2.0, 1.9, False),  # slow discovery (changes over 2 s) needs 2 s of quiet
+        (1, 0, 2.0, 2.0, True),
     ],
 )
-def test_the_rule(writers: int, pending: int, last_change: float, elapsed: float, settled: bool) -> None:
-    assert is_settled(writers, pending, last_change, elapsed, min_quiet=0.5) is settled
+def test_the_rule(writers: int, pending: int, burst: float, quiet_for: float, settled: bool) -> None:
+    assert is_settled(writers, pending, burst, quiet_for, min_quiet=0.5) is settled
 
 
 def test_a_state_writer_that_has_not_delivered_keeps_a_ghost_unknown(dds: DDS, domain_id: int) -> None:
@@ -120,3 +120,19 @@ def test_a_busy_system_still_settles(dds: DDS, domain_id: int) -> None:
     finally:
         stop.set()
         thread.join(5)
+
+
+def test_a_long_lived_client_needs_only_a_short_quiet_after_a_late_change(dds: DDS, domain_id: int) -> None:
+    dds.server(domain_id, ParameterTable("first"))
+    client = dds.client(domain_id)
+    assert client.wait_for_node("first", timeout=5.0).online
+    assert wait(lambda: client.presence("ghost") is Presence.ABSENT, timeout=5.0)
+    time.sleep(2.0)  # a client that has been up for a while
+
+    dds.server(domain_id, ParameterTable("second"))  # discovery changes again, late
+    started = time.monotonic()
+    assert client.wait_for_node("second", timeout=5.0).online
+    with pytest.raises(UnavailableError, match="'ghost' is not present"):
+        client.get("ghost", ["x"], timeout=10.0)
+    # a new burst: 0.5 s of quiet, not as long again as the client's whole life
+    assert time.monotonic() - started < 1.5
