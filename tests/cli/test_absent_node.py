@@ -44,7 +44,9 @@ def test_an_absent_node_is_reported_not_present_quickly(served: int) -> None:
 def test_a_long_timeout_does_not_slow_the_absent_answer(served: int) -> None:
     took, code, err = _timed(served, "get", "ghost", "x", "--timeout", "30")
     assert code == 3 and "not present" in err
-    assert took < 4.0  # decided by discovery, not by the 30 s the user allowed
+    # decided by discovery, not by the 30 s the user allowed; the bound leaves room for a
+    # loaded machine, where start-up and discovery both stretch (the quiet period grows with them)
+    assert took < 10.0
 
 
 def test_with_nothing_running_the_answer_is_a_timeout_that_says_so() -> None:
