@@ -51,6 +51,7 @@ them) and only new participant samples, and does its work at most every
 
 from __future__ import annotations
 
+import logging
 import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
@@ -62,6 +63,8 @@ from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsParticipant
 from cyclonedds.core import DDSException, Entity, InstanceState, ReadCondition, SampleState, ViewState
 
 from ._binding import read_new_infos
+
+log = logging.getLogger(__name__)
 
 __all__ = [
     "MAX_PROBES",
@@ -217,7 +220,12 @@ class DiscoveryWatch:
         from cyclonedds.domain import DomainParticipant
         from cyclonedds.qos import Policy, Qos
 
-        probe = DomainParticipant(self._domain_id, qos=Qos(Policy.EntityName("paramdds-probe")))
+        try:
+            probe = DomainParticipant(self._domain_id, qos=Qos(Policy.EntityName("paramdds-probe")))
+        except DDSException as exc:  # asking again is an optimisation: never fail a call for it
+            log.debug("could not create a discovery probe: %s", exc)
+            self._probes.append(None)  # counts against MAX_PROBES, so it is not retried every poll
+            return
         self._own.add(probe.guid)
         self._probes.append(probe)
 
@@ -270,7 +278,7 @@ class DiscoveryWatch:
     @property
     def probes(self) -> int:
         """How many probe participants this watch has created."""
-        return len(self._probes)
+        return sum(1 for p in self._probes if p is not None)
 
     def close(self) -> None:
         """Delete the builtin reader and the probes this watch created."""
@@ -278,4 +286,6 @@ class DiscoveryWatch:
             self._endpoints.clear()
             Entity.__del__(self._participants)
             while self._probes:
-                Entity.__del__(self._probes.pop())
+                probe = self._probes.pop()
+                if probe is not None:
+                    Entity.__del__(probe)
