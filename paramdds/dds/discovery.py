@@ -171,6 +171,7 @@ class DiscoveryWatch:
         self._last_change = self._started
         self._burst_start = self._started
         self._polled = float("-inf")
+        self._closed = False
         self._state = self._snapshot(self._started, 0, 0)
         self._poll(self._started)  # what is known at creation (on loopback: usually everything)
 
@@ -178,7 +179,7 @@ class DiscoveryWatch:
         """The current state (refreshed if the last refresh is older than :data:`POLL_INTERVAL`)."""
         with self._lock:
             now = self._clock()
-            if now - self._polled >= POLL_INTERVAL:
+            if now - self._polled >= POLL_INTERVAL and not self._closed:
                 self._poll(now)
             return self._state
 
@@ -283,6 +284,9 @@ class DiscoveryWatch:
     def close(self) -> None:
         """Delete the builtin reader and the probes this watch created."""
         with self._lock:
+            if self._closed:
+                return
+            self._closed = True  # state() keeps answering with the last snapshot
             self._endpoints.clear()
             Entity.__del__(self._participants)
             while self._probes:

@@ -136,3 +136,13 @@ def test_a_long_lived_client_needs_only_a_short_quiet_after_a_late_change(dds: D
         client.get("ghost", ["x"], timeout=10.0)
     # a new burst: 0.5 s of quiet, not as long again as the client's whole life
     assert time.monotonic() - started < 1.5
+
+
+def test_presence_after_close_answers_without_touching_deleted_entities(dds: DDS, domain_id: int) -> None:
+    dds.server(domain_id, ParameterTable("kept"))
+    client = dds.client(domain_id)
+    assert client.wait_for_node("kept", timeout=5.0).online
+    client.close()
+    client.close()  # twice is harmless
+    assert client.presence("kept") is Presence.ONLINE  # the reader is the participant's, still there
+    assert client.discovery().state_writers == 1
