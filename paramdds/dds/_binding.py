@@ -14,6 +14,9 @@ measured reason:
 * ``Endianness``, the binding's byte-order enum, for encoding big-endian samples;
 * :func:`waitset_attach_indexed` and :func:`waitset_wait_indexed` attach entities
   to a WaitSet with a cookie of our choosing (the benchmarks' wake-up path);
+* :func:`read_new_infos` reads the sample infos of samples not read before
+  (``ddspy_read``) without decoding them: how the client's discovery watch sees
+  which state writers have delivered, at no decoding cost;
 * :func:`entity_handle` is the C handle of an entity (``_ref``), for calls into
   Cyclone's C API.
 
@@ -40,6 +43,7 @@ __all__ = [
     "entity_handle",
     "install_type_data",
     "installed_version",
+    "read_new_infos",
     "take_serialized",
     "waitset_attach_indexed",
     "waitset_wait_indexed",
@@ -71,7 +75,7 @@ def _check_version() -> None:
 
 _check_version()
 
-from cyclonedds._clayer import ddspy_take, ddspy_write  # noqa: E402  (after the version check)
+from cyclonedds._clayer import ddspy_read, ddspy_take, ddspy_write  # noqa: E402  (after the version check)
 from cyclonedds.core import DDSException  # noqa: E402
 from cyclonedds.idl._support import Endianness  # noqa: E402
 
@@ -90,6 +94,17 @@ def take_serialized(reader: Any, mask: int, count: int) -> list[tuple[bytes, Any
     if isinstance(batch, int):
         raise DDSException(batch, f"Occurred while taking data in {reader!r}")
     return batch  # type: ignore[no-any-return]
+
+
+def read_new_infos(reader: Any, mask: int, count: int) -> list[Any]:
+    """The SampleInfos of up to ``count`` samples of ``reader`` matching ``mask``, marking them read.
+
+    The samples stay in the reader; their bytes are copied by the binding but never decoded.
+    """
+    batch = ddspy_read(reader._ref, mask, count)
+    if isinstance(batch, int):
+        raise DDSException(batch, f"Occurred while reading data in {reader!r}")
+    return [info for _, info in batch]
 
 
 def write_serialized(writer: Any, data: bytes) -> None:
