@@ -53,6 +53,7 @@ from . import types as wire
 from .cdr import is_malformed
 from .convert import descriptor_from_wire, parameter_to_wire, value_from_wire
 from .dispatch import Dispatcher
+from .participant import peer_mismatches
 from .qos import QosProfiles
 
 log = logging.getLogger(__name__)
@@ -368,20 +369,29 @@ class ParameterClient:
         while True:
             now = time.monotonic()
             if now >= deadline:
-                raise TimeoutError_(f"no answer from node {pending.node!r} within {limit:g} s")
+                why = self._mismatched()
+                raise TimeoutError_(f"no answer from node {pending.node!r} within {limit:g} s{why}")
             yield max(0.0, min(deadline, next_resend, now + MATCH_POLL) - now)
             now = time.monotonic()
             if now >= next_resend:
                 step = min(2 * step, 1.0)  # a big request that is merely slow is not resent often
                 next_resend = now + step
                 if now >= grace_end and self._absent(pending.node):
-                    raise UnavailableError(f"node {pending.node!r} is not present")
+                    raise UnavailableError(f"node {pending.node!r} is not present{self._mismatched()}")
             elif not self._newly_matched(pending):
                 continue
             try:
                 self._writers[pending.topic].write(pending.sample)
             except Exception as exc:
                 log.debug("resending request %d failed: %s", pending.sample.request_id, exc)
+
+    def _mismatched(self) -> str:
+        """A note for a failed call when peers were refused for their type or QoS (see :mod:`.peers`)."""
+        found = peer_mismatches(self._dp)
+        if not found:
+            return ""
+        n = len(found)
+        return f" ({n} DDS peer endpoint(s) do not match ours and are ignored, e.g. {found[0].message()})"
 
     def _newly_matched(self, pending: _Pending) -> bool:
         """Whether the topic of ``pending`` has matched a new peer since the count was last taken."""
