@@ -92,6 +92,24 @@ class PeerMismatch:
         )
 
 
+def _plain_requester(reader: Any, endpoint: Any) -> bool:
+    """A volatile request writer that our transient-local assignment reader does not match.
+
+    By design: a server reads SetParametersRequest twice, interactive requests
+    (volatile) and retained assignments (transient-local). A client's volatile
+    writer matches the first, and the second correctly ignores it.
+    """
+    from cyclonedds.qos import Policy
+
+    ours, theirs = reader.get_qos(), endpoint.qos
+    return bool(
+        reader.topic.name == "SetParametersRequest"
+        and Policy.Durability in ours
+        and ours[Policy.Durability] == Policy.Durability.TransientLocal
+        and (Policy.Durability not in theirs or theirs[Policy.Durability] == Policy.Durability.Volatile)
+    )
+
+
 def _closer(ref: weakref.ref[PeerWatch]) -> Callable[[], None]:
     def close() -> None:
         watch = ref()
@@ -193,6 +211,8 @@ class PeerWatch:
                 if ep.topic_name != topic or key in matched or ep.participant_key == self._own:
                     continue
                 if peer_kind == "topic" and ep.type_name == entity.typename:
+                    continue
+                if peer_kind == "writer" and _plain_requester(entity, ep):
                     continue
                 with self._lock:
                     if key in self._seen:
