@@ -92,21 +92,25 @@ class PeerMismatch:
         )
 
 
-def _plain_requester(reader: Any, endpoint: Any) -> bool:
-    """A volatile request writer that our transient-local assignment reader does not match.
+def _by_design(ours: Any, endpoint: Any) -> bool:
+    """A volatile request writer and a transient-local assignment reader, which do not match.
 
     By design: a server reads SetParametersRequest twice, interactive requests
     (volatile) and retained assignments (transient-local). A client's volatile
-    writer matches the first, and the second correctly ignores it.
+    writer matches the first, and the second correctly ignores it; each side
+    sees the other as incompatible in DURABILITY.
     """
     from cyclonedds.qos import Policy
 
-    ours, theirs = reader.get_qos(), endpoint.qos
+    def durability(qos: Any) -> Any:  # the binding's Qos has no get()
+        if Policy.Durability in qos:
+            return qos[Policy.Durability]
+        return Policy.Durability.Volatile
+
+    mine, theirs = durability(ours.get_qos()), durability(endpoint.qos)
     return bool(
-        reader.topic.name == "SetParametersRequest"
-        and Policy.Durability in ours
-        and ours[Policy.Durability] == Policy.Durability.TransientLocal
-        and (Policy.Durability not in theirs or theirs[Policy.Durability] == Policy.Durability.Volatile)
+        ours.topic.name == "SetParametersRequest"
+        and {mine, theirs} == {Policy.Durability.Volatile, Policy.Durability.TransientLocal}
     )
 
 
@@ -212,7 +216,7 @@ class PeerWatch:
                     continue
                 if peer_kind == "topic" and ep.type_name == entity.typename:
                     continue
-                if peer_kind == "writer" and _plain_requester(entity, ep):
+                if peer_kind != "topic" and _by_design(entity, ep):
                     continue
                 with self._lock:
                     if key in self._seen:

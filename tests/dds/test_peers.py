@@ -80,11 +80,12 @@ def test_a_peer_with_another_type_is_reported_with_its_process(
         assert wait_until(lambda: good.get_publication_matched_status().current_count == 1, 5)
         # nor does a client's set: its volatile writer is rightly not matched by the server's
         # transient-local assignment reader on the same topic, which is not a mismatch
-        client = session.client()
+        client_dp = session.participant("paramdds-test-client")
+        client = session.client(participant=client_dp)
         client.wait_for_node("robot1")
         assert client.set("robot1", {"speed": 2.0}).successful
         wait_until(lambda: False, 0.3)
-        assert peer_mismatches(server_dp) == []
+        assert peer_mismatches(server_dp) == [] and peer_mismatches(client_dp) == []
         with (
             caplog.at_level(logging.WARNING, logger="paramdds.peers"),
             subprocess.Popen(
