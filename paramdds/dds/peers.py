@@ -9,10 +9,13 @@ never show, with nothing said anywhere.
 Cyclone reports each such peer on our side as a status: REQUESTED_INCOMPATIBLE_QOS
 on our reader, OFFERED_INCOMPATIBLE_QOS on our writer (a type mismatch is the
 policy TYPE_CONSISTENCY_ENFORCEMENT, an unreadable encoding DATA_REPRESENTATION),
-INCONSISTENT_TOPIC on the topic. The status says which policy, not which peer, so
-:class:`PeerWatch` then reads Cyclone's builtin discovery topics: the endpoints on
-that topic name that are not matched with ours are the culprits, and the
-participant they belong to gives the host, pid and process name. Each is logged
+INCONSISTENT_TOPIC on the topic. The status says which policy, not which peer,
+and the endpoint it names is often not a Python object yet (a match found while
+its constructor runs). So an event only wakes :class:`PeerWatch`'s thread, which
+then checks every reader and writer of the participant for these statuses and
+reads Cyclone's builtin discovery topics: the endpoints on that topic name that
+are not matched with ours are the culprits, and the participant they belong to
+gives the host, pid and process name. Each is logged
 once, as a warning on the ``paramdds.peers`` logger, and kept in
 :meth:`PeerWatch.mismatches`.
 
@@ -20,8 +23,8 @@ Costs nothing while every peer matches: the listener's callbacks (which run on
 Cyclone's own threads, so they only queue the event) are the only thing
 installed; the reporting thread and the builtin readers are created on the
 first mismatch. :func:`.participant.close_participant` removes the listener
-before deleting the participant, as a listener still attached at exit can hang it; for a process
-that never calls it, an ``atexit`` hook does.
+before deleting the participant, as a listener still attached at exit can hang
+it; for a process that never calls it, an ``atexit`` hook does.
 """
 
 from __future__ import annotations
@@ -30,10 +33,15 @@ import atexit
 import logging
 import queue
 import threading
+import time
 import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
+
+from cyclonedds.sub import DataReader
+
+from ._binding import live_endpoints
 
 __all__ = ["POLICY_NAMES", "PeerMismatch", "PeerWatch"]
 
@@ -68,7 +76,8 @@ POLICY_NAMES = {
     25: "DATA_REPRESENTATION",
 }
 
-_SCAN_TIMEOUT = 5.0  # seconds to wait for the next event before the thread ends (it restarts on demand)
+_IDLE = 5.0  # seconds without an event before the thread ends (the next event starts another)
+_SETTLE = 0.05  # seconds between an event and the scan
 
 
 @dataclass(frozen=True)
@@ -77,7 +86,7 @@ class PeerMismatch:
 
     topic: str
     peer_kind: str  # "writer" or "reader": the peer's endpoint
-    policy: str  # the policy Cyclone named, e.g. "RELIABILITY"
+    policy: str  # the policy Cyclone last named for our endpoint when this peer was found ("RELIABILITY")
     type_name: str  # the peer's type name (ours: paramdds::<Type>)
     endpoint: str  # the peer endpoint's GUID
     host: str
@@ -131,17 +140,20 @@ class PeerWatch:
 
         self._dp = participant
         self._own = participant.guid
-        self._events: queue.SimpleQueue[tuple[str, Any, int] | None] = queue.SimpleQueue()
+        self._events: queue.SimpleQueue[bool] = queue.SimpleQueue()  # True: scan, False: stop
         self._lock = threading.Lock()
         self._thread: threading.Thread | None = None
         self._builtin: dict[str, Any] = {}
         self._seen: set[str] = set()
         self._found: list[PeerMismatch] = []
         self._closed = False
+        # The entity Cyclone names is often not a Python object yet (a match found while
+        # its constructor runs), so an event only wakes the thread, which then checks
+        # every endpoint of the participant.
         listener = Listener(  # type: ignore[no-untyped-call]
-            on_requested_incompatible_qos=lambda r, status: self._queue("writer", r, status.last_policy_id),
-            on_offered_incompatible_qos=lambda w, status: self._queue("reader", w, status.last_policy_id),
-            on_inconsistent_topic=lambda topic, status: self._queue("topic", topic, 24),
+            on_requested_incompatible_qos=lambda _reader, _status: self._wake(),
+            on_offered_incompatible_qos=lambda _writer, _status: self._wake(),
+            on_inconsistent_topic=lambda _topic, _status: self._wake(),
         )
         participant.set_listener(listener)
         self._at_exit = _closer(weakref.ref(self))
@@ -164,17 +176,17 @@ class PeerWatch:
             self._dp.set_listener(None)
         except Exception:  # the participant is already deleted, and its listener with it
             log.debug("participant gone before its peer watch", exc_info=True)
-        self._events.put(None)
+        self._events.put(False)
         if thread is not None and thread is not threading.current_thread():
             thread.join(timeout=2.0)
 
     # ---- on Cyclone's thread: queue and return ------------------------------------------------
 
-    def _queue(self, peer_kind: str, entity: Any, policy_id: int) -> None:
+    def _wake(self) -> None:
         with self._lock:
             if self._closed:
                 return
-            self._events.put((peer_kind, entity, policy_id))
+            self._events.put(True)
             if self._thread is None:
                 self._thread = threading.Thread(target=self._run, name="paramdds-peers", daemon=True)
                 self._thread.start()
@@ -184,48 +196,58 @@ class PeerWatch:
     def _run(self) -> None:
         while True:
             try:
-                event = self._events.get(timeout=_SCAN_TIMEOUT)
+                scan = self._events.get(timeout=_IDLE)
             except queue.Empty:
                 with self._lock:  # idle: end; the next event starts a new thread
                     if self._events.empty():
                         self._thread = None
                         return
                 continue
-            if event is None:
+            if not scan:
                 return
+            time.sleep(_SETTLE)  # let a constructor that is matching right now finish
+            while not self._events.empty():  # one scan covers every event so far
+                if not self._events.get():
+                    return
             try:
-                self._report(*event)
+                self._scan()
             except Exception:  # a peer vanishing mid-scan, the participant closing: never fatal
                 log.debug("could not identify a mismatched peer", exc_info=True)
 
-    def _report(self, peer_kind: str, entity: Any, policy_id: int) -> None:
-        topic = entity.name if peer_kind == "topic" else entity.topic.name
+    def _scan(self) -> None:
+        for entity in live_endpoints(self._dp):
+            ep: Any = entity  # the binding's entities are untyped
+            if isinstance(entity, DataReader):
+                status = ep.get_requested_incompatible_qos_status()
+                if status.total_count:
+                    pubs = ep.get_matched_publications()
+                    matched = {str(ep.get_matched_publication_data(h).key) for h in pubs}
+                    self._report(ep, "writer", matched, status.last_policy_id)
+            else:
+                status = ep.get_offered_incompatible_qos_status()
+                if status.total_count:
+                    subs = ep.get_matched_subscriptions()
+                    matched = {str(ep.get_matched_subscription_data(h).key) for h in subs}
+                    self._report(ep, "reader", matched, status.last_policy_id)
+
+    def _report(self, entity: Any, peer_kind: str, matched: set[str], policy_id: int) -> None:
+        """Report the peer endpoints on ``entity``'s topic that it has not matched."""
+        topic = entity.topic.name
         policy = POLICY_NAMES.get(policy_id, f"policy {policy_id}")
-        matched: set[str] = set()
-        if peer_kind == "writer":
-            pubs = entity.get_matched_publications()
-            matched = {str(entity.get_matched_publication_data(h).key) for h in pubs}
-        elif peer_kind == "reader":
-            subs = entity.get_matched_subscriptions()
-            matched = {str(entity.get_matched_subscription_data(h).key) for h in subs}
-        kinds = ["writer", "reader"] if peer_kind == "topic" else [peer_kind]
-        for kind in kinds:
-            for ep in self._read("publication" if kind == "writer" else "subscription"):
-                key = str(ep.key)
-                if ep.topic_name != topic or key in matched or ep.participant_key == self._own:
+        for ep in self._read("publication" if peer_kind == "writer" else "subscription"):
+            key = str(ep.key)
+            if ep.topic_name != topic or key in matched or ep.participant_key == self._own:
+                continue
+            if _by_design(entity, ep):
+                continue
+            with self._lock:
+                if key in self._seen:
                     continue
-                if peer_kind == "topic" and ep.type_name == entity.typename:
-                    continue
-                if peer_kind != "topic" and _by_design(entity, ep):
-                    continue
-                with self._lock:
-                    if key in self._seen:
-                        continue
-                    self._seen.add(key)
-                mismatch = PeerMismatch(topic, kind, policy, ep.type_name, key, *self._participant(ep))
-                with self._lock:
-                    self._found.append(mismatch)
-                log.warning("%s", mismatch.message())
+                self._seen.add(key)
+            mismatch = PeerMismatch(topic, peer_kind, policy, ep.type_name, key, *self._participant(ep))
+            with self._lock:
+                self._found.append(mismatch)
+            log.warning("%s", mismatch.message())
 
     def _read(self, which: str) -> list[Any]:
         from cyclonedds.builtin import (
