@@ -23,6 +23,7 @@ from paramdds.core.table import ParameterTable
 from paramdds.dds import types as wire
 from paramdds.dds.participant import peer_mismatches
 from paramdds.dds.qos import QosProfiles
+from paramdds.errors import TimeoutError_
 
 from ..conftest import make_dds_env
 from .helpers import DdsSession, wait_until
@@ -150,3 +151,23 @@ def test_incompatible_qos_is_reported_on_both_sides(domain_id: int) -> None:
         requested = {(m.endpoint, m.peer_kind, m.policy) for m in peer_mismatches(monitor_dp)}
         assert requested == {(str(best_effort.guid), "writer", "RELIABILITY")}
         assert monitor.snapshot()["robot1"].parameters["speed"][0].value == 1.5  # unharmed
+
+
+def test_a_call_that_times_out_names_the_mismatched_peer(domain_id: int) -> None:
+    """A node whose reply writer the client cannot match: the TIMEOUT says why, not only 'no answer'."""
+    with DdsSession(domain_id) as session:
+        client = session.client()  # first: its participant configures the domain (loopback)
+        peer = DomainParticipant(domain_id)
+        qos = QosProfiles.load()
+        presence = DataWriter(
+            peer, Topic(peer, "ParameterEvents", wire.ParameterEvent), qos.writer("ParameterEvents")
+        )
+        presence.write(wire.ParameterEvent(node_id="odd", kind=wire.EVENT_PRESENCE, parameter_count=1))
+        replies = Topic(peer, "GetParametersResponse", wire.GetParametersResponse)
+        best_effort = DataWriter(peer, replies, Qos(Policy.Reliability.BestEffort))
+        client.wait_for_node("odd")  # present: the call waits for a reply instead of UNAVAILABLE
+        with pytest.raises(TimeoutError_) as failure:
+            client.get("odd", ["x"], timeout=1.5)
+        message = str(failure.value)
+        assert "no answer from node 'odd'" in message
+        assert "do not match" in message and str(best_effort.guid) in message and "RELIABILITY" in message
