@@ -18,6 +18,7 @@ SCENARIOS = {
     "throughput": "gets per second with many requests in flight vs a raw echo",
     "hosting": "one process hosting 1,000 node ids x 20 params: start time, RSS, monitor full state",
     "startup": "whole-process time of `paramdds get` vs `import cyclonedds` and a bare participant",
+    "codec": "encode/decode per sample (CPU time), paramdds's codecs vs the binding's interpreter",
     "web": "browser console in headless Chromium: set ack → value in the DOM; first render of 1000 x 50",
 }
 

@@ -18,7 +18,9 @@ measured reason:
   (``ddspy_read``) without decoding them: how the client's discovery watch sees
   which state writers have delivered, at no decoding cost;
 * :func:`entity_handle` is the C handle of an entity (``_ref``), for calls into
-  Cyclone's C API.
+  Cyclone's C API;
+* :func:`live_endpoints` lists the readers and writers of a participant that exist
+  as Python objects (the binding's entity registry), for :mod:`.peers`.
 
 All of them are checked against one binding version: importing this module with
 another major.minor version of cyclonedds raises :class:`ImportError` naming
@@ -43,6 +45,7 @@ __all__ = [
     "entity_handle",
     "install_type_data",
     "installed_version",
+    "live_endpoints",
     "read_new_infos",
     "take_serialized",
     "waitset_attach_indexed",
@@ -83,6 +86,24 @@ from cyclonedds.idl._support import Endianness  # noqa: E402
 def entity_handle(entity: Any) -> int:
     """The Cyclone C handle of a binding entity (reader, writer, topic, waitset…)."""
     return int(entity._ref)
+
+
+def live_endpoints(participant: Any) -> list[Any]:
+    """Every DataReader and DataWriter of ``participant`` that has a Python object now."""
+    from cyclonedds.core import Entity
+    from cyclonedds.pub import DataWriter
+    from cyclonedds.sub import DataReader
+
+    handle = participant._ref
+    found = []
+    for entity in list(Entity._entities.values()):
+        if isinstance(entity, (DataReader, DataWriter)):
+            try:
+                if entity.participant is not None and entity.participant._ref == handle:
+                    found.append(entity)
+            except DDSException:  # deleted meanwhile
+                continue
+    return found
 
 
 def take_serialized(reader: Any, mask: int, count: int) -> list[tuple[bytes, Any]]:

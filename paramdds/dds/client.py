@@ -56,6 +56,7 @@ from .cdr import is_malformed
 from .convert import descriptor_from_wire, parameter_to_wire, value_from_wire
 from .discovery import MIN_QUIET, DiscoveryState, DiscoveryWatch, Presence
 from .dispatch import Dispatcher
+from .participant import peer_mismatches
 from .qos import QosProfiles
 
 log = logging.getLogger(__name__)
@@ -374,9 +375,10 @@ class ParameterClient:
         if state is Presence.OFFLINE:
             return UnavailableError(f"node {node!r} is offline (waited {waited:.2g} s)")
         why = self._discovery.state().describe()
+        also = self._mismatched()
         if state is Presence.ABSENT:
-            return UnavailableError(f"node {node!r} is not present ({why}; waited {waited:.2g} s)")
-        return TimeoutError_(f"node {node!r} not seen within {waited:.2g} s: {why}")
+            return UnavailableError(f"node {node!r} is not present ({why}; waited {waited:.2g} s){also}")
+        return TimeoutError_(f"node {node!r} not seen within {waited:.2g} s: {why}{also}")
 
     def _slices(self, pending: _Pending, timeout: float | None) -> Iterator[float]:
         """How long to wait for the reply next; raises once the call cannot succeed.
@@ -408,7 +410,8 @@ class ParameterClient:
             if now >= deadline:
                 if self.presence(pending.node) is not Presence.ONLINE:
                     raise self._not_seen(pending.node, limit)
-                raise TimeoutError_(f"no answer from node {pending.node!r} within {limit:g} s")
+                why = self._mismatched()
+                raise TimeoutError_(f"no answer from node {pending.node!r} within {limit:g} s{why}")
             yield max(0.0, min(deadline, next_resend, now + MATCH_POLL) - now)
             now = time.monotonic()
             self._discovery.state()  # keeps the time of the last discovery change precise
@@ -423,6 +426,14 @@ class ParameterClient:
                 self._writers[pending.topic].write(pending.sample)
             except Exception as exc:
                 log.debug("resending request %d failed: %s", pending.sample.request_id, exc)
+
+    def _mismatched(self) -> str:
+        """A note for a failed call when peers were refused for their type or QoS (see :mod:`.peers`)."""
+        found = peer_mismatches(self._dp)
+        if not found:
+            return ""
+        n = len(found)
+        return f" ({n} DDS peer endpoint(s) do not match ours and are ignored, e.g. {found[0].message()})"
 
     def _newly_matched(self, pending: _Pending) -> bool:
         """Whether the topic of ``pending`` has matched a new peer since the count was last taken."""

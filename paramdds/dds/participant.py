@@ -31,6 +31,9 @@ participant in it, so the Domain is kept alive by the participants (an
 attribute on each) and shared by all participants of that domain id in this
 process; Cyclone allows one configuration per domain id per process.
 
+Every participant reports peers whose type or QoS does not match ours
+(:mod:`.peers`): a warning per peer endpoint, and :func:`peer_mismatches`.
+
 The participant carries ``EntityName`` = ``app_name`` and the ``__ProcessName``
 property (propagated), which ``cyclonedds ps`` shows next to the hostname and
 pid that Cyclone adds itself (``__Hostname``, ``__Pid``).
@@ -46,6 +49,8 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from cyclonedds.domain import Domain, DomainParticipant
 
+    from .peers import PeerMismatch
+
 __all__ = [
     "LOCALHOST_ENV",
     "MAX_DOMAIN_ID",
@@ -55,6 +60,7 @@ __all__ = [
     "domain_config",
     "localhost_from_env",
     "make_participant",
+    "peer_mismatches",
 ]
 
 LOCALHOST_ENV = "PARAMDDS_LOCALHOST"
@@ -134,14 +140,24 @@ def make_participant(
     from cyclonedds.qos import Policy, Qos
 
     qos = Qos(Policy.EntityName(app_name), Policy.Property("__ProcessName", app_name, propagate=True))
+    from .peers import PeerWatch
+
     config = domain_config(localhost=localhost, topic_discovery=topic_discovery, short_lived=short_lived)
     if config is None:
-        return DomainParticipant(domain_id, qos=qos)
-    with _lock:
-        domain = _domain(domain_id, config)
         participant = DomainParticipant(domain_id, qos=qos)
-    participant._paramdds_domain = domain  # type: ignore[attr-defined]  # keeps the Domain (and so the participant) alive
+    else:
+        with _lock:
+            domain = _domain(domain_id, config)
+            participant = DomainParticipant(domain_id, qos=qos)
+        participant._paramdds_domain = domain  # type: ignore[attr-defined]  # keeps the Domain (and so the participant) alive
+    participant._paramdds_peers = PeerWatch(participant)  # type: ignore[attr-defined]
     return participant
+
+
+def peer_mismatches(participant: DomainParticipant) -> list[PeerMismatch]:
+    """The peers Cyclone refused to match with ``participant``'s endpoints, so far (see :mod:`.peers`)."""
+    watch = getattr(participant, "_paramdds_peers", None)
+    return [] if watch is None else watch.mismatches()
 
 
 def _domain(domain_id: int, config: str) -> Domain:
@@ -178,4 +194,7 @@ def close_participant(participant: DomainParticipant) -> None:
     """
     from cyclonedds.core import Entity
 
+    watch = getattr(participant, "_paramdds_peers", None)
+    if watch is not None:
+        watch.close()
     Entity.__del__(participant)
