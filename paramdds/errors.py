@@ -18,6 +18,8 @@ map errors without matching on message text::
     ├── FileFormatError                FILE_FORMAT (YAML file; carries file and line)
     ├── TooLargeError                  TOO_LARGE (a request or value over our limits)
     ├── NotPersistedError              NOT_PERSISTED (applied, but not written to --persist)
+    ├── InternalError                  INTERNAL (a bug on the node's side, reported to the caller)
+    ├── LocalDDSError                  DDS (this process's own DDS failed: not the node's answer)
     └── TransportError                 the node could not be reached
         ├── TimeoutError_              TIMEOUT (no answer within the timeout)
         └── UnavailableError           UNAVAILABLE (the node is not present)
@@ -46,6 +48,8 @@ class ErrorCode(str, Enum):
     TIMEOUT = "TIMEOUT"
     UNAVAILABLE = "UNAVAILABLE"
     NOT_PERSISTED = "NOT_PERSISTED"
+    INTERNAL = "INTERNAL"
+    DDS = "DDS"
 
 
 class ParamddsError(Exception):
@@ -126,6 +130,18 @@ class NotPersistedError(ParamddsError):
     code = ErrorCode.NOT_PERSISTED
 
 
+class InternalError(ParamddsError):
+    """The node failed while handling the request (a bug there); the request may not be applied."""
+
+    code = ErrorCode.INTERNAL
+
+
+class LocalDDSError(ParamddsError):
+    """Cyclone DDS failed in this process (creating an entity, writing): not a node's answer."""
+
+    code = ErrorCode.DDS
+
+
 class TransportError(ParamddsError):
     """The node could not be reached."""
 
@@ -153,6 +169,8 @@ _BY_CODE: dict[ErrorCode, type[ParamddsError]] = {
         FileFormatError,
         TooLargeError,
         NotPersistedError,
+        InternalError,
+        LocalDDSError,
         TimeoutError_,
         UnavailableError,
     )

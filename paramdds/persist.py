@@ -37,7 +37,7 @@ import logging
 import os
 import tempfile
 import threading
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 from .core.descriptors import ParameterDescriptor
@@ -201,6 +201,11 @@ class PersistStore:
                 if names and node in self._tables
             ]
             atomic_write(self.path, frame(self._dump(state) + "".join(records)))
+
+    def record(self, table: ParameterTable, changes: Sequence[ChangeSet]) -> None:
+        """The server's persister: the changes reach the disk before the reply is sent."""
+        for change in changes:
+            self.hook(table.node_id, table, change)
 
     def hook(self, node_id: str, table: ParameterTable, change: ChangeSet) -> None:
         """The ``before_reply`` hook: the change reaches the disk before the reply is sent."""

@@ -23,7 +23,7 @@ import pytest
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import ParameterValue
 from paramdds.dds.client import ParameterClient
-from paramdds.errors import ErrorCode, NotPersistedError, ParamddsError
+from paramdds.errors import ErrorCode, ParamddsError
 from paramdds.persist import HEADER, PersistStore, frame, unframe
 from paramdds.runtime import dump_text, parse_ros_text
 
@@ -256,16 +256,20 @@ def test_a_failed_persistence_write_is_not_persisted_not_an_internal_error(
     store = _store(state)
     store.attach({NODE: table})
     server = dds.server(domain_id, table)
-    server.before_reply.append(store.hook)
+    server.persisters.append(store.record)
     client = dds.client(domain_id, timeout=5.0)
     client.wait_for_node(NODE)
 
     state.unlink()
     state.mkdir()  # the rename over it now fails, even for root (disk full behaves alike)
-    with pytest.raises(NotPersistedError) as caught:
-        client.set(NODE, {"robot.max_velocity": 2.0})
-    assert caught.value.code is ErrorCode.NOT_PERSISTED
-    assert "applied at revision" in caught.value.message and "not persisted" in caught.value.message
+    reply = client.set(NODE, {"robot.max_velocity": 2.0, "nope": 1})
+    # per-parameter results, as always: the applied one says NOT_PERSISTED, the other its own reason
+    by_name = {r.name: r for r in reply.results}
+    assert by_name["robot.max_velocity"].code is ErrorCode.NOT_PERSISTED
+    assert not by_name["robot.max_velocity"].successful
+    message = by_name["robot.max_velocity"].reason
+    assert "applied at revision" in message and "not persisted" in message
+    assert by_name["nope"].code is ErrorCode.NOT_FOUND
     assert table.get("robot.max_velocity").value == 2.0  # applied, as the message says
     assert client.get(NODE, ["robot.max_velocity"]).values()["robot.max_velocity"].value == 2.0
 
