@@ -281,3 +281,5 @@ class ServerProcess:
         if self._server is not None:
             self._server.close()
             self._server = None
+        if self.store is not None:
+            self.store.close()  # releases the journal's lock
