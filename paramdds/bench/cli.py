@@ -18,6 +18,7 @@ SCENARIOS = {
     "throughput": "gets per second with many requests in flight vs a raw echo",
     "hosting": "one process hosting 1,000 node ids x 20 params: start time, RSS, monitor full state",
     "startup": "whole-process time of `paramdds get` vs `import cyclonedds` and a bare participant",
+    "persist": "sets/s with --persist at 10 and 1,000 params vs without; restart from a 100k-change journal",
 }
 
 
@@ -71,10 +72,16 @@ def register(subparsers: Any) -> None:
         "hosting: node ids in the one process (default 1000)",
     )
     p.add_argument(
-        "--params", type=_positive_int, metavar="P", help="parameters per node (scaling 50, hosting 20)"
+        "--params",
+        type=_positive_int,
+        metavar="P",
+        help="parameters per node (scaling 50, hosting 20, persist 10 and 1000)",
     )
     p.add_argument(
-        "--requests", type=_positive_int, metavar="N", help="latency: requests per system (default 2000)"
+        "--requests",
+        type=_positive_int,
+        metavar="N",
+        help="latency: requests per system (default 2000); persist: journal changes (100000)",
     )
     p.add_argument("--rounds", type=_positive_int, metavar="R", help="alternation rounds / repetitions")
     p.add_argument("--servers", type=_positive_int, metavar="K", help="scaling: server processes (default 2)")
@@ -85,7 +92,7 @@ def register(subparsers: Any) -> None:
         "--window", type=_positive_int, metavar="W", help="throughput: requests in flight per client"
     )
     p.add_argument(
-        "--seconds", type=_positive_float, metavar="S", help="throughput: measured seconds per round"
+        "--seconds", type=_positive_float, metavar="S", help="throughput, persist: measured seconds per round"
     )
     p.set_defaults(func=run)
 
