@@ -19,7 +19,7 @@ map errors without matching on message text::
     ├── TooLargeError                  TOO_LARGE (a request or value over our limits)
     ├── NotPersistedError              NOT_PERSISTED (applied, but not written to --persist)
     ├── InternalError                  INTERNAL (a bug on the node's side, reported to the caller)
-    ├── LocalDDSError                  DDS (this process's own DDS failed: not the node's answer)
+    ├── RemoteError                    UNKNOWN (a code this version does not know; ``remote_code``)
     └── TransportError                 the node could not be reached
         ├── TimeoutError_              TIMEOUT (no answer within the timeout)
         └── UnavailableError           UNAVAILABLE (the node is not present)
@@ -49,7 +49,7 @@ class ErrorCode(str, Enum):
     UNAVAILABLE = "UNAVAILABLE"
     NOT_PERSISTED = "NOT_PERSISTED"
     INTERNAL = "INTERNAL"
-    DDS = "DDS"
+    UNKNOWN = "UNKNOWN"  # a code this version does not know (a newer node's): see RemoteError
 
 
 class ParamddsError(Exception):
@@ -136,10 +136,15 @@ class InternalError(ParamddsError):
     code = ErrorCode.INTERNAL
 
 
-class LocalDDSError(ParamddsError):
-    """Cyclone DDS failed in this process (creating an entity, writing): not a node's answer."""
+class RemoteError(ParamddsError):
+    """The node answered with an error code this version does not know (a newer node):
+    ``remote_code`` is the code as sent."""
 
-    code = ErrorCode.DDS
+    code = ErrorCode.UNKNOWN
+
+    def __init__(self, message: str, *, remote_code: str) -> None:
+        super().__init__(f"{message} [{remote_code}]")
+        self.remote_code = remote_code
 
 
 class TransportError(ParamddsError):
@@ -170,7 +175,6 @@ _BY_CODE: dict[ErrorCode, type[ParamddsError]] = {
         TooLargeError,
         NotPersistedError,
         InternalError,
-        LocalDDSError,
         TimeoutError_,
         UnavailableError,
     )
@@ -179,10 +183,23 @@ _BY_CODE: dict[ErrorCode, type[ParamddsError]] = {
 
 def error_for(code: ErrorCode | str, message: str) -> ParamddsError:
     """The exception a remote ``code`` stands for (used where a reply carries a code)."""
-    try:
-        cls = _BY_CODE[ErrorCode(code)]
-    except ValueError:
-        return ParamddsError(message)
+    known = code_of(str(code.value if isinstance(code, ErrorCode) else code))
+    if known is ErrorCode.UNKNOWN or known is None:
+        return RemoteError(message, remote_code=str(code))
+    cls = _BY_CODE.get(known)
+    if cls is None:
+        return ParamddsError(message, code=known)
     if cls is FileFormatError:
         return FileFormatError(message)
     return cls(message)
+
+
+def code_of(text: str) -> ErrorCode | None:
+    """The ErrorCode a reply's code string stands for: None for "", UNKNOWN for one this
+    version does not know (an older client must keep working against a newer node)."""
+    if not text:
+        return None
+    try:
+        return ErrorCode(text)
+    except ValueError:
+        return ErrorCode.UNKNOWN

@@ -5,23 +5,30 @@
 * A node added after ``start()`` still receives the retained assignments made for it.
 * A failure inside the server is reported as INTERNAL (not as INVALID_VALUE, which
   means the node refused the value), and the server keeps serving.
+* A client that meets a code it does not know (from a newer node) raises a generic
+  error carrying it, and reports it per name, instead of failing with ValueError.
 """
 
 from __future__ import annotations
 
 import itertools
 import math
+import threading
 import time
 from collections.abc import Sequence
 
 import pytest
+from cyclonedds.pub import DataWriter
+from cyclonedds.sub import DataReader
+from cyclonedds.topic import Topic
 
 from paramdds.core.results import ChangeSet, SetOutcome
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import Parameter
 from paramdds.dds import types as wire
 from paramdds.dds.assign import Assigner
-from paramdds.errors import ErrorCode
+from paramdds.dds.qos import QosProfiles
+from paramdds.errors import ErrorCode, RemoteError
 
 from .conftest import DDS, wait
 from .rawwire import RawPeer
@@ -97,3 +104,59 @@ def test_an_internal_failure_is_reported_as_internal(domain_id: int, dds: DDS) -
         client.set("broken", {"boom": 1})
     assert getattr(caught.value, "code", None) is ErrorCode.INTERNAL
     assert client.set("broken", {"fine": 2}).successful  # still serving
+
+
+@pytest.mark.timeout(30)
+def test_a_code_this_client_does_not_know_is_a_generic_error_carrying_it(domain_id: int, dds: DDS) -> None:
+    # a "newer node": a plain cyclonedds program that announces itself and answers every
+    # get with a per-name code and, for one name, a whole-request code this version lacks
+    participant = dds.participant(domain_id)
+    qos = QosProfiles.load()
+    state = DataWriter(
+        participant, Topic(participant, "ParameterEvents", wire.ParameterEvent), qos.writer("ParameterEvents")
+    )
+    state.write(wire.ParameterEvent(node_id="future", name="", kind=wire.EVENT_PRESENCE, parameter_count=1))
+    requests = DataReader(
+        participant,
+        Topic(participant, "GetParametersRequest", wire.GetParametersRequest),
+        qos.reader("GetParametersRequest"),
+    )
+    replies = DataWriter(
+        participant,
+        Topic(participant, "GetParametersResponse", wire.GetParametersResponse),
+        qos.writer("GetParametersResponse"),
+    )
+    stop = threading.Event()
+
+    def answer() -> None:
+        while not stop.is_set():
+            for r in requests.take(N=16):
+                if not r.sample_info.valid_data:
+                    continue
+                reply = wire.GetParametersResponse(
+                    node_id="future", client_id=r.client_id, request_id=r.request_id
+                )
+                if r.names == ["whole"]:
+                    reply.code, reply.reason = "FROM_THE_FUTURE", "a newer refusal"
+                else:
+                    reply.results = [
+                        wire.GetParameterResult(name=n, code="ALSO_NEW", reason="new per-name refusal")
+                        for n in r.names
+                    ]
+                replies.write(reply)
+            time.sleep(0.005)
+
+    thread = threading.Thread(target=answer, daemon=True)
+    thread.start()
+    try:
+        client = dds.client(domain_id, timeout=5.0)
+        client.wait_for_node("future")
+        got = client.get("future", ["x"])
+        assert got.results[0].code is ErrorCode.UNKNOWN and got.results[0].value is None
+        with pytest.raises(RemoteError) as caught:
+            client.get("future", ["whole"])
+        assert caught.value.code is ErrorCode.UNKNOWN and caught.value.remote_code == "FROM_THE_FUTURE"
+        assert "a newer refusal" in caught.value.message
+    finally:
+        stop.set()
+        thread.join(5)
