@@ -5,6 +5,8 @@
 * A loop that stops making progress stops looking alive: an on-set callback that
   never returns makes its node ``offline`` in every monitor within the lease, the
   reason is logged, and the node comes back ``online`` once the callback returns.
+* A dispatch loop that ends (anything uncaught) takes every node of the process
+  offline within the lease and logs why: liveliness is asserted from the loop.
 * Each hosted node has a worker of its own: while one node's callback blocks,
   another node of the same process answers as usual.
 """
@@ -120,3 +122,29 @@ def test_a_blocked_callback_takes_its_node_offline_and_spares_the_others(
     assert any(e.event is EventKind.OFFLINE and e.node == "slow" for e in events)
 
 
+class _LoopKilled(BaseException):
+    """What ends a dispatch loop in the test below (stands for anything uncaught)."""
+
+
+@pytest.mark.timeout(60)
+def test_a_dispatch_loop_that_ends_takes_the_process_offline_and_says_why(
+    domain_id: int, dds: DDS, caplog: pytest.LogCaptureFixture
+) -> None:
+    caplog.set_level(logging.WARNING, logger="paramdds")
+    server = dds.server(domain_id, _table("n1"), _table("n2"))
+    monitor = dds.monitor(domain_id)
+    assert monitor.wait_complete(["n1", "n2"], timeout=5.0)
+    time.sleep(1.5)  # positive control: longer than the 1 s lease, and still online
+    assert all(monitor.snapshot()[n].online for n in ("n1", "n2"))
+
+    def die() -> None:
+        raise _LoopKilled("injected")
+
+    server._dispatcher._tick = die  # the next tick ends the loop
+    t0 = time.monotonic()
+    assert wait(lambda: not any(monitor.snapshot()[n].online for n in ("n1", "n2")), 5.0)
+    assert time.monotonic() - t0 < 3.0
+    assert server._dispatcher.died is not None and "injected" in server._dispatcher.died
+    assert any(
+        r.levelno == logging.CRITICAL and "dispatch loop ended" in r.getMessage() for r in caplog.records
+    )
