@@ -448,10 +448,7 @@ class ParameterClient:
 
     def _finish_set(self, reply: Any) -> SetReply:
         self._check(reply)
-        results = tuple(
-            SetResult(r.name, r.successful, r.reason, code_of(r.code))
-            for r in reply.results
-        )
+        results = tuple(SetResult(r.name, r.successful, r.reason, code_of(r.code)) for r in reply.results)
         return SetReply(reply.node_id, reply.revision, results)
 
 

@@ -83,17 +83,17 @@ class Dispatcher:
             batch = take_serialized(reader, _ANY, _TAKE_BATCH)
             good: list[Any] = []
             for data, info in batch:
-                if info.valid_data:
-                    sample = data_type.deserialize(data)  # fast_cdr: never raises, marks instead
-                    if is_malformed(sample):
-                        continue
-                    sample.sample_info = info
-                    good.append(sample)
-                else:  # the binding decodes the key itself, and raises on a bad one
-                    try:
+                try:  # our wire types never raise (they mark instead); the binding's own may
+                    if info.valid_data:
+                        sample = data_type.deserialize(data)
+                        if is_malformed(sample):
+                            continue
+                        sample.sample_info = info
+                        good.append(sample)
+                    else:  # a dispose or unregister: the binding decodes the key
                         good.append(InvalidSample(data_type.deserialize_key(data), info))
-                    except Exception:
-                        continue
+                except Exception:
+                    continue  # dropped: taken, but not among the good ones
             return good, len(batch)
 
         self._add(reader, take, handler)

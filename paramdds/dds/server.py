@@ -189,6 +189,7 @@ class ParameterServer:
         self._replies: OrderedDict[tuple[str, int, int], tuple[bytes, Any]] = OrderedDict()
         self._replies_bytes = 0
         self._retained: OrderedDict[str, list[Any]] = OrderedDict()  # node -> assignments
+        self._hosting = threading.Lock()  # guards _workers/_tables/_retained changes
         self._logged_bad: set[str] = set()
         self.persisters: list[Persister] = []
         self._started = False
@@ -226,19 +227,22 @@ class ParameterServer:
         if node_id in self._tables:
             raise ParamddsError(f"node {node_id!r} is already hosted by this server")
         worker = _Worker(self, table)
-        self._workers[node_id] = worker
-        self._tables[node_id] = table
         for name, value, descriptor in table.snapshot():
             self._write_state(table, name, value, descriptor, table.revision)
         self._write_presence(table)
-        retained = self._retained.pop(node_id, [])
+        with self._hosting:  # against _on_assignment: no assignment falls between the two
+            self._workers[node_id] = worker
+            self._tables[node_id] = table
+            retained = self._retained.pop(node_id, [])
         for request in retained:  # assignments that arrived before this node was hosted
             worker.submit(partial(self._handle_set, worker, request, reply=False))
 
     def remove_node(self, node_id: str) -> None:
         """Stop hosting ``node_id`` gracefully: its instances become "no writers", not deleted."""
-        table = self._tables.pop(node_id)
-        self._workers.pop(node_id).close(timeout=2.0)
+        with self._hosting:
+            table = self._tables.pop(node_id)
+            worker = self._workers.pop(node_id)
+        worker.close(timeout=2.0)
         for name in [*table.names(), ""]:
             self._state_writer.unregister_instance(wire.ParameterEvent(node_id=node_id, name=name))
 
@@ -374,11 +378,12 @@ class ParameterServer:
         for request in samples:
             if not (request.sample_info.valid_data and request.retained):
                 continue
-            worker = self._worker_for(request.node_id)
+            with self._hosting:
+                worker = self._worker_for(request.node_id)
+                if worker is None:
+                    self._keep_retained(request)
             if worker is not None:
                 worker.submit(partial(self._handle_set, worker, request, reply=False))
-            else:
-                self._keep_retained(request)
 
     def _keep_retained(self, request: Any) -> None:
         """Keep an assignment for a node not hosted (yet): applied if it is added later."""
