@@ -22,6 +22,7 @@ stops looking alive.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import threading
 import time
@@ -68,6 +69,7 @@ class Dispatcher:
         self._guard = GuardCondition(participant)
         self._waitset.attach(self._guard)
         self._entries: list[tuple[Take, Any, Handler, str]] = []
+        self.readers: list[Any] = []  # in the order added
         self._stopping = False
         self._warned: set[str] = set()
         self._failed_take: set[str] = set()
@@ -127,6 +129,7 @@ class Dispatcher:
     def _add(self, reader: Any, take: Take, handler: Handler) -> None:
         condition = ReadCondition(reader, _ANY)
         self._entries.append((take, condition, handler, reader.topic.name))
+        self.readers.append(reader)
         self._waitset.attach(condition)
 
     def start(self) -> None:
@@ -142,7 +145,8 @@ class Dispatcher:
         if self._thread.is_alive() and threading.current_thread() is not self._thread:
             self._thread.join(timeout=5.0)
         for _, condition, _, _ in self._entries:
-            self._waitset.detach(condition)
+            with contextlib.suppress(Exception):  # a condition whose reader is already gone
+                self._waitset.detach(condition)
 
     def _run(self) -> None:
         try:

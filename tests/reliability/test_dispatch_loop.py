@@ -148,3 +148,22 @@ def test_a_dispatch_loop_that_ends_takes_the_process_offline_and_says_why(
     assert any(
         r.levelno == logging.CRITICAL and "dispatch loop ended" in r.getMessage() for r in caplog.records
     )
+
+
+@pytest.mark.timeout(60)
+def test_a_take_that_fails_does_not_end_the_loop(
+    domain_id: int, dds: DDS, caplog: pytest.LogCaptureFixture
+) -> None:
+    from cyclonedds.core import Entity
+
+    caplog.set_level(logging.WARNING, logger="paramdds")
+    server = dds.server(domain_id, _table("n1"))
+    peer = RawPeer(dds.participant(domain_id))
+    assert _answers(peer, "n1")  # positive control
+    # delete the list reader under the dispatcher: every take on it now fails in Cyclone
+    reader = next(r for r in server._dispatcher.readers if r.topic.name == "ListParametersRequest")
+    Entity.__del__(reader)
+    request = wire.ListParametersRequest(node_id="n1", client_id=CLIENT, request_id=next(_ids))
+    peer.send(request)  # lands nowhere now; the loop must go on serving the other topics
+    assert _answers(peer, "n1"), "the dispatch loop ended when a take failed"
+    assert any("taking samples failed" in r.getMessage() for r in caplog.records)
