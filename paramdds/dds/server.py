@@ -45,7 +45,7 @@ from collections.abc import Callable, Sequence
 from functools import partial
 from typing import Any
 
-from cyclonedds.core import Policy
+from cyclonedds.core import InstanceState, Policy, SampleState, ViewState
 from cyclonedds.pub import DataWriter
 from cyclonedds.qos import Qos
 from cyclonedds.sub import DataReader
@@ -59,18 +59,19 @@ from ..core.table import ParameterTable
 from ..core.values import Parameter
 from ..errors import ErrorCode, ParamddsError
 from . import types as wire
-from ._binding import assert_liveliness, write_serialized
-from .cdr import encode
+from ._binding import assert_liveliness, take_serialized, write_serialized
+from .cdr import MalformedSample, encode
 from .convert import descriptor_to_wire, parameter_from_wire, state_descriptor_to_wire, value_to_wire
 from .dispatch import Dispatcher
 from .qos import QosProfiles
-from .state import encode_state
+from .state import decode_state, encode_state
 
 log = logging.getLogger(__name__)
 
 DEDUP_WINDOW = 4096  # replies kept for retried requests, per server
 DEDUP_BYTES = 16 * 1024 * 1024  # and at most this many bytes of request content
 RETAINED_NODES = 1024  # nodes not hosted (yet) whose retained assignments are kept
+DUPLICATE_CHECK = 2.0  # seconds after start() during which another host of our nodes is looked for
 LEASE = 1.0  # seconds: the state writer's liveliness lease, asserted from the dispatch loop
 # persist the changes of one node (called on its worker, before the reply); raising means
 # the changes are applied but not persisted (NOT_PERSISTED)
@@ -194,6 +195,7 @@ class ParameterServer:
         self.persisters: list[Persister] = []
         self._started = False
         self._closed = False
+        self._check: threading.Thread | None = None
 
         state_qos = self._qos.writer("ParameterEvents")
         # liveliness is asserted by our dispatch loop, not by Cyclone's threads (see above)
@@ -258,13 +260,62 @@ class ParameterServer:
         self._dispatcher.add(reader, self._on_assignment)
         self._dispatcher.start()
         self._started = True
+        nodes = set(self._tables)
+        self._check = threading.Thread(
+            target=self._warn_if_hosted_elsewhere, args=(nodes,), name="paramdds-twin-check", daemon=True
+        )
+        self._check.start()
         return self
+
+    def _warn_if_hosted_elsewhere(self, nodes: set[str], seconds: float = DUPLICATE_CHECK) -> None:
+        """Once, at start: warn loudly when another process already hosts one of ``nodes``.
+
+        Reads the retained presence samples for a short while with a reader of its own,
+        then drops it (a server does not follow other servers' state for good: that would
+        cost every server every change in the system). Monitors and ``paramdds nodes``
+        detect the same thing at any time.
+        """
+        try:
+            reader = DataReader(
+                self._dp,
+                Topic(self._dp, "ParameterEvents", wire.ParameterEvent),
+                self._qos.reader("ParameterEvents") + Qos(Policy.History.KeepLast(4)),
+            )
+            seen: set[tuple[str, str, int]] = set()
+            deadline = time.monotonic() + seconds
+            while time.monotonic() < deadline and not self._closed:
+                for data, info in take_serialized(
+                    reader, SampleState.Any | ViewState.Any | InstanceState.Alive, 256
+                ):
+                    if not info.valid_data:
+                        continue
+                    try:
+                        sample = decode_state(data)
+                    except MalformedSample:
+                        continue
+                    other = (sample.node_id, sample.host, sample.pid)
+                    if sample.name or sample.node_id not in nodes or other in seen:
+                        continue
+                    if (sample.host, sample.pid) != (self._host, self._pid):
+                        seen.add(other)
+                        log.warning(
+                            "node %r is also hosted by pid %d on %s: two processes serve one node id and "
+                            "requests reach both; stop one of them",
+                            sample.node_id,
+                            sample.pid,
+                            sample.host,
+                        )
+                time.sleep(0.05)
+        except Exception as exc:  # the participant closed under us, or DDS failed: only a check
+            log.debug("the duplicate-host check ended: %s", exc)
 
     def close(self) -> None:
         """Graceful stop: unregister every instance (readers see the nodes offline)."""
         if self._closed:
             return
         self._closed = True
+        if self._check is not None:
+            self._check.join(timeout=1.0)  # it looks at _closed every 50 ms
         self._dispatcher.close()
         for node_id in list(self._tables):
             self.remove_node(node_id)

@@ -2,8 +2,8 @@
 
 * One monitor callback that raises costs neither the other callbacks nor the rest of
   its batch.
-* Two processes hosting one node id are reported: a warning, and ``also_hosted_by``
-  in ``paramdds nodes``.
+* Two processes hosting one node id are reported: a warning from the server that
+  starts second, and ``also_hosted_by`` in ``paramdds nodes``.
 * ``watch`` says ``not_synced`` when the state did not settle within its timeout
   (here: a node announces five parameters and publishes none) instead of ``synced``.
 """
@@ -73,11 +73,14 @@ def test_two_processes_hosting_one_node_are_reported(domain_id: int, procs: list
     procs.append(first)
     (row,) = _nodes(domain_id)
     assert row["node"] == "twin" and row["also_hosted_by"] == []  # positive control: one host
+    assert "also hosted by" not in first.stderr_text()
     second = start_server(domain_id, "-n", "twin")
     procs.append(second)
     (row,) = _nodes(domain_id)
     hosts = {row["pid"], *(int(str(d).split()[1]) for d in row["also_hosted_by"])}  # type: ignore[union-attr]
     assert hosts == {first.pid, second.pid}, json.dumps(row)
+    # the server that started second says so itself, naming the first
+    assert wait(lambda: f"also hosted by pid {first.pid}" in second.stderr_text(), 5.0), second.stderr_text()
 
 
 @pytest.mark.timeout(60)
