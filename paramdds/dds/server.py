@@ -279,7 +279,9 @@ class ParameterServer:
             reader = DataReader(
                 self._dp,
                 Topic(self._dp, "ParameterEvents", wire.ParameterEvent),
-                self._qos.reader("ParameterEvents") + Qos(Policy.History.KeepLast(4)),
+                # not our own process's samples: they are many (hosting) and never a twin
+                self._qos.reader("ParameterEvents")
+                + Qos(Policy.History.KeepLast(4), Policy.IgnoreLocal.Process),
             )
             seen: set[tuple[str, str, int]] = set()
             deadline = time.monotonic() + seconds
