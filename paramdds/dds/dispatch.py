@@ -49,6 +49,7 @@ T = TypeVar("T")
 Handler = Callable[[Sequence[Any]], None]
 Take = Callable[[], tuple[list[Any], int]]  # one batch: (good samples, samples taken)
 _TAKE_BATCH = 256
+SERIALIZED = "_paramdds_serialized"  # attribute of a sample taken by add(): its bytes as received
 _ANY = SampleState.Any | ViewState.Any | InstanceState.Any
 
 
@@ -91,6 +92,7 @@ class Dispatcher:
                         if is_malformed(sample):
                             continue
                         sample.sample_info = info
+                        setattr(sample, SERIALIZED, data)  # the bytes as received (retry checks)
                         good.append(sample)
                     else:  # a dispose or unregister: the binding decodes the key
                         good.append(InvalidSample(data_type.deserialize_key(data), info))

@@ -16,7 +16,9 @@ How it works:
   (a change listener queues those). For each it runs, in this order: validate
   and commit (the table, with its callbacks), persist (the ``persisters``, e.g.
   ``--persist``'s journal), reply, publish. A slow callback or fsync of one node
-  never delays another. A worker busy with one job for longer than the lease is
+  never delays another. A get or list is answered on the dispatch thread when the
+  node's worker is idle and its table's lock free (never waiting), else queued
+  behind the node's sets. A worker busy with one job for longer than the lease is
   reported stalled: logged, and its presence unregistered (monitors show it
   offline) until the job returns.
 * Parameter state goes to ``ParameterEvents`` keyed by (node_id, name): declare and
@@ -27,7 +29,7 @@ How it works:
   from a TRANSIENT_LOCAL writer; a second, TRANSIENT_LOCAL reader takes them. Those
   for nodes not hosted yet are kept (the newest per node, bounded) and applied
   when such a node is added, also after ``start()``.
-* Retried requests (same client_id, request_id and encoded content) get the cached
+* Retried requests (same client_id, request_id and bytes as received) get the cached
   reply again and are never applied twice. The same ids with other content are a
   new request: a client restarted with a fixed client_id counts from 1 again.
 """
@@ -62,7 +64,7 @@ from . import types as wire
 from ._binding import assert_liveliness, take_serialized, write_serialized
 from .cdr import MalformedSample, encode
 from .convert import descriptor_to_wire, parameter_from_wire, state_descriptor_to_wire, value_to_wire
-from .dispatch import Dispatcher
+from .dispatch import SERIALIZED, Dispatcher
 from .qos import QosProfiles
 from .state import decode_state, encode_state
 
@@ -97,6 +99,7 @@ class _Worker:
         self._closed = False
         self.busy_since: float | None = None
         self.stalled = False
+        self._inflight = 0  # jobs queued or running
         self._listener = table.add_change_listener(self._on_change)
 
     def submit(self, job: Job) -> None:
@@ -107,6 +110,7 @@ class _Worker:
                 name = f"paramdds-node-{self.table.node_id}"[:60]
                 self._thread = threading.Thread(target=self._run, name=name, daemon=True)
                 self._thread.start()
+            self._inflight += 1
         self._jobs.put(job)
 
     def _on_change(self, change: ChangeSet) -> None:
@@ -116,6 +120,10 @@ class _Worker:
             first = len(self._pending) == 1
         if first:  # a request's own job takes its changes itself; this flush is then a no-op
             self.submit(self.flush)
+
+    def idle(self) -> bool:
+        """No job running or queued (a read answered now cannot overtake one of its sets)."""
+        return self._inflight == 0
 
     def take_pending(self) -> list[ChangeSet]:
         with self._lock:
@@ -151,6 +159,7 @@ class _Worker:
             finally:
                 with self._lock:
                     self.busy_since = None
+                    self._inflight -= 1
                     recovered, self.stalled = self.stalled, False
                 if recovered:
                     log.warning("node %r is responsive again", self.table.node_id)
@@ -555,13 +564,20 @@ class ParameterServer:
         self._answer(samples, "ListParametersResponse", _fill_list)
 
     def _answer(self, samples: Sequence[Any], reply_topic: str, fill: Fill) -> None:
-        """Queue read-only requests on their node's worker (in order with its sets)."""
+        """Answer read-only requests: at once when the node's worker is idle and its table
+        free, else queued on the worker, in order with the node's sets."""
         for request in samples:
             if not request.sample_info.valid_data:
                 continue
             worker = self._worker_for(request.node_id)
-            if worker is not None:
-                worker.submit(partial(self._fill_and_reply, worker.table, request, reply_topic, fill))
+            if worker is None:
+                continue
+            if worker.idle():  # nothing of this node's in flight: answer now, skipping a thread hop
+                with worker.table.try_locked() as free:  # never wait on a callback's lock
+                    if free:
+                        self._fill_and_reply(worker.table, request, reply_topic, fill)
+                        continue
+            worker.submit(partial(self._fill_and_reply, worker.table, request, reply_topic, fill))
 
     def _fill_and_reply(self, table: ParameterTable, request: Any, reply_topic: str, fill: Fill) -> None:
         """``fill(table, request, response)`` does the work; a refusal becomes the reply's code."""
@@ -585,7 +601,11 @@ def _manual_liveliness() -> Qos:
 
 
 def _content(request: Any) -> bytes:
-    """A set request's content as bytes (NaN equals itself here, unlike with ``==``)."""
+    """A set request's content as bytes (NaN equals itself here, unlike with ``==``): the
+    bytes it arrived as (a retry is the same sample, written again), else encoded."""
+    received = getattr(request, SERIALIZED, None)
+    if isinstance(received, bytes):
+        return received
     sample = wire.SetParametersRequest(
         atomic=request.atomic, expected_revision=request.expected_revision, parameters=request.parameters
     )
