@@ -38,7 +38,6 @@ from __future__ import annotations
 
 import logging
 import os
-import queue
 import socket
 import threading
 import time
@@ -65,6 +64,7 @@ from ._binding import assert_liveliness, take_serialized, write_serialized
 from .cdr import MalformedSample, encode
 from .convert import descriptor_to_wire, parameter_from_wire, state_descriptor_to_wire, value_to_wire
 from .dispatch import SERIALIZED, Dispatcher
+from .node_worker import NodeWorker
 from .qos import QosProfiles
 from .state import decode_state, encode_state
 
@@ -78,110 +78,11 @@ LEASE = 1.0  # seconds: the state writer's liveliness lease, asserted from the d
 # persist the changes of one node (called on its worker, before the reply); raising means
 # the changes are applied but not persisted (NOT_PERSISTED)
 Persister = Callable[[ParameterTable, Sequence[ChangeSet]], None]
-Job = Callable[[], None]
 
 
 def now_stamp() -> wire.Time:
     ns = time.time_ns()
     return wire.Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
-
-
-class _Worker:
-    """One hosted node's commit path: a job queue and a thread of its own (started lazily)."""
-
-    def __init__(self, server: ParameterServer, table: ParameterTable) -> None:
-        self.table = table
-        self._server = server
-        self._jobs: queue.SimpleQueue[Job | None] = queue.SimpleQueue()
-        self._lock = threading.Lock()
-        self._pending: list[ChangeSet] = []
-        self._thread: threading.Thread | None = None
-        self._closed = False
-        self.busy_since: float | None = None
-        self.stalled = False
-        self._inflight = 0  # jobs queued or running
-        self._listener = table.add_change_listener(self._on_change)
-
-    def submit(self, job: Job) -> None:
-        with self._lock:
-            if self._closed:
-                return
-            if self._thread is None:
-                name = f"paramdds-node-{self.table.node_id}"[:60]
-                self._thread = threading.Thread(target=self._run, name=name, daemon=True)
-                self._thread.start()
-            self._inflight += 1
-        self._jobs.put(job)
-
-    def _on_change(self, change: ChangeSet) -> None:
-        """Change listener (under the table's lock, on any thread): queue it, in revision order."""
-        with self._lock:
-            self._pending.append(change)
-            first = len(self._pending) == 1
-        if first:  # a request's own job takes its changes itself; this flush is then a no-op
-            self.submit(self.flush)
-
-    def idle(self) -> bool:
-        """No job running or queued (a read answered now cannot overtake one of its sets)."""
-        return self._inflight == 0
-
-    def take_pending(self) -> list[ChangeSet]:
-        with self._lock:
-            pending, self._pending = self._pending, []
-        return pending
-
-    def flush(self) -> None:
-        """Persist and publish changes made outside a request (the application's own)."""
-        changes = self.take_pending()
-        if changes:
-            failure = self._server._persist(self.table, changes)
-            if failure:
-                log.error(
-                    "%s: changes up to revision %d are not persisted: %s",
-                    self.table.node_id,
-                    changes[-1].revision,
-                    failure,
-                )
-            self._server._publish(self.table, changes)
-
-    def _run(self) -> None:
-        while True:
-            job = self._jobs.get()
-            if job is None:
-                return
-            with self._lock:
-                self.busy_since = time.monotonic()
-            try:
-                job()
-                self.flush()
-            except Exception:  # never let one job end the node's worker
-                log.exception("%s: a job failed", self.table.node_id)
-            finally:
-                with self._lock:
-                    self.busy_since = None
-                    self._inflight -= 1
-                    recovered, self.stalled = self.stalled, False
-                if recovered:
-                    log.warning("node %r is responsive again", self.table.node_id)
-                    self._server._write_presence(self.table)
-
-    def check_stall(self, now: float, limit: float) -> bool:
-        """Mark the worker stalled once its current job has run for ``limit`` seconds."""
-        with self._lock:
-            if self.busy_since is None or self.stalled or now - self.busy_since < limit:
-                return False
-            self.stalled = True
-            return True
-
-    def close(self, timeout: float) -> None:
-        with self._lock:
-            self._closed = True
-            thread = self._thread
-        self.table.remove_change_listener(self._listener)
-        if thread is not None:
-            self._jobs.put(None)
-            if thread is not threading.current_thread():
-                thread.join(timeout)
 
 
 class ParameterServer:
@@ -191,7 +92,7 @@ class ParameterServer:
         self._dp = participant
         self._qos = qos or QosProfiles.load()
         self._tables: dict[str, ParameterTable] = {}
-        self._workers: dict[str, _Worker] = {}
+        self._workers: dict[str, NodeWorker] = {}
         self._host = socket.gethostname()
         self._pid = os.getpid()
         self._replies_lock = threading.Lock()
@@ -237,7 +138,7 @@ class ParameterServer:
         node_id = table.node_id
         if node_id in self._tables:
             raise ParamddsError(f"node {node_id!r} is already hosted by this server")
-        worker = _Worker(self, table)
+        worker = NodeWorker(self, table)
         for name, value, descriptor in table.snapshot():
             self._write_state(table, name, value, descriptor, table.revision)
         self._write_presence(table)
@@ -419,7 +320,7 @@ class ParameterServer:
 
     # -- requests -------------------------------------------------------------------
 
-    def _worker_for(self, node_id: str) -> _Worker | None:
+    def _worker_for(self, node_id: str) -> NodeWorker | None:
         worker = self._workers.get(node_id)
         if worker is None:
             try:
@@ -460,7 +361,7 @@ class ParameterServer:
         while len(self._retained) > RETAINED_NODES:
             self._retained.popitem(last=False)
 
-    def _handle_set(self, worker: _Worker, request: Any, *, reply: bool) -> None:
+    def _handle_set(self, worker: NodeWorker, request: Any, *, reply: bool) -> None:
         """Validate and commit, persist, reply, publish: one request, on the node's worker."""
         table = worker.table
         key = (table.node_id, request.client_id, request.request_id)
