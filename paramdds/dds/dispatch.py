@@ -137,10 +137,6 @@ class Dispatcher:
     def start(self) -> None:
         self._thread.start()
 
-    @property
-    def thread_ident(self) -> int | None:
-        return self._thread.ident
-
     def close(self) -> None:
         self._stopping = True
         self._guard.set(True)
