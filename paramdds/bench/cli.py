@@ -20,6 +20,7 @@ SCENARIOS = {
     "startup": "whole-process time of `paramdds get` vs `import cyclonedds` and a bare participant",
     "codec": "encode/decode per sample (CPU time), paramdds's codecs vs the binding's interpreter",
     "web": "browser console in headless Chromium: set ack → value in the DOM; first render of 1000 x 50",
+    "persist": "sets/s with --persist at 10 and 1,000 params vs without; restart from a 100k-change journal",
 }
 
 
@@ -73,13 +74,17 @@ def register(subparsers: Any) -> None:
         "hosting, web: node ids in the one process (default 1000)",
     )
     p.add_argument(
-        "--params", type=_positive_int, metavar="P", help="parameters per node (scaling 50, hosting 20)"
+        "--params",
+        type=_positive_int,
+        metavar="P",
+        help="parameters per node (scaling 50, hosting 20, persist 10 and 1000)",
     )
     p.add_argument(
         "--requests",
         type=_positive_int,
         metavar="N",
-        help="latency: requests per system (default 2000); web: sets (200)",
+        help="latency: requests per system (default 2000); web: sets (200); "
+        "persist: journal changes (100000)",
     )
     p.add_argument("--rounds", type=_positive_int, metavar="R", help="alternation rounds / repetitions")
     p.add_argument("--servers", type=_positive_int, metavar="K", help="scaling: server processes (default 2)")
@@ -90,7 +95,7 @@ def register(subparsers: Any) -> None:
         "--window", type=_positive_int, metavar="W", help="throughput: requests in flight per client"
     )
     p.add_argument(
-        "--seconds", type=_positive_float, metavar="S", help="throughput: measured seconds per round"
+        "--seconds", type=_positive_float, metavar="S", help="throughput, persist: measured seconds per round"
     )
     p.set_defaults(func=run)
 

@@ -117,3 +117,9 @@ def test_bad_arguments_are_usage_errors(argv: list[str]) -> None:
         [sys.executable, "-m", "paramdds.cli", *argv], capture_output=True, text=True, timeout=30
     )
     assert done.returncode == 2, done.stderr
+
+
+def test_persist(domain_id: int) -> None:
+    data = bench("persist", domain_id, "--seconds", "0.3", "--params", "10", "--requests", "2000")
+    positive(data, "sets_per_s_10", "sets_per_s_10_no_persist", "restart_ms", "restart_empty_journal_ms")
+    assert data["journal_changes"] == 2000
