@@ -129,7 +129,7 @@ class PeerWatch:
         self._lock = threading.Lock()
         self._scanning = threading.Lock()
         self._thread: threading.Thread | None = None
-        self._builtin: dict[str, Any] = {}
+        self._builtin: dict[str, Any] = {}  # builtin readers, for the length of one scan
         self._seen: set[str] = set()
         self._found: list[PeerMismatch] = []
         self._counted = 0  # the incompatible-QoS counts already looked into
@@ -215,6 +215,17 @@ class PeerWatch:
             self._scan()
         except Exception:  # a peer vanishing mid-scan, the participant closing: never fatal
             log.debug("could not identify a mismatched peer", exc_info=True)
+        finally:
+            self._drop_builtin()
+
+    def _drop_builtin(self) -> None:
+        """Delete the scan's builtin readers: kept, they would hold every endpoint that ever
+        existed (a server meets a new client's by-design mismatch at each start)."""
+        from cyclonedds.core import Entity
+
+        readers, self._builtin = self._builtin, {}
+        for reader in readers.values():
+            Entity.__del__(reader)
 
     def _scan(self) -> None:
         for entity in live_endpoints(self._dp):
