@@ -2,12 +2,13 @@
 
 How it works:
 
-* Each request topic is read by one reader; the handlers ignore requests for node
-  ids this server does not host. No Cyclone topic filter is used: a Python filter
-  runs on Cyclone's receive thread while it holds the reader's lock and waits for
-  the GIL, and ``DataReader.take`` holds the GIL while it waits for that lock, so
-  the two deadlock the whole process under load (seen within a few hundred
-  requests). Filtering in the handler costs the same deserialization.
+* Each request topic is read by one content-filtered reader (:mod:`.filters`): a
+  native C filter on the node ids hosted here, updated by ``add_node`` and
+  ``remove_node``, so Cyclone drops other nodes' requests before Python sees
+  them. (A *Python* filter would deadlock: it runs on Cyclone's receive thread
+  under the reader's lock and waits for the GIL, which ``take`` holds while it
+  waits for that lock.) The handlers still ignore requests for node ids not
+  hosted here: that is the whole filter where the extension is not built.
 * One dispatch thread wakes on a WaitSet, applies each request atomically through
   the node's :class:`~paramdds.core.table.ParameterTable`, and answers with the
   requester's ``client_id`` and ``request_id``.
@@ -53,6 +54,7 @@ from . import types as wire
 from ._binding import write_serialized
 from .convert import descriptor_to_wire, parameter_from_wire, state_descriptor_to_wire, value_to_wire
 from .dispatch import Dispatcher
+from .filters import NativeFilter, filtered_topic
 from .qos import QosProfiles
 from .state import encode_state
 
@@ -84,6 +86,8 @@ class ParameterServer:
         self._logged_bad: set[str] = set()
         self.before_reply: list[BeforeReply] = []
         self._closed = False
+        self._filter = NativeFilter("nodes")  # the request readers' filter: the nodes hosted here
+        self.foreign_requests = 0  # requests that reached a handler for a node not hosted here
 
         self._state_writer = DataWriter(
             participant,
@@ -105,8 +109,12 @@ class ParameterServer:
             self._dispatcher.add(reader, handler)
 
     def _request_topic(self, name: str) -> Any:
-        # no set_topic_filter: see the module docstring (GIL / reader-lock deadlock)
-        return Topic(self._dp, name, wire.TOPICS[name])
+        return filtered_topic(self._dp, name, wire.TOPICS[name], self._filter)
+
+    @property
+    def filter(self) -> NativeFilter:
+        """The request readers' filter (``filter.native`` is False where the extension is missing)."""
+        return self._filter
 
     # -- hosting -----------------------------------------------------------------
 
@@ -116,6 +124,7 @@ class ParameterServer:
         if node_id in self._tables:
             raise ParamddsError(f"node {node_id!r} is already hosted by this server")
         self._tables[node_id] = table
+        self._filter.set_nodes(self._tables)
         self._listener_handles[node_id] = table.add_change_listener(self._on_change)
         for name, value, descriptor in table.snapshot():
             self._write_state(table, name, value, descriptor, table.revision)
@@ -124,6 +133,7 @@ class ParameterServer:
     def remove_node(self, node_id: str) -> None:
         """Stop hosting ``node_id`` gracefully: its instances become "no writers", not deleted."""
         table = self._tables.pop(node_id)
+        self._filter.set_nodes(self._tables)
         table.remove_change_listener(self._listener_handles.pop(node_id))
         for name in [*table.names(), ""]:
             self._state_writer.unregister_instance(wire.ParameterEvent(node_id=node_id, name=name))
@@ -228,7 +238,9 @@ class ParameterServer:
             try:
                 table = self._tables.get(canonical_node_id(node_id))
             except ParamddsError:
-                return None
+                table = None
+        if table is None:
+            self.foreign_requests += 1
         return table
 
     def _on_set(self, samples: Sequence[Any]) -> None:
