@@ -314,6 +314,7 @@ def _handler(service: str, table: Any) -> Callable[[Any], Any]:
         return cls(node_id=table.node_id, client_id=request.client_id, request_id=request.request_id)
 
     def get(request: Any) -> Any:
+        # as rcl_interfaces: get_parameters returns values only, describe_parameters descriptors only
         reply = ids(wire.GetParametersResponse, request)
         describe = service == "describe_parameters"
         reply.revision = table.revision
@@ -321,7 +322,7 @@ def _handler(service: str, table: Any) -> Callable[[Any], Any]:
             wire.GetParameterResult(
                 name=r.name,
                 code=r.code.value if r.code else "",
-                value=value_to_wire(r.value) if r.value is not None else wire.ParameterValue(),
+                value=wire.ParameterValue() if describe or r.value is None else value_to_wire(r.value),
                 descriptor=[descriptor_to_wire(r.descriptor)] if r.descriptor is not None else [],
             )
             for r in table.get_many(list(request.names), with_descriptors=describe)
@@ -420,16 +421,21 @@ class RosLayoutMonitor:
     describe (a request writer and a reply reader each), wait until those match the node's
     services, then list → get + describe. Every node is worked on concurrently (one
     WaitSet, requests pipelined), which is the most favourable form of the baseline.
-    A request unanswered for ``retry`` seconds is sent again (the reply writer may not
-    have matched the new reply reader yet: the usual DDS service race).
+
+    As rclcpp does, each request is sent once, when the node's services are ready
+    (request writer and reply reader matched). rclcpp never resends: a reply sent
+    before the server's reply writer matched our reader is lost and the call hangs.
+    So that the bench completes, such a request is sent again after ``retry``
+    seconds; :attr:`resends` counts them (the price of the race, reported).
     """
 
     CALLS = ("list_parameters", "get_parameters", "describe_parameters")
 
-    def __init__(self, participant: Any, qos: QosProfiles, nodes: Sequence[str], retry: float = 0.5) -> None:
+    def __init__(self, participant: Any, qos: QosProfiles, nodes: Sequence[str], retry: float = 2.0) -> None:
         from cyclonedds.core import DDSStatus
 
         self._retry = retry
+        self.resends = 0
         self.nodes = list(nodes)
         n = len(self.nodes)
         self._ws = IndexedWaitSet(participant, capacity=max(1024, 8 * n))
@@ -515,7 +521,7 @@ class RosLayoutMonitor:
                 raise TimeoutError(
                     f"baseline monitor: {n - done} of {n} nodes incomplete after {timeout:g} s"
                 )
-            for index in self._ws.wait(int(self._retry * 1e9 / 5)):
+            for index in self._ws.wait(int(self._retry * 1e9 / 10)):
                 i, slot = divmod(index, 8)
                 if slot < 6:
                     check_match(i, slot)
@@ -542,6 +548,7 @@ class RosLayoutMonitor:
             for i in range(n):
                 for call, (_rid, sent) in list(outstanding[i].items()):
                     if now - sent > self._retry:
+                        self.resends += 1
                         send(i, call)
         return {
             node: {k: (values[i][k], (descriptors[i] or {}).get(k)) for k in (values[i] or {})}  # type: ignore[index]
