@@ -18,6 +18,8 @@ SCENARIOS = {
     "throughput": "gets per second with many requests in flight vs a raw echo",
     "hosting": "one process hosting 1,000 node ids x 20 params: start time, RSS, monitor full state",
     "startup": "whole-process time of `paramdds get` vs `import cyclonedds` and a bare participant",
+    "fleet": "10 server processes x 1,000 nodes x 20 params: monitor synced, `paramdds get` vs an empty "
+    "system, a server's CPU under foreign traffic (native filter vs handler), loopback bytes per request",
 }
 
 
@@ -68,16 +70,21 @@ def register(subparsers: Any) -> None:
         type=_int_list,
         metavar="N,N…",
         help="scaling: node counts (default 10,50,100,200); "
-        "hosting: node ids in the one process (default 1000)",
+        "hosting: node ids in the one process (default 1000); fleet: node ids per server process (1000)",
     )
     p.add_argument(
         "--params", type=_positive_int, metavar="P", help="parameters per node (scaling 50, hosting 20)"
     )
     p.add_argument(
-        "--requests", type=_positive_int, metavar="N", help="latency: requests per system (default 2000)"
+        "--requests",
+        type=_positive_int,
+        metavar="N",
+        help="latency: requests per system (default 2000); fleet: foreign gets per second (1000)",
     )
     p.add_argument("--rounds", type=_positive_int, metavar="R", help="alternation rounds / repetitions")
-    p.add_argument("--servers", type=_positive_int, metavar="K", help="scaling: server processes (default 2)")
+    p.add_argument(
+        "--servers", type=_positive_int, metavar="K", help="server processes: scaling (default 2), fleet (10)"
+    )
     p.add_argument(
         "--clients", type=_positive_int, metavar="C", help="throughput: client processes (default 2)"
     )

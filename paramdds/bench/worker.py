@@ -149,6 +149,10 @@ def role_server(args: argparse.Namespace) -> None:
     qos = QosProfiles.load()
     dp = _participant(args, topic_discovery=args.topic_discovery)
     names = node_names(args.offset + args.nodes)[args.offset :]
+    if args.no_native_filter:
+        from ..dds.filters import disable_native
+
+        disable_native()
     server: Any
     if args.layout == "ros":
         from ._dds import RosLayoutServer
@@ -331,6 +335,7 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--offset", type=int, default=0)
     p.add_argument("--params", type=int, default=50)
     p.add_argument("--topic-discovery", action="store_true")
+    p.add_argument("--no-native-filter", action="store_true", help="server: filter in the handlers only")
     p.add_argument("--reply-size", type=int, default=100)
     p.add_argument("--request-size", type=int, default=100)
     p.add_argument("--timeout", type=float, default=60.0)

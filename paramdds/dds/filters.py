@@ -39,7 +39,7 @@ except ImportError as exc:  # pragma: no cover - depends on how paramdds was ins
 else:
     _MISSING = ""
 
-__all__ = ["NATIVE", "NativeFilter", "filtered_topic", "status"]
+__all__ = ["NATIVE", "NativeFilter", "disable_native", "filtered_topic", "status"]
 
 log = logging.getLogger(__name__)
 
@@ -54,6 +54,13 @@ def status() -> dict[str, object]:
     if NATIVE:
         return {"filter": "native"}
     return {"filter": "handler", "reason": _MISSING}
+
+
+def disable_native() -> None:
+    """Filter in the handlers only, from now on, as without the extension (for benchmarks)."""
+    global _nodefilter, _MISSING, NATIVE
+    _nodefilter, NATIVE = None, False
+    _MISSING = "the native filter is disabled"
 
 
 def _warn_once() -> None:

@@ -110,3 +110,14 @@ def test_bad_arguments_are_usage_errors(argv: list[str]) -> None:
         [sys.executable, "-m", "paramdds.cli", *argv], capture_output=True, text=True, timeout=30
     )
     assert done.returncode == 2, done.stderr
+
+
+def test_fleet(domain_id: int) -> None:
+    data = bench("fleet", domain_id, "--servers", "2", "--nodes", "20", "--params", "4", "--rounds", "1")
+    positive(
+        data, "synced_ms", "get_fleet_ms", "get_empty_ms", "get_ratio", "foreign_rate", "lo_bytes_per_request"
+    )
+    assert (data["servers"], data["nodes"], data["params_per_node"]) == (2, 40, 4)
+    assert data["synced_params"] == 40 * 4  # the monitor held every parameter of every node
+    assert data["request_readers"] == 4  # the fleet's two servers and the two measured ones
+    assert data["cpu_native_ms_per_s"] >= 0 and data["cpu_handler_ms_per_s"] >= 0
