@@ -17,8 +17,18 @@ with ``--params`` parameters (default 20, in the proportions of real files, see
 * ``network``: what each request costs on loopback. Every request goes to every
   matched request reader (one per server process); the bytes counted on ``lo``
   during the traffic window minus an idle window, per request, are shared with
-  whatever else runs on the host, so the per-reader figure (divided by the
-  matched server processes) is what extrapolates to 1, 10 or 50 of them.
+  whatever else runs in the network namespace: run the bench in one of its own
+  (``unshare -n sh -c 'ip link set lo up && paramdds bench fleet …'``) for a clean
+  count. The per-reader figure (divided by the matched server processes) is what
+  extrapolates to 1, 10 or 50 of them.
+* ``partition``: the alternative that keeps foreign traffic off the process and
+  the network (measured, not adopted): a process reads requests through a
+  subscriber whose partitions are its node ids, and a client needs a publisher
+  and writer per target node. The same traffic, written into the targets'
+  partitions, is sent while a partition reader hosting one other node runs (its
+  CPU) and one hosting every fleet node receives it (bytes); then the client's
+  cost: writers created and the time until they all matched, for 1, 100 and
+  1,000 target nodes.
 """
 
 from __future__ import annotations
@@ -43,15 +53,20 @@ def cpu_seconds(pid: int) -> float:
 
 
 def lo_tx_bytes() -> int:
+    """Bytes sent on ``lo`` of this process's network namespace (/proc/self/net/dev), 0 if unknown."""
     try:
-        with open("/sys/class/net/lo/statistics/tx_bytes", encoding="ascii") as f:
-            return int(f.read())
-    except OSError:
-        return 0
+        with open("/proc/self/net/dev", encoding="ascii") as f:
+            for line in f:
+                name, _, counters = line.partition(":")
+                if name.strip() == "lo":
+                    return int(counters.split()[8])
+    except (OSError, IndexError, ValueError):
+        pass
+    return 0
 
 
-def _send_paced(writer: Any, samples: list[bytes], rate: int, seconds: float) -> int:
-    """Write ``samples`` round-robin at ``rate`` per second for ``seconds``; the count sent."""
+def _send_paced(writers: list[Any], samples: list[bytes], rate: int, seconds: float) -> int:
+    """Write ``samples[i]`` with ``writers[i]`` round-robin at ``rate`` per second for ``seconds``."""
     from ..dds._binding import write_serialized
 
     batch = max(1, rate // 100)  # 100 batches a second
@@ -63,7 +78,8 @@ def _send_paced(writer: Any, samples: list[bytes], rate: int, seconds: float) ->
             return sent
         due = int(elapsed * rate) + batch
         while sent < due:
-            write_serialized(writer, samples[sent % len(samples)])
+            i = sent % len(samples)
+            write_serialized(writers[i], samples[i])
             sent += 1
         time.sleep(0.01)
 
@@ -101,7 +117,9 @@ def run(args: argparse.Namespace) -> int:
             )
             for i, (kind, flag) in enumerate((("native", ()), ("handler", ("--no-native-filter",))))
         }
-        for w in [*fleet, empty, *victims.values()]:
+        victims["partition"] = workers.start("partition", "--nodes", "1", "--offset", str(total + 2))
+        everyone = workers.start("partition", "--nodes", str(total))  # the fleet's nodes, partitioned
+        for w in [*fleet, empty, *victims.values(), everyone]:
             w.read("READY", 120 + total / 50)
 
         monitor = workers.start("monitor", "--nodes", str(total), "--timeout", str(60 + total / 100))
@@ -138,21 +156,26 @@ def run(args: argparse.Namespace) -> int:
         readers = writer.get_publication_matched_status().current_count
         pids = {kind: w.pid for kind, w in victims.items()}
 
-        def window(send: bool) -> tuple[dict[str, float], int, int]:
+        partitioned = [_partition_writer(dp, qos, [n]) for n in targets]
+
+        def window(via: list[Any] | None) -> tuple[dict[str, float], int, int]:
             cpu0 = {k: cpu_seconds(p) for k, p in pids.items()}
             lo0 = lo_tx_bytes()
-            if send:
-                sent = _send_paced(writer, samples, rate, seconds)
+            if via:
+                sent = _send_paced(via, samples, rate, seconds)
             else:
                 time.sleep(seconds)
                 sent = 0
             time.sleep(0.2)  # let the last requests be handled
             return {k: cpu_seconds(p) - cpu0[k] for k, p in pids.items()}, lo_tx_bytes() - lo0, sent
 
-        idle_cpu, idle_lo, _ = window(send=False)
-        busy_cpu, busy_lo, sent = window(send=True)
+        idle_cpu, idle_lo, _ = window(None)
+        busy_cpu, busy_lo, sent = window([writer] * len(samples))
+        _, part_lo, part_sent = window(partitioned)
+        partition_cost = _client_partition_cost(dp, qos, node_names(total), (1, 100, 1000))
     per_second = {k: max(0.0, busy_cpu[k] - idle_cpu[k]) / seconds for k in pids}
     bytes_per_request = max(0, busy_lo - idle_lo) / sent if sent else 0.0
+    part_bytes = max(0, part_lo - idle_lo) / part_sent if part_sent else 0.0
     fleet_ms, empty_ms = median(times["fleet"]), median(times["empty"])
     data = {
         "servers": servers,
@@ -172,6 +195,9 @@ def run(args: argparse.Namespace) -> int:
         "request_readers": readers,
         "lo_bytes_per_request": round(bytes_per_request),
         "lo_bytes_per_request_per_reader": round(bytes_per_request / readers) if readers else 0,
+        "partition_cpu_ms_per_s": round(per_second["partition"] * 1000, 1),
+        "partition_lo_bytes_per_request": round(part_bytes),
+        "partition_client": partition_cost,
         "rounds": rounds,
     }
     per_reader = data["lo_bytes_per_request_per_reader"]
@@ -198,5 +224,56 @@ def run(args: argparse.Namespace) -> int:
             f"~ {per_reader:,} / {10 * per_reader:,} / {50 * per_reader:,} B",
         ),
     ]
+    rows.append(
+        (
+            "partition per node (not adopted): CPU, bytes",
+            f"{data['partition_cpu_ms_per_s']} ms/s, {data['partition_lo_bytes_per_request']:,} B/request",
+            "foreign requests never reach the process",
+        )
+    )
+    for n, cost in partition_cost.items():
+        rows.append(
+            (
+                f"partition client talking to {n} nodes",
+                f"{cost['writers']} writers, matched in {cost['matched_ms']:,} ms",
+                f"created in {cost['create_ms']:,} ms (paramdds: 3 writers for any number)",
+            )
+        )
     emit(args, data, render(["measure", "value", "compared"], rows))
     return 0
+
+
+def _partition_writer(dp: Any, qos: Any, partitions: list[str]) -> Any:
+    from cyclonedds.pub import DataWriter, Publisher
+    from cyclonedds.qos import Policy, Qos
+    from cyclonedds.topic import Topic
+
+    from ..dds import types as wire
+
+    publisher = Publisher(dp, qos=Qos(Policy.Partition(partitions=partitions)))
+    topic = Topic(dp, "GetParametersRequest", wire.GetParametersRequest)
+    return DataWriter(publisher, topic, qos.writer("GetParametersRequest"))
+
+
+def _client_partition_cost(dp: Any, qos: Any, nodes: list[str], counts: tuple[int, ...]) -> dict[str, Any]:
+    """Writers a partition-per-node client needs to talk to ``n`` nodes; time to create and match them."""
+    out: dict[str, Any] = {}
+    for n in counts:
+        if n > len(nodes):
+            continue
+        t0 = time.perf_counter()
+        writers = [_partition_writer(dp, qos, [node]) for node in nodes[:n]]
+        t1 = time.perf_counter()
+        deadline = time.monotonic() + 60
+        pending = list(writers)
+        while pending and time.monotonic() < deadline:
+            pending = [w for w in pending if w.get_publication_matched_status().current_count == 0]
+            time.sleep(0.002)
+        t2 = time.perf_counter()
+        out[str(n)] = {
+            "writers": n,
+            "create_ms": round((t1 - t0) * 1000, 1),
+            "matched_ms": round((t2 - t0) * 1000, 1) if not pending else None,
+        }
+        del writers, pending
+    return out

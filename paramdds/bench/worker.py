@@ -8,7 +8,9 @@ Roles (see :mod:`paramdds.bench._common` for the READY / RESULT protocol):
 ``echo``     the raw echo server of the latency and throughput baselines;
 ``monitor``  start, time until the full state of every node is held, report, exit;
 ``census``   count topics and endpoints in the domain with the builtin topics;
-``load``     a throughput client: keep ``--window`` gets (or echoes) in flight.
+``load``     a throughput client: keep ``--window`` gets (or echoes) in flight;
+``partition`` the partition-per-node alternative (fleet bench): a request reader
+             whose subscriber's partitions are the hosted node ids.
 
 A worker exits when its stdin closes or on SIGTERM, closing its DDS entities.
 """
@@ -173,6 +175,34 @@ def role_server(args: argparse.Namespace) -> None:
         server.close()
 
 
+def role_partition(args: argparse.Namespace) -> None:
+    """The alternative layout (measured, not adopted): one request reader whose subscriber's
+    partitions are the node ids hosted, so requests for other nodes never reach this process."""
+    from cyclonedds.qos import Policy, Qos
+    from cyclonedds.sub import DataReader, Subscriber
+    from cyclonedds.topic import Topic
+
+    from ..dds import types as wire
+    from ..dds.dispatch import Dispatcher
+    from ..dds.qos import QosProfiles
+    from ._common import node_names
+
+    qos = QosProfiles.load()
+    dp = _participant(args)
+    names = node_names(args.offset + args.nodes)[args.offset :]
+    subscriber = Subscriber(dp, qos=Qos(Policy.Partition(partitions=names)))
+    topic = Topic(dp, "GetParametersRequest", wire.GetParametersRequest)
+    reader = DataReader(subscriber, topic, qos.reader("GetParametersRequest"))
+    dispatcher = Dispatcher(dp, "bench-partition")
+    dispatcher.add_raw(reader, lambda data, _info: data, lambda _samples: None)
+    dispatcher.start()
+    _say("READY", pid=os.getpid())
+    try:
+        _wait_for_stdin_eof()
+    finally:
+        dispatcher.close()
+
+
 def role_echo(args: argparse.Namespace) -> None:
     from ..dds.qos import QosProfiles
     from ._dds import serve_echo
@@ -327,7 +357,7 @@ def role_load(args: argparse.Namespace) -> None:
 
 def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(prog="python -m paramdds.bench.worker")
-    p.add_argument("role", choices=("server", "echo", "monitor", "census", "load"))
+    p.add_argument("role", choices=("server", "echo", "monitor", "census", "load", "partition"))
     p.add_argument("-d", "--domain", type=int, required=True)
     p.add_argument("--localhost", action="store_true")
     p.add_argument("--layout", choices=("paramdds", "ros"), default="paramdds")
@@ -355,6 +385,7 @@ def main(argv: list[str] | None = None) -> None:
             "monitor": role_monitor,
             "census": role_census,
             "load": role_load,
+            "partition": role_partition,
         }[args.role](args)
     finally:
         _delete_participants()

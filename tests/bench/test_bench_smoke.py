@@ -121,3 +121,5 @@ def test_fleet(domain_id: int) -> None:
     assert data["synced_params"] == 40 * 4  # the monitor held every parameter of every node
     assert data["request_readers"] == 4  # the fleet's two servers and the two measured ones
     assert data["cpu_native_ms_per_s"] >= 0 and data["cpu_handler_ms_per_s"] >= 0
+    assert data["partition_client"]["1"]["writers"] == 1  # 100 and 1,000 need a fleet that large
+    assert data["partition_client"]["1"]["matched_ms"] is not None
