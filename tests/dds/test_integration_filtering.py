@@ -112,10 +112,12 @@ def test_a_client_receives_only_its_own_replies(dds: DdsSession) -> None:
         mine.get("a", ["x"])
     for _ in range(30):
         theirs.get("a", ["x"])
-    accepted, rejected, unparsed = mine._reply_filter.counts()
-    assert (accepted, unparsed) == (20, 0)
-    assert rejected >= 30  # every one of the other client's replies stopped in Cyclone
-    assert theirs._reply_filter.counts()[0] == 30
+    # a retry under load may add a reply; each is read (never accepted blindly) and kept by one side
+    mine_counts, their_counts = mine._reply_filter.counts(), theirs._reply_filter.counts()
+    assert mine_counts[0] >= 20 and their_counts[0] >= 30
+    assert mine_counts[2] == their_counts[2] == 0
+    assert mine_counts[1] == their_counts[0]  # every one of the other client's replies stopped in Cyclone
+    assert their_counts[1] == mine_counts[0]
 
 
 @native
