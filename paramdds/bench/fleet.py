@@ -26,7 +26,7 @@ with ``--params`` parameters (default 20, in the proportions of real files, see
   subscriber whose partitions are its node ids, and a client needs a publisher
   and writer per target node. The same traffic, written into the targets'
   partitions, is sent while a partition reader hosting one other node runs (its
-  CPU) and one hosting every fleet node receives it (bytes); then the client's
+  CPU) and one with the wildcard partition receives it (bytes); then the client's
   cost: writers created and the time until they all matched, for 1, 100 and
   1,000 target nodes.
 """
@@ -118,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
             for i, (kind, flag) in enumerate((("native", ()), ("handler", ("--no-native-filter",))))
         }
         victims["partition"] = workers.start("partition", "--nodes", "1", "--offset", str(total + 2))
-        everyone = workers.start("partition", "--nodes", str(total))  # the fleet's nodes, partitioned
+        everyone = workers.start("partition", "--wildcard")  # every fleet node's partition
         for w in [*fleet, empty, *victims.values(), everyone]:
             w.read("READY", 120 + total / 50)
 

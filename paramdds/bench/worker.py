@@ -185,11 +185,13 @@ def role_partition(args: argparse.Namespace) -> None:
     from ..dds import types as wire
     from ..dds.dispatch import Dispatcher
     from ..dds.qos import QosProfiles
-    from ._common import node_names
+    from ._common import NODE_PREFIX, node_names
 
     qos = QosProfiles.load()
     dp = _participant(args)
-    names = node_names(args.offset + args.nodes)[args.offset :]
+    # a wildcard reads every node's partition (a monitor's form); Cyclone 11.0.1's binding
+    # crashed with 10,000 partition names on one subscriber (1,000 work)
+    names = [f"{NODE_PREFIX}*"] if args.wildcard else node_names(args.offset + args.nodes)[args.offset :]
     subscriber = Subscriber(dp, qos=Qos(Policy.Partition(partitions=names)))
     topic = Topic(dp, "GetParametersRequest", wire.GetParametersRequest)
     reader = DataReader(subscriber, topic, qos.reader("GetParametersRequest"))
@@ -366,6 +368,7 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--params", type=int, default=50)
     p.add_argument("--topic-discovery", action="store_true")
     p.add_argument("--no-native-filter", action="store_true", help="server: filter in the handlers only")
+    p.add_argument("--wildcard", action="store_true", help="partition: every node's partition")
     p.add_argument("--reply-size", type=int, default=100)
     p.add_argument("--request-size", type=int, default=100)
     p.add_argument("--timeout", type=float, default=60.0)
