@@ -101,7 +101,7 @@ def run_list(args: argparse.Namespace) -> int:
     if args.depth < 0:
         raise UsageError(f"--depth must be 0 (every level) or positive, got {args.depth}")
     with Session(args) as session:
-        result = session.client([node]).list(node, args.prefixes, args.depth)
+        result = session.client().list(node, args.prefixes, args.depth)
     names = sorted(result.names)
     emit(args.output, names, "\n".join(names))
     return Exit.OK
@@ -110,7 +110,7 @@ def run_list(args: argparse.Namespace) -> int:
 def run_get(args: argparse.Namespace) -> int:
     node = node_arg(args.node)
     with Session(args) as session:
-        reply = session.client([node]).get(node, args.names)
+        reply = session.client().get(node, args.names)
     found = [r for r in reply.results if r.code is None]
     emit(
         args.output,
@@ -123,7 +123,7 @@ def run_get(args: argparse.Namespace) -> int:
 def run_describe(args: argparse.Namespace) -> int:
     node = node_arg(args.node)
     with Session(args) as session:
-        reply = session.client([node]).get(node, args.names, with_descriptors=True)
+        reply = session.client().get(node, args.names, with_descriptors=True)
     found = {r.name: json_descriptor(r.descriptor) for r in reply.results if r.descriptor is not None}
     emit(args.output, found, describe_table(found))
     return _report_missing(node, reply.missing())
@@ -144,7 +144,7 @@ def run_set(args: argparse.Namespace) -> int:
     if args.if_revision is not None and args.if_revision < 0:
         raise UsageError(f"--if-revision must be 0 or positive, got {args.if_revision}")
     with Session(args) as session:
-        client = session.client([node])
+        client = session.client()
         params = typed_parameters(client, node, assignments)
         reply = client.set(node, params, atomic=args.atomic, if_revision=args.if_revision)
     return report_set(args.output, node, reply)
@@ -171,7 +171,7 @@ def typed_parameters(
 def run_delete(args: argparse.Namespace) -> int:
     node = node_arg(args.node)
     with Session(args) as session:
-        reply = session.client([node]).delete(node, args.names)
+        reply = session.client().delete(node, args.names)
     return report_set(args.output, node, reply)
 
 
@@ -183,7 +183,7 @@ def run_load(args: argparse.Namespace) -> int:
     if not params:
         raise UsageError(f"{args.file}: no parameters for node {node!r} in this file")
     with Session(args) as session:
-        reply = session.client([node]).set(node, params, atomic=args.atomic)
+        reply = session.client().set(node, params, atomic=args.atomic)
     return report_set(args.output, node, reply)
 
 
@@ -212,7 +212,7 @@ def run_dump(args: argparse.Namespace) -> int:
 
     node = node_arg(args.node)
     with Session(args) as session:
-        client = session.client([node])
+        client = session.client()
         names = client.list(node).names
         reply = client.get(node, list(names), with_descriptors=True)
     snapshot = [

@@ -51,15 +51,12 @@ class Session:
             self._qos = QosProfiles.load(path) if path else QosProfiles.load()
         return self._qos
 
-    def client(self, nodes: list[str] | None = None) -> ParameterClient:
-        """A client; with ``nodes`` its presence reader holds those nodes' presence only."""
+    def client(self) -> ParameterClient:
         from ..dds.client import ParameterClient
 
         # a node unseen after the grace counts as absent (exit 3); loaded machines need more than 1 s
         grace = min(self.args.timeout, PRESENCE_GRACE)
-        client = ParameterClient(
-            self.participant, self.qos, timeout=self.args.timeout, presence_grace=grace, nodes=nodes
-        )
+        client = ParameterClient(self.participant, self.qos, timeout=self.args.timeout, presence_grace=grace)
         self._closers.append(client)
         return client
 

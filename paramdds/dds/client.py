@@ -7,10 +7,8 @@ a request id counted from 1. Reply readers are content-filtered on that
 process or two) never take each other's replies; replies are matched to calls by
 request id. Many calls may be outstanding at once (pipelining).
 
-Presence: the state reader keeps only presence instances (not the parameters'
-state), and with ``nodes=`` only those nodes' presence. A call to a node outside
-``nodes`` widens the reader to every node's presence (a new reader, so Cyclone
-delivers the history again).
+Presence: the state reader is content-filtered on presence instances (name
+``""``), so the parameters' state samples never reach Python here.
 
 No call ever hangs: each has a timeout (default :data:`DEFAULT_TIMEOUT`). A node
 that has no presence instance once the client has had ``presence_grace`` seconds
@@ -144,7 +142,6 @@ class ParameterClient:
         timeout: float = DEFAULT_TIMEOUT,
         presence_grace: float = PRESENCE_GRACE,
         client_id: int | None = None,
-        nodes: Iterable[str] | None = None,
     ) -> None:
         self._dp = participant
         self._qos = qos or QosProfiles.load()
@@ -170,31 +167,15 @@ class ParameterClient:
             reader = DataReader(participant, self._own_replies(name), self._qos.reader(name))
             self._reply_readers[request] = reader
             self._dispatcher.add(reader, self._on_replies)
-        self._watched = None if nodes is None else frozenset(canonical_node_id(n) for n in nodes)
-        self._presence = self._presence_reader()
+        self._presence_filter = NativeFilter("presence")
+        self._presence_filter.set_nodes(None)  # every node's presence, no parameter samples
+        presence = filtered_topic(participant, "ParameterEvents", wire.ParameterEvent, self._presence_filter)
+        self._presence = DataReader(participant, presence, self._qos.reader("ParameterEvents"))
         self._dispatcher.start()
 
     def _own_replies(self, name: str) -> Any:
         # without the native filter every client's replies arrive; _on_replies keeps ours
         return filtered_topic(self._dp, name, wire.TOPICS[name], self._reply_filter)
-
-    def _presence_reader(self) -> Any:
-        flt = NativeFilter("presence")
-        flt.set_nodes(self._watched)
-        topic = filtered_topic(self._dp, "ParameterEvents", wire.ParameterEvent, flt)
-        return DataReader(self._dp, topic, self._qos.reader("ParameterEvents"))
-
-    def _watch(self, node: str) -> None:
-        """Make sure the presence reader holds ``node`` (widening it to every node if not)."""
-        if self._watched is None or node in self._watched:
-            return
-        with self._ids_lock:
-            if self._watched is None:
-                return
-            log.debug("presence of %r was not watched: reading every node's presence from now on", node)
-            self._watched = None
-            self._presence = self._presence_reader()  # the old one is deleted with its last reference
-            self._started = time.monotonic()  # the new reader needs its own presence grace
 
     def close(self) -> None:
         self._closing.set()
@@ -230,17 +211,12 @@ class ParameterClient:
         return _node_info(samples[0]) if samples else None
 
     def nodes(self) -> list[NodeInfo]:
-        """Every node whose presence this client holds (alive or not), sorted by name.
-
-        With ``nodes=`` (and no call to another node since) that is those nodes only.
-        """
+        """Every node whose presence this client holds (alive or not), sorted by name."""
         found = [_node_info(s) for s in self._presence.read(N=_READ_ALL)]
         return sorted((n for n in found if n is not None), key=lambda n: n.node)
 
     def node_info(self, node: str) -> NodeInfo | None:
-        node = canonical_node_id(node)
-        self._watch(node)
-        return self._presence_of(node)
+        return self._presence_of(canonical_node_id(node))
 
     def wait_for_node(self, node: str, timeout: float | None = None) -> NodeInfo:
         """Block until ``node`` is online; UnavailableError after ``timeout`` seconds.
@@ -249,7 +225,6 @@ class ParameterClient:
         start-up wait, not a data path: replies are never polled).
         """
         node = canonical_node_id(node)
-        self._watch(node)
         limit = self.timeout if timeout is None else timeout
         deadline = time.monotonic() + limit
         while True:
@@ -308,7 +283,6 @@ class ParameterClient:
             return next(self._ids)
 
     def _send(self, topic: str, node: str, sample: Any) -> tuple[str, int, _Pending]:
-        self._watch(node)
         pending = _Pending(node, topic, sample, self._match_counts[topic])
         self._pending[sample.request_id] = pending
         try:
