@@ -101,10 +101,10 @@ def dump_text(state: Mapping[str, Snapshot], *, with_descriptors: bool = True) -
     )
 
 
-def _load_spec(path: str) -> Any:
+def _load_spec(path: str, strict: bool = False) -> Any:
     from .core import yaml_spec
 
-    return yaml_spec.load_spec(path)
+    return yaml_spec.load_spec(path, strict=strict)
 
 
 def _declare_spec(table: ParameterTable, spec: Any) -> None:
@@ -121,6 +121,7 @@ class ServerOptions:
     node_names: list[str]
     params_files: list[str] = field(default_factory=list)
     spec: str | None = None
+    strict_spec: bool = False  # refuse a spec naming a custom validator nobody registered
     persist: str | None = None
     allow_undeclared: bool = False
     strict_types: bool = False
@@ -221,7 +222,7 @@ def prepare(options: ServerOptions) -> tuple[dict[str, ParameterTable], list[str
 
     Returns the tables, the ``[SERVER] Loaded ...`` lines and the persistence store.
     """
-    spec = _load_spec(options.spec) if options.spec else None
+    spec = _load_spec(options.spec, options.strict_spec) if options.spec else None
     store = _persist_store(options.persist) if options.persist else None
     if store is not None:
         store.check_writable()

@@ -18,6 +18,8 @@ SCENARIOS = {
     "throughput": "gets per second with many requests in flight vs a raw echo",
     "hosting": "one process hosting 1,000 node ids x 20 params: start time, RSS, monitor full state",
     "startup": "whole-process time of `paramdds get` vs `import cyclonedds` and a bare participant",
+    "codec": "encode/decode per sample (CPU time), paramdds's codecs vs the binding's interpreter",
+    "web": "browser console in headless Chromium: set ack → value in the DOM; first render of 1000 x 50",
     "fleet": "10 server processes x 1,000 nodes x 20 params: monitor synced, `paramdds get` vs an empty "
     "system, a server's CPU under foreign traffic (native filter vs handler), loopback bytes per request",
 }
@@ -70,7 +72,7 @@ def register(subparsers: Any) -> None:
         type=_int_list,
         metavar="N,N…",
         help="scaling: node counts (default 10,50,100,200); "
-        "hosting: node ids in the one process (default 1000); fleet: node ids per server process (1000)",
+        "hosting, web: node ids in the one process (default 1000); fleet: node ids per server process (1000)",
     )
     p.add_argument(
         "--params", type=_positive_int, metavar="P", help="parameters per node (scaling 50, hosting 20)"
@@ -79,7 +81,7 @@ def register(subparsers: Any) -> None:
         "--requests",
         type=_positive_int,
         metavar="N",
-        help="latency: requests per system (default 2000); fleet: foreign gets per second (1000)",
+        help="latency: requests per system (default 2000); web: sets (200); fleet: gets per second (1000)",
     )
     p.add_argument("--rounds", type=_positive_int, metavar="R", help="alternation rounds / repetitions")
     p.add_argument(

@@ -43,6 +43,7 @@ _IMPLEMENTATIONS = {
     "load": "paramdds.cli._requests:run_load",
     "watch": "paramdds.cli._live:run_watch",
     "assign": "paramdds.cli._live:run_assign",
+    "web": "paramdds.cli._web:run_web",
 }
 
 

@@ -31,6 +31,7 @@ VERBS = (
     "load",
     "watch",
     "assign",
+    "web",
     "bench",
 )
 OUTPUTS = ("table", "yaml", "json")
@@ -125,6 +126,18 @@ def _server(p: Parser) -> None:
     )
     p.add_argument("--spec", metavar="FILE", help="generate_parameter_library spec declaring the parameters")
     p.add_argument(
+        "--validators",
+        action="append",
+        default=[],
+        metavar="MODULE",
+        help="import MODULE (a Python module name) that registers custom spec validators; repeat for several",
+    )
+    p.add_argument(
+        "--strict-spec",
+        action="store_true",
+        help="refuse a spec naming a custom validator nobody registered (default: warn, not enforced)",
+    )
+    p.add_argument(
         "--persist",
         metavar="FILE",
         help="keep runtime changes in FILE (created if missing, reloaded at start)",
@@ -211,6 +224,18 @@ def build_parser(*, with_bench: bool = False) -> Parser:
     p.add_argument("node", metavar="NODE")
     _assignment_values(p)
     p.add_argument("--file", metavar="FILE", help="a parameter file with more values (command line wins)")
+
+    p = _verb(sub, "web", "a live browser console for every node's parameters (needs the web extra)")
+    p.add_argument(
+        "--bind", default="127.0.0.1:8800", metavar="HOST:PORT", help="where to listen (default %(default)s)"
+    )
+    p.add_argument("--read-only", action="store_true", help="serve no write endpoint")
+    p.add_argument(
+        "--token-file",
+        metavar="FILE",
+        help="a bearer token (one word, 16+ characters) required for writes; "
+        "needed to allow writes on a non-loopback --bind",
+    )
 
     if with_bench:
         _register_bench(sub)

@@ -16,7 +16,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ._errors import Exit
+from ._errors import Exit, UsageError
 from ._live import wait_until_interrupted
 from ._parser import DEFAULT_NODE
 from ._requests import node_arg
@@ -26,11 +26,14 @@ from ._session import Session
 def run_server(args: argparse.Namespace) -> int:
     from ..runtime import ServerOptions, ServerProcess, prepare
 
+    for module in args.validators:
+        import_validators(module)
     names = [node_arg(n) for n in (args.node_names or [DEFAULT_NODE])]
     options = ServerOptions(
         node_names=list(dict.fromkeys(names)),
         params_files=list(args.params_files),
         spec=args.spec,
+        strict_spec=args.strict_spec,
         persist=args.persist,
         allow_undeclared=args.allow_undeclared,
         strict_types=args.strict_types,
@@ -54,3 +57,13 @@ def run_server(args: argparse.Namespace) -> int:
         process.close()
         session.close()
     return Exit.OK
+
+
+def import_validators(module: str) -> None:
+    """Import ``module``, which registers custom spec validators (``--validators``); exit 2 if it fails."""
+    import importlib
+
+    try:
+        importlib.import_module(module)
+    except Exception as exc:  # any failure of a user's module is bad local input
+        raise UsageError(f"--validators {module}: cannot import it: {type(exc).__name__}: {exc}") from exc

@@ -19,7 +19,8 @@ if TYPE_CHECKING:
 
 log = logging.getLogger(__name__)
 
-PRESENCE_GRACE = 2.5  # seconds
+# verbs that stay up: their participants keep Cyclone's default announcement interval
+LONG_LIVED_VERBS = frozenset({"server", "client", "watch", "assign"})
 
 
 class Session:
@@ -38,7 +39,10 @@ class Session:
             from ..dds.participant import make_participant
 
             self._participant = make_participant(
-                self.args.domain, localhost=self.args.localhost, app_name=self._app_name
+                self.args.domain,
+                localhost=self.args.localhost,
+                app_name=self._app_name,
+                short_lived=getattr(self.args, "verb", None) not in LONG_LIVED_VERBS,
             )
         return self._participant
 
@@ -54,9 +58,9 @@ class Session:
     def client(self) -> ParameterClient:
         from ..dds.client import ParameterClient
 
-        # a node unseen after the grace counts as absent (exit 3); loaded machines need more than 1 s
-        grace = min(self.args.timeout, PRESENCE_GRACE)
-        client = ParameterClient(self.participant, self.qos, timeout=self.args.timeout, presence_grace=grace)
+        # a node never seen counts as absent (exit 3) only once discovery has settled
+        # (paramdds.dds.discovery); until then the call waits, up to --timeout
+        client = ParameterClient(self.participant, self.qos, timeout=self.args.timeout)
         self._closers.append(client)
         return client
 

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 from .._lazy import loader
 
 if TYPE_CHECKING:
+    from .custom_validators import register_validator
     from .descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
     from .results import (
         ChangeKind,
@@ -44,6 +45,7 @@ __getattr__ = loader(
             f"{__name__}.results",
         ),
         "ParameterTable": f"{__name__}.table",
+        "register_validator": f"{__name__}.custom_validators",
         **dict.fromkeys(["NOT_SET", "Parameter", "ParameterType", "ParameterValue"], f"{__name__}.values"),
     },
 )
@@ -66,4 +68,5 @@ __all__ = [
     "SetResult",
     "SetVeto",
     "Validator",
+    "register_validator",
 ]

@@ -52,7 +52,13 @@ the reasons of the results.
 
 Deleting: setting a parameter to ``NOT_SET`` deletes it when it is dynamically
 typed (ChangeKind.DELETED); a statically typed one cannot be deleted
-(TYPE_MISMATCH), a read-only one cannot be changed at all (READ_ONLY).
+(TYPE_MISMATCH), a read-only one cannot be changed at all (READ_ONLY). A dynamically
+typed parameter that has no value stays declared when set to ``NOT_SET`` (rclcpp).
+
+Unset parameters: as in rclcpp and rclpy, a statically typed parameter may be
+declared with a type and no value. It is listed and described, ``get_many``
+reports its value as NOT_SET, ``get`` raises until it is set, and only a value
+of its type sets it.
 
 Threads: every request runs under one re-entrant lock, so it is applied atomically
 with respect to other threads; reads take the same lock. Callbacks and listeners
@@ -207,6 +213,8 @@ class ParameterTable:
         self._on: list[_Handle] = []
         self._post: list[_Handle] = []
         self._listeners: list[_Handle] = []
+        self._hooks: list[_Handle] = []
+        self._in_hooks = False
         self._overrides: dict[str, ParameterValue] = {}
         for name, value in (overrides or {}).items():
             v = value if isinstance(value, ParameterValue) else ParameterValue.from_python(value)
@@ -221,8 +229,25 @@ class ParameterTable:
             return isinstance(name, str) and name in self._params
 
     def get(self, name: str) -> ParameterValue:
-        """The value of ``name``; NotFoundError when it is not declared."""
-        return self._entry(name)[0]
+        """The value of ``name``; NotFoundError when it is not declared.
+
+        A statically typed parameter declared without a value raises InvalidValueError until
+        it is set (rclcpp's ParameterUninitializedException); ``get_many`` reports it as NOT_SET.
+        """
+        value, desc = self._entry(name)
+        if value.type is ParameterType.NOT_SET and not desc.dynamic_typing:
+            raise InvalidValueError(
+                f"parameter {name!r} is declared ({desc.type.label}) but has no value yet; set it first"
+            )
+        return value
+
+    def has_override(self, name: str) -> bool:
+        """Whether the table was given an override (a parameter-file value) for ``name``."""
+        return name in self._overrides
+
+    def override(self, name: str) -> ParameterValue | None:
+        """The override (a parameter-file value) given for ``name``, or None."""
+        return self._overrides.get(name)
 
     def describe_one(self, name: str) -> ParameterDescriptor:
         """The descriptor of ``name``; NotFoundError when it is not declared."""
@@ -371,12 +396,13 @@ class ParameterTable:
                     f"Parameter {name!r} has no type: give a default value, a descriptor type, "
                     "or dynamic_typing=True"
                 )
-            if chosen.type is ParameterType.NOT_SET:
-                raise InvalidValueError(
-                    f"Parameter {name!r} is required but has no value (no default and no override)"
-                )
             desc = replace(desc, type=declared)
             check_descriptor(desc)
+            if chosen.type is ParameterType.NOT_SET:
+                # rclcpp and rclpy: a statically typed parameter may be declared without a
+                # value; reading it fails until it is set (see ``get``).
+                stage.pending[name] = (chosen, desc)
+                return chosen, desc
             chosen = chosen.coerce(declared, strict=self.strict_types, name=name)
         check_value(name, chosen)
         validate(name, chosen, desc)
@@ -530,6 +556,8 @@ class ParameterTable:
                     f"parameter {name!r} is statically typed ({desc.type.label}) and cannot be "
                     "deleted; declare it with dynamic_typing to allow that"
                 )
+            if current[0].type is ParameterType.NOT_SET:
+                return name, current  # already unset: it stays declared, as in rclcpp
             return name, None
         if desc.dynamic_typing:
             if value.type is not desc.type:
@@ -612,7 +640,8 @@ class ParameterTable:
                 replace(r, reason=f"{r.reason}; {note}" if r.reason else note) if r.successful else r
                 for r in results
             ]
-        return SetOutcome(tuple(results), self.revision, change)
+        # the revision of this commit (commit hooks may have committed more after it)
+        return SetOutcome(tuple(results), change.revision if change is not None else self.revision, change)
 
     def _commit(
         self, stage: _Stage, applied: _Params, *, post_set: bool = True
@@ -626,6 +655,8 @@ class ParameterTable:
         for name, entry in stage.pending.items():
             before = self._params.get(name)
             if entry is not None:
+                if entry is before:
+                    continue  # planned as "no change" (NOT_SET on an unset parameter)
                 kind = ChangeKind.NEW if before is None else ChangeKind.CHANGED
                 changes.append(ParameterChange(kind, name, entry[0], entry[1]))
             elif before is not None:
@@ -653,7 +684,21 @@ class ParameterTable:
                 except Exception as exc:
                     log.exception("post-set callback %r of node %r failed", handle, self.node_id)
                     post_failure = f"a post-set callback failed: {type(exc).__name__}: {exc}"
+        self._run_commit_hooks(change)
         return change, post_failure
+
+    def _run_commit_hooks(self, change: ChangeSet) -> None:
+        if not self._hooks or self._in_hooks:
+            return
+        self._in_hooks = True
+        try:
+            for handle in list(self._hooks):
+                try:
+                    handle.fn(change)
+                except Exception:
+                    log.exception("commit hook %r of node %r failed", handle, self.node_id)
+        finally:
+            self._in_hooks = False
 
     # --- registering callbacks -------------------------------------------------------------
 
@@ -681,6 +726,18 @@ class ParameterTable:
             self._guard("add a change listener")
             handle = _Handle("change listener", fn)
             self._listeners.append(handle)
+            return handle
+
+    def add_commit_hook(self, fn: ChangeListener) -> object:
+        """``fn`` runs after each commit, outside callbacks, and may declare parameters.
+
+        What it declares is a commit of its own (a new revision) that runs no hooks; an
+        exception it raises is logged. Spec mapped parameters use it (see yaml_spec).
+        """
+        with self._lock:
+            self._guard("add a commit hook")
+            handle = _Handle("commit hook", fn)
+            self._hooks.append(handle)
             return handle
 
     def remove_callback(self, handle: object) -> None:

@@ -17,7 +17,12 @@ Ranges (ROS 2 semantics)
     the nearest grid point must be within a relative tolerance of 1e-6 (rclpy's
     ``PARAM_REL_TOL``); a point within 1e-6 of a step of the grid point also
     passes, so that ``0.0`` on the grid ``-0.3, -0.2, …`` is not refused for a
-    rounding error of 5e-17 (a bug rclpy has). Step 0 means continuous.
+    rounding error of 5e-17 (a bug rclpy has). Step 0 means continuous. As rclcpp
+    pins in its tests: a range of the other kind (a floating-point range on an
+    integer or string parameter) does not affect the parameter; with
+    ``from_value > to_value`` only the two bounds are valid; a negative step counts
+    as its magnitude (the message's definition). Both ranges may be given (a
+    dynamically typed parameter meets the one of its current kind).
 
 Validators (generate_parameter_library's, see ``VALIDATOR_ARITY``)
     bounds, lower_bounds, upper_bounds, gt, lt, gt_eq, lt_eq — integers and doubles;
@@ -31,7 +36,9 @@ Validators (generate_parameter_library's, see ``VALIDATOR_ARITY``)
 
 :func:`check_validator` checks a validator against a declared type (known kind,
 right number and types of arguments, applicable to the type); spec loading and
-``ParameterTable.declare`` call it.
+``ParameterTable.declare`` call it. A custom validator (a name with ``::``) runs the
+function registered under its name (:mod:`.custom_validators`); one nobody registered
+is not enforced.
 """
 
 from __future__ import annotations
@@ -40,6 +47,7 @@ import math
 from collections.abc import Callable, Sequence
 
 from ..errors import InvalidValueError, OutOfRangeError, TypeMismatchError
+from .custom_validators import lookup_validator
 from .descriptors import VALIDATOR_ARITY, FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
 from .values import ParameterType, ParameterValue, brief
 
@@ -100,6 +108,11 @@ def check_validator(descriptor_type: ParameterType, validator: Validator) -> Non
     checked; applicability is then checked against each value.
     """
     kind = validator.kind
+    if isinstance(kind, str) and "::" in kind:
+        for arg in validator.args:
+            if not isinstance(arg, ParameterValue):
+                raise InvalidValueError(f"validator {kind!r}: its arguments must be parameter values")
+        return  # a custom validator: its function (if registered) checks its own arguments
     if kind not in VALIDATOR_ARITY:
         known = ", ".join(VALIDATOR_ARITY)
         raise InvalidValueError(f"unknown validator {kind!r} (known: {known})")
@@ -149,29 +162,17 @@ def check_descriptor(descriptor: ParameterDescriptor) -> None:
     """Raise InvalidValueError when a descriptor contradicts itself (ranges, validators)."""
     ptype = descriptor.type
     name = descriptor.name
-    ir, fr = descriptor.integer_range, descriptor.floating_point_range
-    if ir is not None and fr is not None:
+    fr = descriptor.floating_point_range
+    # As in rclcpp: a range applies only to values of its kind (one of the wrong kind is
+    # ignored), from_value > to_value leaves only the two bounds valid, and a negative step
+    # counts as its magnitude. Only a step that is not a finite number is refused.
+    if fr is not None and not (
+        math.isfinite(fr.step) and not math.isnan(fr.from_value) and not math.isnan(fr.to_value)
+    ):
         raise InvalidValueError(
-            f"Parameter {name!r}: give an integer_range or a floating_point_range, not both"
+            f"Parameter {name!r}: floating_point_range [{fr.from_value}, {fr.to_value}] step {fr.step} "
+            "needs numbers for its bounds and a finite step"
         )
-    if ir is not None:
-        if ptype not in (T.NOT_SET, T.INTEGER, T.INTEGER_ARRAY):
-            raise InvalidValueError(f"Parameter {name!r}: an integer_range does not apply to a {ptype.label}")
-        if ir.from_value > ir.to_value or ir.step < 0:
-            raise InvalidValueError(
-                f"Parameter {name!r}: integer_range [{ir.from_value}, {ir.to_value}] step {ir.step} "
-                "needs from_value <= to_value and step >= 0"
-            )
-    if fr is not None:
-        if ptype not in (T.NOT_SET, T.DOUBLE, T.DOUBLE_ARRAY):
-            raise InvalidValueError(
-                f"Parameter {name!r}: a floating_point_range does not apply to a {ptype.label}"
-            )
-        if not (fr.from_value <= fr.to_value and fr.step >= 0 and math.isfinite(fr.step)):
-            raise InvalidValueError(
-                f"Parameter {name!r}: floating_point_range [{fr.from_value}, {fr.to_value}] step {fr.step} "
-                "needs from_value <= to_value and a finite step >= 0"
-            )
     for validator in descriptor.validators:
         try:
             check_validator(ptype, validator)
@@ -234,7 +235,7 @@ def on_float_grid(v: float, lo: float, step: float) -> bool:
     """True when ``v`` is a grid point ``lo + k * step`` up to the tolerance described above."""
     k = round((v - lo) / step)
     nearest = lo + k * step
-    return math.isclose(v, nearest, rel_tol=PARAM_REL_TOL) or abs(v - nearest) <= PARAM_REL_TOL * step
+    return math.isclose(v, nearest, rel_tol=PARAM_REL_TOL) or abs(v - nearest) <= PARAM_REL_TOL * abs(step)
 
 
 def _check_float_range(name: str, value: ParameterValue, r: FloatingPointRange) -> None:
@@ -255,6 +256,9 @@ def _check_float_range(name: str, value: ParameterValue, r: FloatingPointRange) 
 
 def _check(name: str, value: ParameterValue, validator: Validator) -> None:
     kind = validator.kind
+    if "::" in kind:
+        _check_custom(name, value, validator)
+        return
     if kind not in _CHECKS:
         raise InvalidValueError(f"Parameter {name!r} has an unknown validator {kind!r}")
     if value.type not in _APPLIES[kind]:
@@ -266,6 +270,19 @@ def _check(name: str, value: ParameterValue, validator: Validator) -> None:
     if rule is not None:
         error = OutOfRangeError if kind in _RANGE_KINDS else InvalidValueError
         raise error(f"Parameter {name!r} with value {_show(value)} must {rule}")
+
+
+def _check_custom(name: str, value: ParameterValue, validator: Validator) -> None:
+    """A registered ``ns::fn`` validator; one nobody registered is not enforced (see custom_validators)."""
+    check = lookup_validator(validator.kind)
+    if check is None:
+        return
+    try:
+        rule = check(value, validator.args)
+    except Exception as exc:  # a user's function: its failure refuses the value, never the server
+        rule = f"pass {validator.kind} (which failed: {type(exc).__name__}: {exc})"
+    if rule is not None:
+        raise InvalidValueError(f"Parameter {name!r} with value {_show(value)} must {rule}")
 
 
 def _show_arg(x: object) -> str:

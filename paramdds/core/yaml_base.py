@@ -82,8 +82,12 @@ def read_file(path: str | Path) -> str:
         raise FileFormatError(f"the file is not UTF-8 ({exc.reason})", file=name, line=line) from exc
 
 
-def compose(text: str, source: Source) -> yaml.Node | None:
-    """One YAML document as nodes (``None`` when empty); syntax errors name the line."""
+def compose(text: str, source: Source, *, aliases: bool = False) -> yaml.Node | None:
+    """One YAML document as nodes (``None`` when empty); syntax errors name the line.
+
+    An alias (``*name``) is refused unless ``aliases``, as rcl_yaml_param_parser refuses it
+    (PyYAML, which generate_parameter_library reads specs with, accepts it).
+    """
     try:
         node: yaml.Node | None = yaml.compose(text, Loader=_Loader)
     except yaml.MarkedYAMLError as exc:
@@ -93,7 +97,29 @@ def compose(text: str, source: Source) -> yaml.Node | None:
         raise FileFormatError(f"YAML syntax error: {what}", file=source.name, line=line) from exc
     except yaml.YAMLError as exc:
         raise FileFormatError(f"YAML error: {exc}", file=source.name) from exc
+    if node is not None and not aliases:
+        _refuse_aliases(node, source)
     return node
+
+
+def _refuse_aliases(root: yaml.Node, source: Source) -> None:
+    """An alias composes to the very node its anchor names: a node met twice is an alias."""
+    seen: set[int] = set()
+    stack = [root]
+    while stack:
+        node = stack.pop()
+        if id(node) in seen:
+            raise source.error(
+                "YAML anchors and aliases (&name, *name) are not supported in parameter files "
+                "(ROS 2's parser refuses them too); write the value out",
+                node,
+            )
+        seen.add(id(node))
+        if isinstance(node, yaml.SequenceNode):
+            stack.extend(node.value)
+        elif isinstance(node, yaml.MappingNode):
+            for k, v in node.value:
+                stack.extend((k, v))
 
 
 def key_text(key: yaml.Node, source: Source, where: str) -> str:

@@ -27,15 +27,15 @@ Node ids are canonical without the leading slash: ``robot1`` matches the keys
 their node key; all sections matching the node are applied in that order, so a
 later matching section overrides an earlier one (``robot1`` written after ``/**``
 wins over it; written before, ``/**`` wins). The same node key written twice (for
-example ``/ns/robot1`` and ``/ns: {robot1: …}``) is one section, later values
-winning, as rcl merges them.
+example ``/ns/robot1`` and ``/ns: {robot1: …}``, or ``/**:`` twice at the top
+level) is one section, later values winning, as rcl merges them. The root
+namespace key ``/`` followed by a node (``/: {my_node: …}``) is node ``/my_node``.
 
 **Values** are typed by :mod:`.yaml_scalar` (rcl's rules). Differences from rcl,
 each to fail loudly rather than guess: a name given twice in one
 ``ros__parameters`` map is an error (rcl keeps the last); an untagged ``[]`` is
 an error unless a descriptor types it (rcl loads an empty list as no value and
-rclcpp then throws); anchors/aliases are accepted (rcl refuses them); merge keys
-``<<`` are refused.
+rclcpp then throws). As in rcl, anchors/aliases and merge keys ``<<`` are refused.
 
 **Descriptors** (our extension, written by ``dump_ros_params(...,
 with_descriptors=True)``; ROS tools cannot read this form) sit beside
@@ -52,7 +52,7 @@ with_descriptors=True)``; ROS tools cannot read this form) sit beside
           dynamic_typing: true
           integer_range: [0, 10, 1]          # from, to, step
           floating_point_range: [0.0, 5.0, 0.0]
-          validators:                         # in order; names from VALIDATOR_ARITY
+          validators:                         # in order; VALIDATOR_ARITY names or custom ns::fn
             - bounds: [0.0, 5.0]
             - one_of: [["a", "b"]]
             - unique: []
@@ -69,6 +69,7 @@ checked before anything is returned. Every error is a
 from __future__ import annotations
 
 import re
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -77,7 +78,7 @@ import yaml
 from ..errors import FileFormatError, ParamddsError
 from .descriptors import VALIDATOR_ARITY, FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
 from .values import ParameterType, ParameterValue
-from .yaml_base import PLAIN_TAG, SEQ_TAG, Source, compose, expect_map, items, line_of, read_file
+from .yaml_base import PLAIN_TAG, SEQ_TAG, Source, compose, expect_map, items, key_text, line_of, read_file
 from .yaml_scalar import UntypedEmptyList, node_value, typed_value
 
 __all__ = [
@@ -141,7 +142,7 @@ def _walk_nodes(node: yaml.MappingNode, prefix: str, source: Source, out: dict[s
     where = f"node {prefix!r}" if prefix else "top level"
     local: dict[str, tuple[_RawValue, int]] | None = None
     descs: tuple[yaml.Node, yaml.Node] | None = None
-    for key, knode, vnode in items(node, source, where):
+    for key, knode, vnode in _node_items(node, source, where):
         if key in (PARAMS_KEY, DESCRIPTORS_KEY) and not prefix:
             raise source.error(f"{key} needs a node name above it (for example /**:)", knode)
         if key == DESCRIPTORS_KEY:
@@ -154,7 +155,7 @@ def _walk_nodes(node: yaml.MappingNode, prefix: str, source: Source, out: dict[s
                 _walk_params(expect_map(vnode, source, f"node {prefix!r} {PARAMS_KEY}"), "", source, local)
             section.values.update(local)
         else:
-            name = f"{prefix}/{key}" if prefix else key
+            name = f"{prefix}{key}" if prefix.endswith("/") else f"{prefix}/{key}" if prefix else key
             if not isinstance(vnode, yaml.MappingNode):
                 raise source.error(f"node {name!r}: expected a map with {PARAMS_KEY}, got a value", vnode)
             _walk_nodes(vnode, name, source, out)
@@ -169,6 +170,22 @@ def _walk_nodes(node: yaml.MappingNode, prefix: str, source: Source, out: dict[s
                 f"parameter {pname!r}: a descriptor without a value in this section's {PARAMS_KEY}", pknode
             )
         out[prefix].descriptors[pname] = (_descriptor(pname, dnode, source), line_of(pknode))
+
+
+def _node_items(
+    node: yaml.MappingNode, source: Source, where: str
+) -> Iterator[tuple[str, yaml.Node, yaml.Node]]:
+    """The keys of a map above ``ros__parameters``: a node key written twice is merged, as rcl does.
+
+    Only ``ros__parameters`` and ``paramdds__descriptors`` may not repeat under one node key.
+    """
+    seen: dict[str, int] = {}
+    for knode, vnode in node.value:
+        key = key_text(knode, source, where)
+        if key in seen and key in (PARAMS_KEY, DESCRIPTORS_KEY):
+            raise source.error(f"{where}: key {key!r} is repeated (first at line {seen[key]})", knode)
+        seen.setdefault(key, line_of(knode))
+        yield key, knode, vnode
 
 
 def _is_null(node: yaml.Node) -> bool:
@@ -278,16 +295,22 @@ def parse_validator(
     name: str,
     arg_type: ParameterType | None,
 ) -> Validator:
-    """A validator ``kind: [args]``; ``kind`` must be in VALIDATOR_ARITY with that many args.
+    """A validator ``kind: [args]``; ``kind`` is in VALIDATOR_ARITY with that many args, or custom.
 
-    ``args`` may be ``null``, ``~``, nothing or ``[]`` for validators without arguments. Each argument is
-    typed by the resolver (or as ``arg_type`` when given: see the spec format).
+    ``args`` may be ``null``, ``~``, nothing or ``[]`` for validators without arguments; a bare
+    scalar for a one-argument validator is wrapped in a list, as generate_parameter_library does
+    (``fixed_size<>: 3`` is ``fixed_size<>: [3]``). Each argument is typed by the resolver (or as
+    ``arg_type`` when given: see the spec format). A custom validator (``ns::fn``) takes any
+    arguments, typed as written.
     """
-    if "::" in kind or kind not in VALIDATOR_ARITY:
-        why = "custom validator functions are not supported" if "::" in kind else "unknown validator"
+    custom = "::" in kind
+    if not custom and kind not in VALIDATOR_ARITY:
         known = ", ".join(f"{k}<>" for k in VALIDATOR_ARITY)
-        raise source.error(f"parameter {name!r}: {why} {kind!r} (supported: {known})", knode)
-    arity = VALIDATOR_ARITY[kind]
+        raise source.error(
+            f"parameter {name!r}: unknown validator {kind!r} (supported: {known}, or a custom ns::function)",
+            knode,
+        )
+    arity = None if custom else VALIDATOR_ARITY[kind]
     if _is_null(args) or (
         isinstance(args, yaml.ScalarNode)
         and args.tag == PLAIN_TAG
@@ -296,15 +319,17 @@ def parse_validator(
         arg_nodes: list[yaml.Node] = []
     elif isinstance(args, yaml.SequenceNode) and args.tag == SEQ_TAG:
         arg_nodes = list(args.value)
+    elif isinstance(args, yaml.ScalarNode) and arity in (1, None):
+        arg_nodes = [args]
     else:
         raise source.error(f"parameter {name!r}: arguments of {kind} must be a list like [a, b]", args)
-    if len(arg_nodes) != arity:
+    if arity is not None and len(arg_nodes) != arity:
         raise source.error(
             f"parameter {name!r}: validator {kind} takes {arity} argument(s), got {len(arg_nodes)}", args
         )
     values = []
     for a in arg_nodes:
-        v = node_value(a, source, name, arg_type)
+        v = node_value(a, source, name, None if custom else arg_type)
         if isinstance(v, UntypedEmptyList):
             raise source.error(f"parameter {name!r}: validator {kind}: write an empty list with its type", a)
         values.append(v)

@@ -21,49 +21,86 @@
 string_array``; ``string_fixed_N`` is a ``string`` of at most N characters and
 ``<t>_array_fixed_N`` (t = bool, int, double, string) an array of at most N
 elements — both become the type plus a ``size_lt<>: [N + 1]`` validator; ``none``
-is a dynamically typed parameter (descriptor type not_set, dynamic_typing).
+is a dynamically typed parameter (descriptor type not_set, dynamic_typing), which
+the library leaves to other code: without a default it is declared unset, not required.
 
 **Leaf keys**: ``type`` (required), ``default_value``, ``description``,
-``read_only``, ``additional_constraints``, ``validation``. Anything else (for
-example generate_parameter_library's ``__map_*`` mapped parameters) is an
+``read_only``, ``additional_constraints``, ``validation``. Anything else is an
 error, never ignored. A leaf without ``default_value`` is **required**: its
 default is NOT_SET and :func:`declare_spec` needs a value for it from an
 override. ``default_value`` must fit the type (integers widen to doubles; a
 plain scalar for a string is taken as written; ``[]`` takes the array type).
 
+**Mapped parameters** (``__map_<key>``, as generate_parameter_library defines
+them): ``gains: {__map_joints: {p: {type: double}}}`` declares ``gains.<j>.p``
+for every string ``<j>`` of the ``string_array`` parameter ``joints``, which the
+same spec declares: ``gains.joints`` when it exists, else the root ``joints`` (the
+library's ``get_dynamic_mapped_parameter``). Nested maps give every combination.
+When the key array changes at runtime, the parameters of new entries are
+declared (their default, or an override) right after the set that changed it;
+those of removed entries stay declared, as the library's
+``refresh_dynamic_parameters`` does ("TODO remove any destroyed dynamic
+parameters"). An entry written twice in the array gives its parameters once.
+
 **Validators** are spelled as that library does, ``name<>: [args]`` (the ``<>``
 may be left out), with names from
 :data:`~paramdds.core.descriptors.VALIDATOR_ARITY` and exactly that many
 arguments (``null`` or ``[]`` for none): ``bounds<>: [0.0, 5.0]``, ``gt<>: [0]``,
-``one_of<>: [["a", "b"]]``, ``unique<>: null``, ``size_gt<>: [2]``... Arguments
+``one_of<>: [["a", "b"]]``, ``unique<>: null``, ``size_gt<>: [2]``... A bare
+argument of a one-argument validator is wrapped in a list, as the library does
+(``fixed_size<>: 3``, ``gt_eq<>: 0.0``). Arguments
 take the parameter's type (``bounds<>: [0, 5]`` on a double is ``0.0, 5.0``; the
 list of ``one_of``/``subset_of`` is of the parameter's element type; sizes are
 integers). A validator must suit its parameter (numeric bounds on numbers, sizes
-on strings and arrays, ``unique``/``subset_of``/element bounds on arrays). A
-custom validator (``my_ns::check``), an unknown name or a wrong number of
-arguments is an error. ``bounds<>`` on an ``int`` or ``double`` also fills the
-descriptor's integer/floating-point range (step 0), as the library does, so ROS
-tools can show it.
+on strings and arrays, ``unique``/``subset_of``/element bounds on arrays), and
+combinations the library refuses are refused (``bounds`` with ``gt``/``gt_eq``/
+``lt``/``lt_eq``; ``element_bounds`` with ``lower_element_bounds``/
+``upper_element_bounds``). An unknown built-in name or a wrong number of arguments is an
+error. A custom validator (``my_ns::check``) runs the function registered under
+that name (:mod:`.custom_validators`); one nobody registered loads with a warning
+naming it and a note in ``additional_constraints`` that it is not enforced, or is
+an error with ``strict=True`` (``--strict-spec``).
+
+**Ranges.** The descriptor's integer/floating-point range (step 0) is filled from
+the validators so ROS tools can show it, by generate_parameter_library's rules (its
+``descriptor_test_gtest.cpp`` pins them): ``bounds`` gives ``[lo, hi]``; ``gt``,
+``gt_eq`` and ``lower_bounds`` give the lower end, ``lt``, ``lt_eq`` and
+``upper_bounds`` the upper end, each at the bound itself (a range is inclusive, so
+for ``gt``/``lt`` the validator keeps the bound out); an open end is the type's limit
+as the library writes it (``std::numeric_limits<int>``, 32-bit, for integers; the
+lowest and largest double for doubles); on integer and double arrays the
+element-bounds validators do the same for the elements.
 """
 
 from __future__ import annotations
 
+import itertools
+import logging
 import re
-from collections.abc import Sequence
-from dataclasses import dataclass
+import sys
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import yaml
 
 from ..errors import InvalidValueError, ParamddsError
+from .custom_validators import lookup_validator
 from .descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
+from .results import ChangeSet
 from .table import ParameterTable
+from .validation import check_validator
 from .values import NOT_SET, ParameterType, ParameterValue
 from .yaml_base import Source, compose, expect_map, items, read_file
 from .yaml_ros import parse_validator
 from .yaml_scalar import node_value, typed_value
 
-__all__ = ["SpecEntry", "declare_spec", "load_spec", "load_spec_str"]
+__all__ = ["MappedEntry", "Spec", "SpecEntry", "declare_spec", "load_spec", "load_spec_str"]
+
+log = logging.getLogger(__name__)
+_MAP = "__map_"
+_INT_MIN, _INT_MAX = -(2**31), 2**31 - 1  # std::numeric_limits<int>, as the library's generated code
+_DBL_MAX = sys.float_info.max
 
 T = ParameterType
 _BASE_TYPES: dict[str, ParameterType] = {
@@ -95,27 +132,110 @@ class SpecEntry:
 
     @property
     def required(self) -> bool:
-        return self.default.type is ParameterType.NOT_SET
+        """No default, and not of type ``none`` (which other code sets: it starts unset)."""
+        return self.default.type is ParameterType.NOT_SET and not self.descriptor.dynamic_typing
 
 
-def load_spec_str(text: str, *, source: str = "<string>") -> list[SpecEntry]:
+@dataclass(frozen=True, slots=True)
+class MappedEntry:
+    """A parameter under ``__map_<key>`` groups: ``entry.name`` holds the ``__map_<key>`` segments."""
+
+    entry: SpecEntry
+    keys: tuple[str, ...]  # the string_array parameters, outermost first
+    line: int = 0  # of the leaf, for errors
+
+    def expand(self, key_values: Sequence[Sequence[str]]) -> list[SpecEntry]:
+        """One entry per combination of key values (``gains.__map_joints.p`` → ``gains.j1.p``…)."""
+        out = []
+        for combo in itertools.product(*(dict.fromkeys(v) for v in key_values)):
+            parts = iter(combo)
+            name = ".".join(
+                next(parts) if seg.startswith(_MAP) else seg for seg in self.entry.name.split(".")
+            )
+            out.append(SpecEntry(name, self.entry.default, replace(self.entry.descriptor, name=name)))
+        return out
+
+
+class Spec(list[SpecEntry]):
+    """The plain entries of a spec (a list, in file order), its mapped parameters and its
+    custom validators that nobody registered (``unenforced``)."""
+
+    def __init__(
+        self,
+        entries: Iterable[SpecEntry] = (),
+        mapped: Iterable[MappedEntry] = (),
+        unenforced: Iterable[str] = (),
+    ) -> None:
+        super().__init__(entries)
+        self.mapped: tuple[MappedEntry, ...] = tuple(mapped)
+        self.unenforced: tuple[str, ...] = tuple(unenforced)
+
+
+_MapKeys = tuple[tuple[str, str], ...]  # per __map_ key: (the static group path above it, the key)
+
+
+class _Walk:
+    """What a walk over the spec collects."""
+
+    def __init__(self, src: Source, strict: bool) -> None:
+        self.src = src
+        self.strict = strict
+        self.entries: list[SpecEntry] = []
+        self.mapped: list[tuple[SpecEntry, _MapKeys, int]] = []
+        self.unenforced: dict[str, None] = {}
+
+
+def load_spec_str(text: str, *, source: str = "<string>", strict: bool = False) -> Spec:
     """Like :func:`load_spec` for text; ``source`` names it in errors."""
     src = Source(source)
-    root = compose(text, src)
+    root = compose(text, src, aliases=True)
     if root is None:
         raise src.error("the spec is empty; expected one namespace key holding the parameters")
     roots = list(items(expect_map(root, src, "top level"), src, "top level"))
     if len(roots) != 1:
         raise src.error(f"a spec has exactly one root key (the namespace), found {len(roots)}", root)
     body = roots[0][2]
-    out: list[SpecEntry] = []
-    _walk(expect_map(body, src, "namespace"), "", src, out)
-    return out
+    walk = _Walk(src, strict)
+    _walk(expect_map(body, src, "namespace"), "", (), walk)
+    types = {e.name: e.descriptor.type for e in walk.entries}
+    mapped = [
+        MappedEntry(entry, tuple(_resolve(entry, raw, types, src, line) for raw in keys), line)
+        for entry, keys, line in walk.mapped
+    ]
+    for name in walk.unenforced:
+        log.warning(
+            "%s: custom validator %r is not registered and will NOT be enforced (register it with "
+            "paramdds.core.custom_validators.register_validator or --validators MODULE; --strict-spec "
+            "refuses the spec instead)",
+            source,
+            name,
+        )
+    return Spec(walk.entries, mapped, walk.unenforced)
 
 
-def load_spec(path: str | Path) -> list[SpecEntry]:
+def _resolve(
+    entry: SpecEntry, raw: tuple[str, str], types: dict[str, ParameterType], src: Source, line: int
+) -> str:
+    """The array a ``__map_<key>`` names: ``<group>.<key>`` if the spec declares it, else ``<key>``.
+
+    As generate_parameter_library's ``get_dynamic_mapped_parameter``: ``nested.__map_entries``
+    uses ``nested.entries`` when declared, ``pid.__map_joints`` the root ``joints``.
+    """
+    group, key = raw
+    for name in (f"{group}.{key}" if group else key, key):
+        if types.get(name) is ParameterType.STRING_ARRAY:
+            return name
+    where = f"{group}.{key}' or '{key}" if group else key
+    raise src.error(
+        f"parameter {entry.name!r}: {_MAP}{key} needs a string_array parameter '{where}' "
+        "declared by this spec (outside any map)",
+        line=line,
+    )
+
+
+def load_spec(path: str | Path, *, strict: bool = False) -> Spec:
     """The parameters a spec file declares, in file order (rules in the module doc)."""
-    return load_spec_str(read_file(path), source=str(path))
+    return load_spec_str(read_file(path), source=str(path), strict=strict)
 
 
 def _is_leaf(node: yaml.MappingNode) -> bool:
@@ -125,17 +245,30 @@ def _is_leaf(node: yaml.MappingNode) -> bool:
     )
 
 
-def _walk(node: yaml.MappingNode, prefix: str, src: Source, out: list[SpecEntry]) -> None:
+def _walk(node: yaml.MappingNode, prefix: str, keys: _MapKeys, walk: _Walk) -> None:
+    src = walk.src
     for key, knode, vnode in items(node, src, f"group {prefix!r}" if prefix else "namespace"):
         name = f"{prefix}.{key}" if prefix else key
-        if key.startswith("__"):
-            raise src.error(f"parameter {name!r}: {key!r} (mapped parameters) is not supported", knode)
+        inner = keys
+        if key.startswith(_MAP) and len(key) > len(_MAP):
+            group = ".".join(seg for seg in prefix.split(".") if seg and not seg.startswith(_MAP))
+            inner = (*keys, (group, key[len(_MAP) :]))
+        elif key.startswith("__"):
+            raise src.error(f"parameter {name!r}: {key!r} is not a parameter name nor {_MAP}<array>", knode)
         if not isinstance(vnode, yaml.MappingNode):
             raise src.error(f"parameter {name!r}: expected a map with 'type' (or a group of them)", vnode)
         if _is_leaf(vnode):
-            out.append(_leaf(name, vnode, src))
+            if inner is not keys:
+                raise src.error(
+                    f"parameter {name!r}: a {_MAP}<array> key holds parameters, not a type", knode
+                )
+            entry = _leaf(name, vnode, walk)
+            if inner:
+                walk.mapped.append((entry, inner, knode.start_mark.line + 1))
+            else:
+                walk.entries.append(entry)
         else:
-            _walk(vnode, name, src, out)
+            _walk(vnode, name, inner, walk)
 
 
 def _parse_type(name: str, node: yaml.ScalarNode, src: Source) -> tuple[ParameterType, int | None]:
@@ -149,7 +282,8 @@ def _parse_type(name: str, node: yaml.ScalarNode, src: Source) -> tuple[Paramete
     return _BASE_TYPES[m.group(1)], int(m.group(2))
 
 
-def _leaf(name: str, node: yaml.MappingNode, src: Source) -> SpecEntry:
+def _leaf(name: str, node: yaml.MappingNode, walk: _Walk) -> SpecEntry:
+    src = walk.src
     fields = {k: (kn, vn) for k, kn, vn in items(node, src, f"parameter {name!r}")}
     for key, (knode, _) in fields.items():
         if key not in _LEAF_KEYS:
@@ -173,20 +307,20 @@ def _leaf(name: str, node: yaml.MappingNode, src: Source) -> SpecEntry:
             raise src.error(f"parameter {name!r}: an empty list has no type here", fields["default_value"][1])
         default = raw
     read_only = "read_only" in fields and bool(typed_value(fields["read_only"][1], src, name, T.BOOL).value)
-    validators = _validators(name, ptype, fields["validation"][1], src) if "validation" in fields else []
+    validators = _validators(name, ptype, fields["validation"][1], walk) if "validation" in fields else []
     if fixed is not None:
         validators.append(Validator("size_lt", (ParameterValue(T.INTEGER, fixed + 1),)))
-    int_range = fp_range = None
-    for v in validators:
-        if v.kind == "bounds" and ptype is T.INTEGER:
-            int_range = IntegerRange(int(v.args[0].value), int(v.args[1].value))  # type: ignore[arg-type]
-        elif v.kind == "bounds" and ptype is T.DOUBLE:
-            fp_range = FloatingPointRange(float(v.args[0].value), float(v.args[1].value))  # type: ignore[arg-type]
+    int_range, fp_range = _ranges(ptype, validators)
+    constraints = text("additional_constraints")
+    missing = [v.kind for v in validators if "::" in v.kind and lookup_validator(v.kind) is None]
+    if missing:
+        note = "not enforced: " + ", ".join(missing) + " (no such validator registered)"
+        constraints = f"{constraints}; {note}" if constraints else note
     descriptor = ParameterDescriptor(
         name=name,
         type=ptype,
         description=text("description"),
-        additional_constraints=text("additional_constraints"),
+        additional_constraints=constraints,
         read_only=read_only,
         dynamic_typing=dynamic,
         integer_range=int_range,
@@ -196,14 +330,91 @@ def _leaf(name: str, node: yaml.MappingNode, src: Source) -> SpecEntry:
     return SpecEntry(name, default, descriptor)
 
 
-def _validators(name: str, ptype: ParameterType, node: yaml.Node, src: Source) -> list[Validator]:
+_EXCLUDES = {
+    "bounds": ("gt", "gt_eq", "lt", "lt_eq"),
+    "element_bounds": ("lower_element_bounds", "upper_element_bounds"),
+}
+
+
+def _validators(name: str, ptype: ParameterType, node: yaml.Node, walk: _Walk) -> list[Validator]:
+    src = walk.src
     where = f"parameter {name!r} validation"
     out = []
+    kinds: dict[str, yaml.Node] = {}
     for key, knode, args in items(expect_map(node, src, where), src, where):
         kind = key[:-2] if key.endswith("<>") else key
+        if "::" in kind:
+            if lookup_validator(kind) is None:
+                if walk.strict:
+                    raise src.error(
+                        f"parameter {name!r}: custom validator {kind!r} is not registered "
+                        "(register it, or leave out --strict-spec to load it unenforced)",
+                        knode,
+                    )
+                walk.unenforced[kind] = None
+            out.append(parse_validator(kind, knode, args, src, name, None))
+            continue
         arg_type = _arg_type(name, kind, ptype, knode, src)
-        out.append(parse_validator(kind, knode, args, src, name, arg_type))
+        validator = parse_validator(kind, knode, args, src, name, arg_type)
+        try:
+            check_validator(ptype, validator)
+        except ParamddsError as exc:
+            raise src.error(f"parameter {name!r}: {exc.message}", knode) from None
+        out.append(validator)
+        kinds[kind] = knode
+    for kind, excluded in _EXCLUDES.items():
+        for other in excluded:
+            if kind in kinds and other in kinds:
+                raise src.error(
+                    f"parameter {name!r}: validator {kind}<> cannot be combined with {other}<> "
+                    "(generate_parameter_library refuses it)",
+                    kinds[other],
+                )
     return out
+
+
+def _ranges(
+    ptype: ParameterType, validators: Sequence[Validator]
+) -> tuple[IntegerRange | None, FloatingPointRange | None]:
+    """The descriptor range the validators imply (see "Ranges" in the module doc)."""
+    lower_kinds: tuple[str, ...]
+    upper_kinds: tuple[str, ...]
+    if ptype in (T.INTEGER, T.DOUBLE):
+        lower_kinds, upper_kinds = ("gt", "gt_eq", "lower_bounds"), ("lt", "lt_eq", "upper_bounds")
+        both, number = "bounds", ptype
+    elif ptype in (T.INTEGER_ARRAY, T.DOUBLE_ARRAY):
+        lower_kinds, upper_kinds = ("lower_element_bounds",), ("upper_element_bounds",)
+        both = "element_bounds"
+        number = T.INTEGER if ptype is T.INTEGER_ARRAY else T.DOUBLE
+    else:
+        return None, None
+    is_int = number is T.INTEGER
+    lo: float | int | None = None
+    hi: float | int | None = None
+    for v in validators:
+        args = [a.value for a in v.args]
+        if not all(isinstance(a, (int, float)) and not isinstance(a, bool) for a in args):
+            continue
+        nums: list[float | int] = [a for a in args if isinstance(a, (int, float))]
+        if v.kind == both:
+            lo, hi = _tighter(lo, nums[0], True), _tighter(hi, nums[1], False)
+        elif v.kind in lower_kinds:
+            lo = _tighter(lo, nums[0], True)
+        elif v.kind in upper_kinds:
+            hi = _tighter(hi, nums[0], False)
+    if lo is None and hi is None:
+        return None, None
+    if is_int:
+        ilo = _INT_MIN if lo is None else int(lo)
+        return IntegerRange(ilo, _INT_MAX if hi is None else int(hi)), None
+    flo = -_DBL_MAX if lo is None else float(lo)
+    return None, FloatingPointRange(flo, _DBL_MAX if hi is None else float(hi))
+
+
+def _tighter(current: float | int | None, bound: float | int, lower: bool) -> float | int:
+    if current is None:
+        return bound
+    return max(current, bound) if lower else min(current, bound)
 
 
 def _arg_type(
@@ -241,33 +452,61 @@ def declare_spec(table: ParameterTable, entries: Sequence[SpecEntry]) -> None:
     A required entry (no default in the spec) must get its value from an override.
     When some do not, nothing is declared and one
     :class:`~paramdds.errors.InvalidValueError` names each missing parameter; any other
-    refusal by the table is raised as the table raised it.
+    refusal by the table is raised as the table raised it. The mapped parameters of a
+    :class:`Spec` are declared for the key arrays' values (override or default), and
+    again for new entries whenever a key array changes (see the module doc).
     """
-    try:
-        table.declare_from([(e.name, e.default, e.descriptor) for e in entries])
-    except ParamddsError as exc:
-        missing = [e.name for e in entries if e.required and not _has_override(table, e.name)]
-        if missing:
-            raise InvalidValueError(
-                "required parameters have no value (give them in a parameter file or as overrides): "
-                + ", ".join(repr(n) for n in missing)
-            ) from exc
-        raise
+    plain = list(entries)
+    mapped = entries.mapped if isinstance(entries, Spec) else ()
+    expanded = _expand(mapped, lambda key: _start_value(table, plain, key))
+    everything = plain + expanded
+    missing = [e.name for e in everything if e.required and not table.has_override(e.name)]
+    if missing:
+        raise InvalidValueError(
+            "required parameters have no value (give them in a parameter file or as overrides): "
+            + ", ".join(repr(n) for n in missing)
+        )
+    table.declare_from([(e.name, e.default, e.descriptor) for e in everything])
+    if mapped:
+        table.add_commit_hook(_Refresher(table, mapped))
 
 
-def _has_override(table: ParameterTable, name: str) -> bool:
-    """Whether ``table`` holds an override for ``name``, changing nothing.
+def _start_value(table: ParameterTable, plain: Sequence[SpecEntry], key: str) -> ParameterValue:
+    override = table.override(key)
+    if override is not None:
+        return override
+    return next((e.default for e in plain if e.name == key), NOT_SET)
 
-    ``declare_from`` plans items in order and commits nothing when one fails. The first
-    item is a dynamically typed bool with no value of its own, which the table refuses
-    as "required, no value" (InvalidValueError) exactly when no override exists; the
-    second has an invalid (empty) name, so the call always fails after the first item.
-    """
-    probe = ParameterDescriptor(name, ParameterType.BOOL, dynamic_typing=True)
-    try:
-        table.declare_from([(name, NOT_SET, probe), ("", NOT_SET, None)])
-    except InvalidValueError:
-        return False
-    except ParamddsError:
-        return True
-    return True  # pragma: no cover - the empty name always fails
+
+def _expand(mapped: Sequence[MappedEntry], value_of: Callable[[str], ParameterValue]) -> list[SpecEntry]:
+    out: list[SpecEntry] = []
+    for m in mapped:
+        key_values = []
+        for key in m.keys:
+            v = value_of(key)
+            strings = v.value if v.type is T.STRING_ARRAY else ()
+            assert isinstance(strings, tuple)
+            key_values.append([str(x) for x in strings])
+        out.extend(m.expand(key_values))
+    return out
+
+
+class _Refresher:
+    """After a commit that changes a key array, declare the mapped parameters of its new entries."""
+
+    def __init__(self, table: ParameterTable, mapped: Sequence[MappedEntry]) -> None:
+        self.table = table
+        self.mapped = tuple(mapped)
+        self.keys = frozenset(k for m in mapped for k in m.keys)
+
+    def __call__(self, change: ChangeSet) -> None:
+        if not any(c.name in self.keys for c in change.changes):
+            return
+        table = self.table
+
+        def value_of(key: str) -> ParameterValue:
+            return table.get_many([key])[0].value or NOT_SET
+
+        new = [e for e in _expand(self.mapped, value_of) if not table.has(e.name)]
+        if new:
+            table.declare_from([(e.name, e.default, e.descriptor) for e in new])

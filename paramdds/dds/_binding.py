@@ -14,8 +14,13 @@ measured reason:
 * ``Endianness``, the binding's byte-order enum, for encoding big-endian samples;
 * :func:`waitset_attach_indexed` and :func:`waitset_wait_indexed` attach entities
   to a WaitSet with a cookie of our choosing (the benchmarks' wake-up path);
+* :func:`read_new_infos` reads the sample infos of samples not read before
+  (``ddspy_read``) without decoding them: how the client's discovery watch sees
+  which state writers have delivered, at no decoding cost;
 * :func:`entity_handle` is the C handle of an entity (``_ref``), for calls into
   Cyclone's C API;
+* :func:`live_endpoints` lists the readers and writers of a participant that exist
+  as Python objects (the binding's entity registry), for :mod:`.peers`;
 * :func:`install_native_filter` installs a C filter function (see
   :mod:`.filters`) on a topic with ``dds_set_topic_filter_and_arg``, through the
   binding's handle on the C library. The binding's samples reach it as its sample
@@ -45,6 +50,8 @@ __all__ = [
     "install_native_filter",
     "install_type_data",
     "installed_version",
+    "live_endpoints",
+    "read_new_infos",
     "take_serialized",
     "waitset_attach_indexed",
     "waitset_wait_indexed",
@@ -76,7 +83,7 @@ def _check_version() -> None:
 
 _check_version()
 
-from cyclonedds._clayer import ddspy_take, ddspy_write  # noqa: E402  (after the version check)
+from cyclonedds._clayer import ddspy_read, ddspy_take, ddspy_write  # noqa: E402  (after the version check)
 from cyclonedds.core import DDSException  # noqa: E402
 from cyclonedds.idl._support import Endianness  # noqa: E402
 from cyclonedds.internal import DDS  # noqa: E402
@@ -85,6 +92,24 @@ from cyclonedds.internal import DDS  # noqa: E402
 def entity_handle(entity: Any) -> int:
     """The Cyclone C handle of a binding entity (reader, writer, topic, waitset…)."""
     return int(entity._ref)
+
+
+def live_endpoints(participant: Any) -> list[Any]:
+    """Every DataReader and DataWriter of ``participant`` that has a Python object now."""
+    from cyclonedds.core import Entity
+    from cyclonedds.pub import DataWriter
+    from cyclonedds.sub import DataReader
+
+    handle = participant._ref
+    found = []
+    for entity in list(Entity._entities.values()):
+        if isinstance(entity, (DataReader, DataWriter)):
+            try:
+                if entity.participant is not None and entity.participant._ref == handle:
+                    found.append(entity)
+            except DDSException:  # deleted meanwhile
+                continue
+    return found
 
 
 def take_serialized(reader: Any, mask: int, count: int) -> list[tuple[bytes, Any]]:
@@ -96,6 +121,17 @@ def take_serialized(reader: Any, mask: int, count: int) -> list[tuple[bytes, Any
     if isinstance(batch, int):
         raise DDSException(batch, f"Occurred while taking data in {reader!r}")
     return batch  # type: ignore[no-any-return]
+
+
+def read_new_infos(reader: Any, mask: int, count: int) -> list[Any]:
+    """The SampleInfos of up to ``count`` samples of ``reader`` matching ``mask``, marking them read.
+
+    The samples stay in the reader; their bytes are copied by the binding but never decoded.
+    """
+    batch = ddspy_read(reader._ref, mask, count)
+    if isinstance(batch, int):
+        raise DDSException(batch, f"Occurred while reading data in {reader!r}")
+    return [info for _, info in batch]
 
 
 def write_serialized(writer: Any, data: bytes) -> None:

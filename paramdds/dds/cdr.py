@@ -1,26 +1,26 @@
-"""A fast XCDR2 codec for the wire types, byte-identical to cyclonedds-python's.
+"""A fast XCDR1 codec for the wire types, byte-identical to cyclonedds-python's.
 
 cyclonedds-python encodes and decodes a sample by walking a generic machine
 member by member through a ``Buffer`` object: ~90 µs to decode one state sample
-here, most of a monitor's time. Every wire type is a small, fixed ``@appendable``
-struct, so this module writes straight-line functions per struct instead (Python
-source from the templates below, compiled on first use, as ``dataclasses`` does
-for ``__init__``): an encoder, a fast decoder that assumes every member is present
-and reads runs of fixed-size members at once, and a careful decoder, member by
-member, that the fast one falls back to on any failure. ~11 µs per state sample.
-``source(cls)`` shows the generated code. (Two threads compiling the same struct
-at once both get correct functions; one set is kept.)
+here, most of a monitor's time. Every wire type is a small ``@final`` struct, so
+this module writes straight-line functions per struct instead (Python source
+from the templates below, compiled on first use, as ``dataclasses`` does for
+``__init__``): an encoder, and a decoder that reads runs of fixed-size members
+at once. ``source(cls)`` shows the generated code. (Two threads compiling the
+same struct at once both get correct functions; one set is kept.)
 
-Scope: little-endian delimited XCDR2 (``D_CDR2_LE``, the encoding every
-``@appendable`` type gets from this binding on the machines we ship to).
-Anything else (big-endian peers, XCDR1, a caller passing a ``Buffer``) goes to
-the binding, so behaviour never depends on this module's coverage.
-``tests/dds/test_cdr.py`` checks, with generated samples, that both codecs
-write the same bytes and read each other's output.
+Scope: little-endian plain XCDR1 (``CDR_LE``, encapsulation ``00 01``), what the
+binding writes for ``@final`` types and what every DDS vendor reads. Anything
+else (big-endian peers, XCDR2 from a peer that prefers it, a caller passing a
+``Buffer``) goes to the binding, so behaviour never depends on this module's
+coverage. ``tests/dds/test_cdr.py`` checks, with generated samples, that both
+codecs write the same bytes and read each other's output.
 
-Appendable rules: each struct starts with a DHEADER (its size in bytes).
-Members past that size keep their defaults (an older writer); bytes after the
-last member we know are skipped (a newer writer).
+XCDR1 rules: no headers inside the sample; each primitive is aligned to its
+size (up to 8) counted from the end of the 4-byte encapsulation header; a
+string or sequence is a 4-byte count, then its elements (a string's bytes end
+with a NUL, counted); a nested struct is its members, with no alignment of its
+own. The binding pads nothing at the end.
 
 A sample that cannot be decoded (truncated, a string that is not UTF-8, a
 length past its bound) must not stop the thread that takes it: the binding
@@ -41,11 +41,11 @@ from cyclonedds.idl.types import bounded_str, sequence
 
 from ._binding import Endianness, binding_deserialize
 
-HEADER = b"\x00\x09\x00\x00"  # D_CDR2 little-endian, no options
+HEADER = b"\x00\x01\x00\x00"  # CDR_LE (plain XCDR1, little-endian), no options
 _MALFORMED = "_paramdds_malformed"
 
-# annotation -> struct code; XCDR2 aligns every member of 4 bytes or more to 4
-_CODES = {"uint8": "B", "int32": "i", "uint32": "I", "int64": "q", "uint64": "Q", "float64": "d"}
+# annotation -> struct code (its size is its alignment)
+_CODES = {"int32": "i", "uint32": "I", "int64": "q", "uint64": "Q", "float64": "d"}
 
 
 class MalformedSample(ValueError):
@@ -59,21 +59,25 @@ def is_malformed(sample: object) -> bool:
 
 # ---- code templates, one per kind of member -----------------------------------------------------
 #
-# Decoding reads ``buf`` (bytes) at ``pos`` and must stay within ``end``, the end of the
-# enclosing struct; encoding appends to ``out`` (a bytearray whose offset 0 is the start
-# of the encapsulation header, so alignment is on len(out)). ``{v}`` is the member's
-# variable, ``{c}`` a struct code, ``{b}`` a bound (``{bcheck}`` its test, empty when
-# unbounded; lines marked ``[bounded]`` are dropped then), ``{f}`` a nested function's name.
+# Decoding reads ``buf`` (bytes, offset 0 is the start of the encapsulation header) at
+# ``pos`` and must stay within ``end`` (its length); encoding appends to ``out`` (a
+# bytearray that starts with the header too). Alignment counts from the end of the
+# header, offset 4: ``(4 - pos) & 7`` is the padding that brings ``pos`` to a multiple
+# of 8 after it. ``{v}`` is the member's variable, ``{c}`` a struct code, ``{a}`` an
+# alignment mask (size - 1), ``{b}`` a bound (``{bcheck}`` its test, empty when unbounded;
+# lines marked ``[bounded]`` are dropped then), ``{f}`` a nested function's name.
 
-_ALIGN = "pos += -pos & 3"
-_OUT_ALIGN = "out += PAD[-len(out) & 3]"
+_ALIGN = "pos += (4 - pos) & {a}"
+_OUT_ALIGN = "out += PAD[(4 - len(out)) & {a}]"
+_ALIGN4 = _ALIGN.replace("{a}", "3")
+_OUT_ALIGN4 = _OUT_ALIGN.replace("{a}", "3")
 
 _DECODE = {
     "byte": ["{v} = buf[pos]", "pos += 1"],
     "bool": ["{v} = buf[pos] != 0", "pos += 1"],
     "fixed": [_ALIGN, "({v},) = unpack_{c}(buf, pos)", "pos += {size}"],
     "string": [
-        _ALIGN,
+        _ALIGN4,
         "(n,) = unpack_I(buf, pos)",
         "pos += 4",
         "e = pos + n",
@@ -82,44 +86,43 @@ _DECODE = {
         "{v} = buf[pos : e - 1].decode()",
         "pos = e",
     ],
-    "bytes": [  # sequence<uint8> and sequence<bool>: one byte each; most sequences are empty
-        _ALIGN,
+    "bytes": [  # sequence<octet> and sequence<boolean>: one byte each; most sequences are empty
+        _ALIGN4,
         "(n,) = unpack_I(buf, pos)",
         "pos += 4",
         "if n:",
         "    e = pos + n",
         "    if e > end{bcheck}:",
-        "        raise MalformedSample('sequence past its bound or the struct')",
+        "        raise MalformedSample('sequence past its bound or the sample')",
         "    {v} = {convert}",
         "    pos = e",
         "else:",
         "    {v} = []",
     ],
-    "array": [  # sequence of 4- or 8-byte primitives
-        _ALIGN,
+    "array": [  # sequence of 4- or 8-byte primitives; elements aligned only when there are some
+        _ALIGN4,
         "(n,) = unpack_I(buf, pos)",
         "pos += 4",
         "if n:",
+        "    " + _ALIGN,
         "    e = pos + n * {size}",
         "    if e > end{bcheck}:",
-        "        raise MalformedSample('sequence past its bound or the struct')",
+        "        raise MalformedSample('sequence past its bound or the sample')",
         "    {v} = list(unpack_from('<%d{c}' % n, buf, pos))",
         "    pos = e",
         "else:",
         "    {v} = []",
     ],
-    "delimited": [  # sequence of strings or structs: DHEADER, length, elements
-        _ALIGN,
-        "(size, n) = unpack_II(buf, pos)",
-        "e = pos + 4 + size",
-        "pos += 8",
-        "if 4 * n > size or e > end{bcheck}:",  # every element takes at least 4 bytes
-        "    raise MalformedSample('sequence past its bound or the struct')",
+    "elements": [  # sequence of strings or structs: count, elements
+        _ALIGN4,
+        "(n,) = unpack_I(buf, pos)",
+        "pos += 4",
+        "if n > end - pos{bcheck}:",  # every element takes at least a byte
+        "    raise MalformedSample('sequence past its bound or the sample')",
         "{v} = []",
         "for _ in range(n):",
-        "    x, pos = {f}(buf, pos, e)",
+        "    x, pos = {f}(buf, pos, end)",
         "    {v}.append(x)",
-        "pos = e",
     ],
     "struct": ["{v}, pos = {f}(buf, pos, end)"],
 }
@@ -132,7 +135,7 @@ _ENCODE = {
         "data = {v}.encode()",
         "[bounded]if len(data) > {b} - 1:",
         "[bounded]    raise ValueError(f'string of {{len(data)}} bytes is longer than its bound of {bmsg}')",
-        _OUT_ALIGN,
+        _OUT_ALIGN4,
         "out += pack_I(len(data) + 1)",
         "out += data",
         "out.append(0)",
@@ -140,7 +143,7 @@ _ENCODE = {
     # most sequences are empty (a value uses one of its five): one append for those
     "bytes": [
         "[bounded]check_count(len({v}), {b})",
-        _OUT_ALIGN,
+        _OUT_ALIGN4,
         "if {v}:",
         "    out += pack_I(len({v}))",
         "    out += bytes({convert})",
@@ -149,20 +152,20 @@ _ENCODE = {
     ],
     "array": [
         "[bounded]check_count(len({v}), {b})",
-        _OUT_ALIGN,
-        "out += pack('<I%d{c}' % len({v}), len({v}), *{v}) if {v} else EMPTY",
-    ],
-    "delimited": [
-        "[bounded]check_count(len({v}), {b})",
-        _OUT_ALIGN,
+        _OUT_ALIGN4,
         "if {v}:",
-        "    {v}_at = len(out)",
-        "    out += pack_II(0, len({v}))",
-        "    for x in {v}:",
-        "        {f}(out, x)",
-        "    pack_into_I(out, {v}_at, len(out) - {v}_at - 4)",
+        "    out += pack_I(len({v}))",
+        "    " + _OUT_ALIGN,
+        "    out += pack('<%d{c}' % len({v}), *{v})",
         "else:",
-        "    out += EMPTY_DELIMITED",
+        "    out += EMPTY",
+    ],
+    "elements": [
+        "[bounded]check_count(len({v}), {b})",
+        _OUT_ALIGN4,
+        "out += pack_I(len({v}))",
+        "for x in {v}:",
+        "    {f}(out, x)",
     ],
     "struct": ["{f}(out, {v})"],
 }
@@ -181,7 +184,8 @@ class _Member(NamedTuple):
     def lines(self, templates: dict[str, list[str]], var: str, fn: str) -> list[str]:
         bmsg = self.bound - 1 if self.kind == "string" else self.bound
         size = struct.calcsize("<" + self.code) if self.code else 0
-        fields = {"v": var, "c": self.code, "size": size, "b": self.bound, "bmsg": bmsg, "f": fn}
+        fields = {"v": var, "c": self.code, "size": size, "a": size - 1, "b": self.bound, "bmsg": bmsg}
+        fields["f"] = fn
         fields["convert"] = (self.convert_in if templates is _DECODE else self.convert_out).format(**fields)
         bounded = self.bound != _NO_BOUND
         fields["bcheck"] = f" or n > {self.bound}" if bounded else ""
@@ -201,7 +205,7 @@ def _member(hint: Any, functions: dict[str, Any]) -> _Member:
         return _Member("struct", nested=_compile(hint, functions))
     meta = typing.get_args(hint)[1]  # Annotated[python type, cyclonedds annotation]
     if isinstance(meta, str):
-        return _Member("byte") if meta == "uint8" else _Member("fixed", _CODES[meta])
+        return _Member("byte") if meta in ("byte", "uint8") else _Member("fixed", _CODES[meta])
     if isinstance(meta, bounded_str):
         return _Member("string", bound=meta.max_length + 1, nested="str")
     if isinstance(meta, sequence):
@@ -216,7 +220,7 @@ def _member(hint: Any, functions: dict[str, Any]) -> _Member:
         if element.kind == "fixed":
             return _Member("array", element.code, bound)
         if element.kind in ("string", "struct") and element.bound == _NO_BOUND:
-            return _Member("delimited", bound=bound, nested=element.nested)
+            return _Member("elements", bound=bound, nested=element.nested)
     raise TypeError(f"no fast codec for {hint!r}")  # a new kind of member: extend this module
 
 
@@ -227,7 +231,7 @@ def check_count(n: int, bound: int) -> None:
 
 def _str_decode(buf: bytes, pos: int, end: int) -> tuple[str, int]:
     """A string as a sequence element."""
-    pos += -pos & 3
+    pos += -pos & 3  # the header is 4 bytes: 4-alignment is the same from either end of it
     (n,) = struct.unpack_from("<I", buf, pos)
     pos += 4
     e = pos + n
@@ -250,16 +254,13 @@ def encode_str(out: bytearray, value: str) -> None:
 _BASE_NAMESPACE: dict[str, Any] = {
     "unpack_from": struct.unpack_from,
     "pack": struct.pack,
-    **{f"unpack_{c}": struct.Struct("<" + c).unpack_from for c in ("I", "II", *_CODES.values())},
-    **{f"pack_{c}": struct.Struct("<" + c).pack for c in ("I", "II", *_CODES.values())},
-    "pack_into_I": struct.Struct("<I").pack_into,
-    "PAD": (b"", b"\0", b"\0\0", b"\0\0\0"),
+    **{f"unpack_{c}": struct.Struct("<" + c).unpack_from for c in ("I", *_CODES.values())},
+    **{f"pack_{c}": struct.Struct("<" + c).pack for c in ("I", *_CODES.values())},
+    "PAD": tuple(bytes(n) for n in range(8)),
     "EMPTY": b"\0\0\0\0",  # a sequence's length, 0
-    "EMPTY_DELIMITED": b"\4\0\0\0\0\0\0\0",  # DHEADER 4 (just the length), length 0
     "MalformedSample": MalformedSample,
     "check_count": check_count,
     "decode_str": _str_decode,
-    "fast_str": _str_decode,
     "encode_str": encode_str,
 }
 _compiled: dict[type, _Functions] = {}
@@ -272,60 +273,30 @@ def _compile(cls: type, functions: dict[str, Any]) -> str:
         hints = typing.get_type_hints(cls, include_extras=True)
         members = [(field, _member(hint, functions)) for field, hint in hints.items()]
         packers: dict[str, Any] = {}
-        fast, encode = _fast_decoder_and_encoder(name, members, packers)
-        source = "\n\n\n".join("\n".join(f) for f in (_careful_decoder(name, members), fast, encode))
+        source = "\n\n\n".join("\n".join(f) for f in _decoder_and_encoder(name, members, packers))
         namespace = dict(_BASE_NAMESPACE, cls=cls, **functions, **packers)
         exec(compile(source + "\n", f"<paramdds.dds.cdr {name}>", "exec"), namespace)
-        _compiled[cls] = _Functions(
-            namespace[f"decode_{name}"], namespace[f"fast_{name}"], namespace[f"encode_{name}"], source + "\n"
-        )
+        _compiled[cls] = _Functions(namespace[f"decode_{name}"], namespace[f"encode_{name}"], source + "\n")
     compiled = _compiled[cls]
-    functions.update(
-        {f"decode_{name}": compiled.decode, f"fast_{name}": compiled.fast, f"encode_{name}": compiled.encode}
-    )
+    functions.update({f"decode_{name}": compiled.decode, f"encode_{name}": compiled.encode})
     return name
 
 
-_HEAD = [  # every struct decoder starts here: align, read the DHEADER, bound the struct
-    "    pos += -pos & 3",
-    "    (size,) = unpack_I(buf, pos)",
-    "    pos += 4",
-    "    if pos + size > end:",
-    "        raise MalformedSample('struct past its container')",
-    "    end = pos + size",
-]
-_TAIL = ["    if pos > end:", "        raise MalformedSample('members past the struct size')"]
-
-
-def _careful_decoder(name: str, members: list[tuple[str, _Member]]) -> list[str]:
-    """Member by member, stopping where an older writer's struct ends."""
-    lines = [f"def decode_{name}(buf, pos, end):", *_HEAD]
-    done: list[str] = []
-    for i, (field, member) in enumerate(members):
-        lines.append(f"    if pos >= end:  # an older writer: {field} and later keep their defaults")
-        lines.append(f"        return cls({', '.join(done)}), end")
-        lines += ["    " + line for line in member.lines(_DECODE, f"m{i}", f"decode_{member.nested}")]
-        done.append(f"m{i}")
-    return [*lines, *_TAIL, f"    return cls({', '.join(done)}), end"]
-
-
-def _fast_decoder_and_encoder(
+def _decoder_and_encoder(
     name: str, members: list[tuple[str, _Member]], packers: dict[str, Any]
 ) -> tuple[list[str], list[str]]:
-    """Every member present (the common case), runs of fixed-size members read and written at once.
+    """Member by member, runs of fixed-size members read and written at once.
 
-    Where the offset modulo 4 is known (from the struct start, up to the first
-    string or struct), a run of fixed-size members becomes one ``struct`` format
-    with its padding spelled out (``<B?xxqd`` for ParameterValue's first four).
+    Where the offset modulo the next member's alignment is known, a run of
+    fixed-size members becomes one ``struct`` format with its padding spelled out
+    (``<B?xxxxxxqd`` for ParameterValue's first four, once aligned). A struct may
+    start at any offset (XCDR1 does not align nested structs), so the offset is
+    unknown at the start and after a string; it is aligned at run time where a
+    member needs it, and known from there on.
     """
-    dec = [f"def fast_{name}(buf, pos, end):", *_HEAD]
-    enc = [
-        f"def encode_{name}(out, obj):",
-        f"    {_OUT_ALIGN}",
-        "    at = len(out)",
-        "    out += b'\\0\\0\\0\\0'",
-    ]
-    phase: int | None = 0  # the offset modulo 4, when known
+    dec = [f"def decode_{name}(buf, pos, end):"]
+    enc = [f"def encode_{name}(out, obj):"]
+    phase, modulus = 0, 1  # the offset after the header is `phase` modulo `modulus` (1: unknown)
     run: list[tuple[str, str, str]] = []  # (variable, field, format with padding) to read at once
 
     def flush() -> None:
@@ -342,42 +313,37 @@ def _fast_decoder_and_encoder(
 
     for i, (field, member) in enumerate(members):
         var = f"m{i}"
-        size = (
-            1
-            if member.kind in ("byte", "bool")
-            else struct.calcsize("<" + member.code)
-            if member.kind == "fixed"
-            else 0
-        )
-        if size and phase is None and size == 1:  # offset unknown: a lone byte needs no alignment
+        size = {"byte": 1, "bool": 1, "fixed": struct.calcsize("<" + member.code)}.get(member.kind, 0)
+        if size == 1 and modulus == 1:  # offset unknown and no alignment needed: inline, no run
             dec += ["    " + line for line in member.lines(_DECODE, var, "")]
             enc += [f"    {var} = obj.{field}", *("    " + line for line in member.lines(_ENCODE, var, ""))]
         elif size:
-            if phase is None:  # align at run time; from here the offset is known
+            if modulus < size:  # align at run time; from here the offset is known
                 flush()
-                dec.append(f"    {_ALIGN}")
-                enc.append(f"    {_OUT_ALIGN}")
-                phase = 0
-            pad = -phase % 4 if size > 1 else 0
+                dec.append(f"    {_ALIGN.format(a=size - 1)}")
+                enc.append(f"    {_OUT_ALIGN.format(a=size - 1)}")
+                phase, modulus = 0, size
+            pad = -phase % size
             run.append((var, field, "x" * pad + ("?" if member.kind == "bool" else member.code or "B")))
-            phase = (phase + pad + size) % 4
+            phase = (phase + pad + size) % modulus
         else:
             flush()
-            dec += ["    " + line for line in member.lines(_DECODE, var, f"fast_{member.nested}")]
+            dec += ["    " + line for line in member.lines(_DECODE, var, f"decode_{member.nested}")]
             enc += [
                 f"    {var} = obj.{field}",
                 *("    " + line for line in member.lines(_ENCODE, var, f"encode_{member.nested}")),
             ]
-            phase = 0 if member.kind == "array" else None
+            # after a sequence of 4- or 8-byte elements the offset is a multiple of 4; else unknown
+            phase, modulus = (0, 4) if member.kind == "array" else (0, 1)
     flush()
-    dec += [*_TAIL, f"    return cls({', '.join(f'm{i}' for i in range(len(members)))}), end"]
-    enc.append("    pack_into_I(out, at, len(out) - at - 4)")
+    dec.append(f"    return cls({', '.join(f'm{i}' for i in range(len(members)))}), pos")
+    if len(enc) == 1:
+        enc.append("    pass")
     return dec, enc
 
 
 class _Functions(NamedTuple):
-    decode: Any  # (buf, pos, end) -> (sample, end): careful, raises MalformedSample
-    fast: Any  # the same assuming every member is present; on any failure, use decode
+    decode: Any  # (buf, pos, end) -> (sample, pos after it); raises on bytes that are no sample
     encode: Any  # (out, sample) -> None
     source: str
 
@@ -400,18 +366,17 @@ def encode(sample: IdlStruct) -> bytes:
 
 
 def decode(cls: type[IdlStruct], data: bytes) -> Any:
-    """Decode a sample with its encapsulation header; raises MalformedSample."""
-    functions = _codec(cls)
+    """Decode a sample with its encapsulation header; raises MalformedSample.
+
+    Bytes after the last member are ignored: a writer may pad a sample to a
+    multiple of 4 (Cyclone C does, and says so in the header's option bits).
+    """
     try:
-        return functions.fast(data, 4, len(data))[0]
-    except (struct.error, ValueError, IndexError):  # incl. MalformedSample and UnicodeDecodeError
-        pass  # an older writer, or bytes that are not a sample: the careful decoder tells which
-    try:
-        return functions.decode(data, 4, len(data))[0]
+        return _codec(cls).decode(data, 4, len(data))[0]
     except MalformedSample:
         raise
-    except (struct.error, ValueError, IndexError) as exc:
-        raise MalformedSample(str(exc)) from exc
+    except (struct.error, ValueError, IndexError) as exc:  # incl. UnicodeDecodeError
+        raise MalformedSample(str(exc) or type(exc).__name__) from exc
 
 
 # ---- installing on a type -----------------------------------------------------------------------
@@ -428,7 +393,7 @@ def fast_cdr(cls: T) -> T:
         endianness: Endianness | None = None,
         use_version_2: bool | None = None,
     ) -> bytes:
-        if buffer is None and endianness in (None, Endianness.Little) and use_version_2 is not False:
+        if buffer is None and endianness in (None, Endianness.Little) and not use_version_2:
             return encode(self)
         return IdlStruct.serialize(self, buffer, endianness, use_version_2)
 

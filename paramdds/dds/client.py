@@ -11,10 +11,12 @@ Presence: the state reader is content-filtered on presence instances (name
 ``""``), so the parameters' state samples never reach Python here.
 
 No call ever hangs: each has a timeout (default :data:`DEFAULT_TIMEOUT`). A node
-that has no presence instance once the client has had ``presence_grace`` seconds
-to discover the system is reported UNAVAILABLE at once; a node that goes offline
-while a call waits fails that call with UNAVAILABLE; otherwise a missing answer is
-a TIMEOUT naming the node and the time waited. A request without a reply is sent
+that has no presence instance is reported UNAVAILABLE ("not present") only once
+discovery has settled (:mod:`.discovery` states the rule: a state writer was found,
+every matched one has delivered, and nothing changed for a quiet period that grows
+with how slow discovery was); a node that goes offline while a call waits fails
+that call with UNAVAILABLE; otherwise a missing answer is a TIMEOUT naming the
+node, the time waited and how far discovery got. A request without a reply is sent
 again (same ids) with backoff: the server answers repeats from its reply cache,
 so a copy lost during discovery costs a fraction of a second, not the timeout.
 """
@@ -54,14 +56,16 @@ from ..errors import (
 from . import types as wire
 from .cdr import is_malformed
 from .convert import descriptor_from_wire, parameter_to_wire, value_from_wire
+from .discovery import MIN_QUIET, DiscoveryState, DiscoveryWatch, Presence
 from .dispatch import Dispatcher
 from .filters import NativeFilter, filtered_topic
+from .participant import peer_mismatches
 from .qos import QosProfiles
 
 log = logging.getLogger(__name__)
 
 DEFAULT_TIMEOUT = 5.0
-PRESENCE_GRACE = 1.0  # seconds after start-up before a node without presence counts as absent
+PRESENCE_GRACE = MIN_QUIET  # the least quiet discovery time before a node without presence counts as absent
 _READ_ALL = 1 << 24  # "every sample" for read(); Cyclone refuses N >= 2**28
 PRESENCE_POLL = 0.02  # seconds between presence checks in wait_for_node
 RESEND_AFTER = 0.2  # seconds without a reply before a call checks presence and resends
@@ -132,7 +136,11 @@ class _Pending:
 
 
 class ParameterClient:
-    """A synchronous client. Thread-safe; use one per process (or several: they never mix)."""
+    """A synchronous client. Thread-safe; use one per process (or several: they never mix).
+
+    ``presence_grace`` is the least time discovery must stay quiet before a node never
+    seen counts as absent (:mod:`.discovery`); it is no longer a fixed deadline.
+    """
 
     def __init__(
         self,
@@ -151,8 +159,6 @@ class ParameterClient:
         self._ids_lock = threading.Lock()
         self._pending: dict[int, _Pending] = {}
         self._closing = threading.Event()
-        self._started = time.monotonic()
-        self._presence_grace = presence_grace
         self._writers = {
             name: DataWriter(participant, Topic(participant, name, wire.TOPICS[name]), self._qos.writer(name))
             for name in ("SetParametersRequest", "GetParametersRequest", "ListParametersRequest")
@@ -171,6 +177,12 @@ class ParameterClient:
         self._presence_filter.set_nodes(None)  # every node's presence, no parameter samples
         presence = filtered_topic(participant, "ParameterEvents", wire.ParameterEvent, self._presence_filter)
         self._presence = DataReader(participant, presence, self._qos.reader("ParameterEvents"))
+        self._discovery = DiscoveryWatch(
+            participant,
+            self._presence,
+            [*self._writers.values(), *self._reply_readers.values()],
+            min_quiet=presence_grace,
+        )
         self._dispatcher.start()
 
     def _own_replies(self, name: str) -> Any:
@@ -180,6 +192,7 @@ class ParameterClient:
     def close(self) -> None:
         self._closing.set()
         self._dispatcher.close()
+        self._discovery.close()
         for pending in list(self._pending.values()):
             if not pending.future.done():
                 pending.future.set_exception(UnavailableError("the client was closed"))
@@ -203,26 +216,46 @@ class ParameterClient:
         if handle is None:
             return None
         try:
-            samples = self._presence.read(N=1, instance_handle=handle)
+            samples: list[Any] = self._presence.read(N=1, instance_handle=handle)
         except DDSException:
             # the handle is process-wide: another entity here may know the key while
             # this reader holds no such instance (PRECONDITION_NOT_MET)
             return None
+        self._discovery.note_read(s.sample_info for s in samples)
         return _node_info(samples[0]) if samples else None
 
     def nodes(self) -> list[NodeInfo]:
         """Every node whose presence this client holds (alive or not), sorted by name."""
-        found = [_node_info(s) for s in self._presence.read(N=_READ_ALL)]
+        samples: list[Any] = self._presence.read(N=_READ_ALL)
+        self._discovery.note_read(s.sample_info for s in samples)
+        found = [_node_info(s) for s in samples]
         return sorted((n for n in found if n is not None), key=lambda n: n.node)
 
     def node_info(self, node: str) -> NodeInfo | None:
         return self._presence_of(canonical_node_id(node))
 
-    def wait_for_node(self, node: str, timeout: float | None = None) -> NodeInfo:
-        """Block until ``node`` is online; UnavailableError after ``timeout`` seconds.
+    def discovery(self) -> DiscoveryState:
+        """How far this client's discovery of the system has got (see :mod:`.discovery`)."""
+        return self._discovery.state()
 
-        Checks the node's presence instance every :data:`PRESENCE_POLL` seconds (a
-        start-up wait, not a data path: replies are never polled).
+    def presence(self, node: str) -> Presence:
+        """ONLINE, OFFLINE, ABSENT (discovery settled without it) or UNKNOWN (it may yet appear).
+
+        The one place that decides whether a node "is not present": the calls, the
+        CLI and a web console all ask this.
+        """
+        info = self._presence_of(canonical_node_id(node))
+        if info is not None:
+            return Presence.ONLINE if info.online else Presence.OFFLINE
+        return Presence.ABSENT if self._discovery.settled() else Presence.UNKNOWN
+
+    def wait_for_node(self, node: str, timeout: float | None = None) -> NodeInfo:
+        """Block until ``node`` is online, for up to ``timeout`` seconds.
+
+        A node that does not come online in time raises UnavailableError when it is
+        offline or absent by the rule of :mod:`.discovery`, and TimeoutError_ (saying
+        how far discovery got) while discovery is still in progress. Checks every
+        :data:`PRESENCE_POLL` seconds (a start-up wait, not a data path).
         """
         node = canonical_node_id(node)
         limit = self.timeout if timeout is None else timeout
@@ -233,7 +266,7 @@ class ParameterClient:
                 return info
             remaining = deadline - time.monotonic()
             if remaining <= 0:
-                raise UnavailableError(f"node {node!r} is not present (waited {limit:g} s)")
+                raise self._not_seen(node, limit)
             self._closing.wait(min(remaining, PRESENCE_POLL))
             if self._closing.is_set():
                 raise UnavailableError("the client was closed")
@@ -343,9 +376,16 @@ class ParameterClient:
             if pending is not None and not pending.future.done():
                 pending.future.set_result(reply)
 
-    def _absent(self, node: str) -> bool:
-        info = self._presence_of(node)
-        return info is None or not info.online
+    def _not_seen(self, node: str, waited: float) -> ParamddsError:
+        """The error for a node not (or no longer) online after ``waited`` seconds."""
+        state = self.presence(node)
+        if state is Presence.OFFLINE:
+            return UnavailableError(f"node {node!r} is offline (waited {waited:.2g} s)")
+        why = self._discovery.state().describe()
+        also = self._mismatched()
+        if state is Presence.ABSENT:
+            return UnavailableError(f"node {node!r} is not present ({why}; waited {waited:.2g} s){also}")
+        return TimeoutError_(f"node {node!r} not seen within {waited:.2g} s: {why}{also}")
 
     def _slices(self, pending: _Pending, timeout: float | None) -> Iterator[float]:
         """How long to wait for the reply next; raises once the call cannot succeed.
@@ -359,36 +399,48 @@ class ParameterClient:
           matched a new peer since the request was sent (checked every
           :data:`MATCH_POLL` seconds while the call waits);
         * after :data:`RESEND_AFTER` seconds without a reply, doubling up to 1 s.
-          Before that resend, once the presence grace is over, an absent node is
-          UNAVAILABLE (at once for a node never seen; within a step of its
-          liveliness lease for one that died).
+          Before that resend, a node that is offline (within a step of its
+          liveliness lease for one that died) or absent (never seen, and discovery
+          settled: :meth:`presence`) is UNAVAILABLE.
 
         Retries are safe: the server answers a repeated (client_id, request_id)
         from its reply cache. A present node that does not answer is a TIMEOUT at
-        ``timeout``.
+        ``timeout``; a node never seen while discovery is still in progress is a
+        TIMEOUT that says so.
         """
         limit = self.timeout if timeout is None else timeout
         deadline = time.monotonic() + limit
-        grace_end = self._started + self._presence_grace
         step = RESEND_AFTER
         next_resend = time.monotonic() + step
         while True:
             now = time.monotonic()
             if now >= deadline:
-                raise TimeoutError_(f"no answer from node {pending.node!r} within {limit:g} s")
+                if self.presence(pending.node) is not Presence.ONLINE:
+                    raise self._not_seen(pending.node, limit)
+                why = self._mismatched()
+                raise TimeoutError_(f"no answer from node {pending.node!r} within {limit:g} s{why}")
             yield max(0.0, min(deadline, next_resend, now + MATCH_POLL) - now)
             now = time.monotonic()
+            self._discovery.state()  # keeps the time of the last discovery change precise
             if now >= next_resend:
                 step = min(2 * step, 1.0)  # a big request that is merely slow is not resent often
                 next_resend = now + step
-                if now >= grace_end and self._absent(pending.node):
-                    raise UnavailableError(f"node {pending.node!r} is not present")
+                if self.presence(pending.node) in (Presence.OFFLINE, Presence.ABSENT):
+                    raise self._not_seen(pending.node, now - (deadline - limit))
             elif not self._newly_matched(pending):
                 continue
             try:
                 self._writers[pending.topic].write(pending.sample)
             except Exception as exc:
                 log.debug("resending request %d failed: %s", pending.sample.request_id, exc)
+
+    def _mismatched(self) -> str:
+        """A note for a failed call when peers were refused for their type or QoS (see :mod:`.peers`)."""
+        found = peer_mismatches(self._dp)
+        if not found:
+            return ""
+        n = len(found)
+        return f" ({n} DDS peer endpoint(s) do not match ours and are ignored, e.g. {found[0].message()})"
 
     def _newly_matched(self, pending: _Pending) -> bool:
         """Whether the topic of ``pending`` has matched a new peer since the count was last taken."""

@@ -13,12 +13,26 @@ Configuration layers, later ones overriding earlier ones:
 3. With ``topic_discovery=True``: Cyclone's topic discovery endpoints, so the
    ``DCPSTopic`` builtin topic is filled (it stays empty otherwise).
 
-When neither 2 nor 3 applies no ``Domain`` is created and Cyclone's normal
+4. With ``short_lived=True`` (the one-shot CLI verbs): the participant announces
+   itself every :data:`SHORT_LIVED_SPDP_INTERVAL` instead of Cyclone's default
+   (lease minus 2 s: 8 s). A peer answers only a participant it has not met, so
+   when a one-shot process's first announcement is lost on a lossy link, the
+   next one is what introduces it; with 8 s between them a ``get`` with
+   ``--timeout 5`` would fail. One second keeps Cyclone's own behaviour intact
+   (an interval under 1 s would also stop the four directed answers a participant
+   gives newcomers) and costs the network one small packet per peer address per
+   second, for a process that lives a few seconds. Long-lived processes (servers,
+   monitors) keep the default, so a large system is not flooded.
+
+When none of 2, 3 and 4 applies no ``Domain`` is created and Cyclone's normal
 configuration is used untouched. Otherwise a :class:`cyclonedds.domain.Domain`
 is created with the combined configuration. Deleting a ``Domain`` deletes every
 participant in it, so the Domain is kept alive by the participants (an
 attribute on each) and shared by all participants of that domain id in this
 process; Cyclone allows one configuration per domain id per process.
+
+Every participant reports peers whose type or QoS does not match ours
+(:mod:`.peers`): a warning per peer endpoint, and :func:`peer_mismatches`.
 
 The participant carries ``EntityName`` = ``app_name`` and the ``__ProcessName``
 property (propagated), which ``cyclonedds ps`` shows next to the hostname and
@@ -35,14 +49,18 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from cyclonedds.domain import Domain, DomainParticipant
 
+    from .peers import PeerMismatch
+
 __all__ = [
     "LOCALHOST_ENV",
     "MAX_DOMAIN_ID",
     "MAX_PARTICIPANT_INDEX",
+    "SHORT_LIVED_SPDP_INTERVAL",
     "close_participant",
     "domain_config",
     "localhost_from_env",
     "make_participant",
+    "peer_mismatches",
 ]
 
 LOCALHOST_ENV = "PARAMDDS_LOCALHOST"
@@ -63,6 +81,8 @@ _LOCALHOST_XML = (
     '<Peers><Peer address="127.0.0.1"/></Peers>'
     "</Discovery>"
 )
+SHORT_LIVED_SPDP_INTERVAL = "1s"
+_SHORT_LIVED_XML = f"<Discovery><SPDPInterval>{SHORT_LIVED_SPDP_INTERVAL}</SPDPInterval></Discovery>"
 _TOPIC_DISCOVERY_XML = (
     "<Discovery><EnableTopicDiscoveryEndpoints>true</EnableTopicDiscoveryEndpoints></Discovery>"
 )
@@ -78,7 +98,9 @@ def localhost_from_env(environ: dict[str, str] | None = None) -> bool:
     return env.get(LOCALHOST_ENV, "").strip().lower() in {"1", "true", "yes", "on"}
 
 
-def domain_config(*, localhost: bool = False, topic_discovery: bool = False) -> str | None:
+def domain_config(
+    *, localhost: bool = False, topic_discovery: bool = False, short_lived: bool = False
+) -> str | None:
     """The Cyclone configuration string for these options, or None for Cyclone's normal one.
 
     The user's ``CYCLONEDDS_URI`` comes first, so our settings refine it rather
@@ -89,6 +111,8 @@ def domain_config(*, localhost: bool = False, topic_discovery: bool = False) -> 
         parts.append(_LOCALHOST_XML)
     if topic_discovery:
         parts.append(_TOPIC_DISCOVERY_XML)
+    if short_lived:
+        parts.append(_SHORT_LIVED_XML)
     if not parts:
         return None
     ours = '<CycloneDDS><Domain id="any">' + "".join(parts) + "</Domain></CycloneDDS>"
@@ -102,6 +126,7 @@ def make_participant(
     localhost: bool = False,
     app_name: str = "paramdds",
     topic_discovery: bool = False,
+    short_lived: bool = False,
 ) -> DomainParticipant:
     """A participant on ``domain_id`` (0..232), configured as the module docstring says.
 
@@ -115,14 +140,24 @@ def make_participant(
     from cyclonedds.qos import Policy, Qos
 
     qos = Qos(Policy.EntityName(app_name), Policy.Property("__ProcessName", app_name, propagate=True))
-    config = domain_config(localhost=localhost, topic_discovery=topic_discovery)
+    from .peers import PeerWatch
+
+    config = domain_config(localhost=localhost, topic_discovery=topic_discovery, short_lived=short_lived)
     if config is None:
-        return DomainParticipant(domain_id, qos=qos)
-    with _lock:
-        domain = _domain(domain_id, config)
         participant = DomainParticipant(domain_id, qos=qos)
-    participant._paramdds_domain = domain  # type: ignore[attr-defined]  # keeps the Domain (and so the participant) alive
+    else:
+        with _lock:
+            domain = _domain(domain_id, config)
+            participant = DomainParticipant(domain_id, qos=qos)
+        participant._paramdds_domain = domain  # type: ignore[attr-defined]  # keeps the Domain (and so the participant) alive
+    participant._paramdds_peers = PeerWatch(participant)  # type: ignore[attr-defined]
     return participant
+
+
+def peer_mismatches(participant: DomainParticipant) -> list[PeerMismatch]:
+    """The peers Cyclone refused to match with ``participant``'s endpoints, so far (see :mod:`.peers`)."""
+    watch = getattr(participant, "_paramdds_peers", None)
+    return [] if watch is None else watch.mismatches()
 
 
 def _domain(domain_id: int, config: str) -> Domain:
@@ -159,4 +194,7 @@ def close_participant(participant: DomainParticipant) -> None:
     """
     from cyclonedds.core import Entity
 
+    watch = getattr(participant, "_paramdds_peers", None)
+    if watch is not None:
+        watch.close()
     Entity.__del__(participant)

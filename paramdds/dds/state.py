@@ -17,11 +17,12 @@ on generated and damaged samples). :func:`encode_state` is the reverse for a
 server's parameter samples of that shape: the same bytes as the generated encoder
 of the wire sample, without building it.
 
-Layout of the fast shape (XCDR2 little endian, every struct ``@appendable``, so
-each starts with a DHEADER, its size in bytes; 8-byte members align to 4)::
+Layout of the fast shape (plain XCDR1 little endian, every struct ``@final``: no
+headers inside; each member aligned to its size, up to 8, from the end of the
+encapsulation header)::
 
-    header | DHEADER | node_id | name | kind | revision | Time{DHEADER sec nanosec}
-    | ParameterValue{DHEADER type bool pad int64 double string 5 x empty sequence}
+    header | node_id | name | kind | pad to 8 | revision | Time{sec nanosec}
+    | ParameterValue{type bool pad(6) int64 double string 5 x empty sequence}
     | descriptor: empty sequence | host | pid | parameter_count
 """
 
@@ -65,18 +66,15 @@ class StateKey(NamedTuple):
 _TYPES = tuple(ParameterType)
 _U32 = struct.Struct("<I")
 _unpack_u32 = _U32.unpack_from
-_unpack_u32x2 = struct.Struct("<II").unpack_from
-# from the revision to the string value's length: revision, Time {DHEADER sec nanosec},
-# ParameterValue {DHEADER type bool (pad) int64 double}, length of string_value
-_MIDDLE = struct.Struct("<qIiIIB?xxqdI")
+# from the revision (8-aligned) to the string value's length: revision, Time {sec nanosec},
+# ParameterValue {type bool (pad to 8) int64 double}, length of string_value
+_MIDDLE = struct.Struct("<qiIB?6xqdI")
 _unpack_middle = _MIDDLE.unpack_from
 _unpack_tail = struct.Struct("<iI").unpack_from  # pid, parameter_count
-# the rest of the value (4 empty sequences, then a DHEADER and 0 strings), and no
-# descriptor (a DHEADER and 0 structs)
-_PLAIN_TAIL = bytes(16) + bytes.fromhex("04000000000000000400000000000000")
-_TIME_SIZE = 8
+# the rest of the value (4 empty sequences after the string's), and no descriptor
+_PLAIN_TAIL = bytes(24)
 _NO_HOST_PID_COUNT = bytes.fromhex("01000000000000000000000000000000")  # "", 0, 0
-_PAD = (b"", b"\0", b"\0\0", b"\0\0\0")  # _PAD[-n & 3]: the zeros that bring n to a multiple of 4
+_PAD = tuple(bytes(n) for n in range(8))  # _PAD[(4 - n) & 7]: aligns offset n to 8 after the header
 
 
 def decode_state(data: bytes) -> StateSample:
@@ -115,35 +113,30 @@ def _decode_fast(buf: bytes) -> StateSample | None:
     try:
         if not buf.startswith(HEADER[:2]):
             return None
-        size, n = _unpack_u32x2(buf, 4)
-        end = 8 + size
-        if end > len(buf):
-            return None
-        node_id, pos = _key_string(buf, 8, n, end)
+        end = len(buf)
+        node_id, pos = _key_string(buf, 4, end)
         pos += -pos & 3
-        name, pos = _key_string(buf, pos, _unpack_u32(buf, pos)[0], end)
+        name, pos = _key_string(buf, pos, end)
         kind = buf[pos]  # one byte, straight after the name
         pos += 1
-        pos += -pos & 3
-        revision, time_size, sec, nanosec, vsize, t, b, i, d, n = _unpack_middle(buf, pos)
-        vend = pos + 24 + vsize  # the value starts after the revision and Time (20 bytes)
-        pos += 48
+        pos += (4 - pos) & 7
+        revision, sec, nanosec, t, b, i, d, n = _unpack_middle(buf, pos)
+        pos += _MIDDLE.size
         e = pos + n
-        if kind > 1 or time_size != _TIME_SIZE or t > 4 or n == 0 or e > vend or buf[e - 1] != 0:
+        if kind > 1 or t > 4 or n == 0 or e > end or buf[e - 1] != 0:
             return None
         s = buf[pos : e - 1].decode()
         pos = e + (-e & 3)
-        if pos + 24 != vend or buf[pos : vend + 8] != _PLAIN_TAIL:
+        if buf[pos : pos + 24] != _PLAIN_TAIL:
             return None
-        (n,) = _unpack_u32(buf, vend + 8)  # host
-        e = vend + 12 + n
+        pos += 24
+        (n,) = _unpack_u32(buf, pos)  # host
+        e = pos + 4 + n
         if n == 0 or e > end or buf[e - 1] != 0:
             return None
-        host = buf[vend + 12 : e - 1].decode()
+        host = buf[pos + 4 : e - 1].decode()
         pos = e + (-e & 3)
-        if pos + 8 != end:
-            return None
-        pid, count = _unpack_tail(buf, pos)
+        pid, count = _unpack_tail(buf, pos)  # bytes after these are padding: ignored, as the codec does
     except (struct.error, IndexError, UnicodeDecodeError):
         return None
     ptype = _TYPES[t]
@@ -152,8 +145,9 @@ def _decode_fast(buf: bytes) -> StateSample | None:
     return StateSample(node_id, name, kind, revision, stamp, value, _plain(name, ptype), host, pid, count)
 
 
-def _key_string(buf: bytes, pos: int, n: int, end: int) -> tuple[str, int]:
-    """A ``bounded_str[255]`` of length ``n`` at ``pos`` (4-aligned); the string, the offset after it."""
+def _key_string(buf: bytes, pos: int, end: int) -> tuple[str, int]:
+    """A ``bounded_str[255]`` at ``pos`` (4-aligned); the string, the offset after it."""
+    (n,) = _unpack_u32(buf, pos)
     e = pos + 4 + n
     if n == 0 or n > 256 or e > end or buf[e - 1] != 0:
         raise IndexError("not a key string")
@@ -185,8 +179,8 @@ def encode_state(
     value: ParameterValue,
     d: ParameterDescriptor,
 ) -> bytes | None:
-    """A parameter's state sample of the common shape, ready to write (padded to 4 bytes);
-    None for any other (then build the wire sample and let the generated encoder write it)."""
+    """A parameter's state sample of the common shape, ready to write; None for any other
+    (then build the wire sample and let the generated encoder write it)."""
     t = int(value.type)
     if not 1 <= t <= 4 or not is_plain(d, value):
         return None
@@ -196,18 +190,15 @@ def encode_state(
     s = v.encode() if isinstance(v, str) else b""
     body = len(s) + 1
     out = bytearray(HEADER)
-    out += b"\0\0\0\0"  # DHEADER, filled in below
     encode_str(out, node_id)
     encode_str(out, name)
     out.append(wire.EVENT_PARAMETER)
-    out += _PAD[-len(out) & 3]
+    out += _PAD[(4 - len(out)) & 7]
     try:
         out += _MIDDLE.pack(
             revision,
-            _TIME_SIZE,
             sec,
             nanosec,
-            24 + body + (-body & 3) + 24,  # the value's size: its fixed part, string, 4 + 1 sequences
             t,
             v if t == 1 else False,
             v if t == 2 else 0,
@@ -217,5 +208,4 @@ def encode_state(
     except struct.error:
         return None  # out of range: the generated encoder raises the error
     out += s + b"\0" + _PAD[-body & 3] + _PLAIN_TAIL + _NO_HOST_PID_COUNT
-    _U32.pack_into(out, 4, len(out) - 8)
     return bytes(out)

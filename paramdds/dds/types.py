@@ -2,7 +2,7 @@
 
 ``tests/test_idl_identity.py`` compiles the IDL and compares XTypes type
 identifiers with these classes, so the two cannot drift apart. Every struct is
-``@appendable``: members may be added at the end without breaking deployed
+``@final``: members may be added at the end without breaking deployed
 nodes (see the README's wire-compatibility section).
 
 Values follow rcl_interfaces: a ``type`` byte and one member per type.
@@ -11,8 +11,8 @@ Values follow rcl_interfaces: a ``type`` byte and one member per type.
 from dataclasses import dataclass, field
 
 from cyclonedds.idl import IdlStruct
-from cyclonedds.idl.annotations import appendable, key
-from cyclonedds.idl.types import bounded_str, float64, int32, int64, sequence, uint8, uint32, uint64
+from cyclonedds.idl.annotations import final, key
+from cyclonedds.idl.types import bounded_str, byte, float64, int32, int64, sequence, uint32, uint64
 
 from paramdds.dds import typecache
 from paramdds.dds.cdr import fast_cdr
@@ -27,14 +27,14 @@ EVENT_PRESENCE = 1  # the node itself: host, pid, revision, parameter count; nam
 
 @fast_cdr
 @dataclass
-@appendable
+@final
 class ParameterValue(IdlStruct, typename="paramdds.ParameterValue"):
-    type: uint8 = 0
+    type: byte = 0
     bool_value: bool = False
     integer_value: int64 = 0
     double_value: float64 = 0.0
     string_value: str = ""
-    byte_array_value: sequence[uint8] = field(default_factory=list)
+    byte_array_value: sequence[byte] = field(default_factory=list)
     bool_array_value: sequence[bool] = field(default_factory=list)
     integer_array_value: sequence[int64] = field(default_factory=list)
     double_array_value: sequence[float64] = field(default_factory=list)
@@ -43,7 +43,7 @@ class ParameterValue(IdlStruct, typename="paramdds.ParameterValue"):
 
 @fast_cdr
 @dataclass
-@appendable
+@final
 class IntegerRange(IdlStruct, typename="paramdds.IntegerRange"):
     from_value: int64 = 0
     to_value: int64 = 0
@@ -52,7 +52,7 @@ class IntegerRange(IdlStruct, typename="paramdds.IntegerRange"):
 
 @fast_cdr
 @dataclass
-@appendable
+@final
 class FloatingPointRange(IdlStruct, typename="paramdds.FloatingPointRange"):
     from_value: float64 = 0.0
     to_value: float64 = 0.0
@@ -61,7 +61,7 @@ class FloatingPointRange(IdlStruct, typename="paramdds.FloatingPointRange"):
 
 @fast_cdr
 @dataclass
-@appendable
+@final
 class Validator(IdlStruct, typename="paramdds.Validator"):
     kind: str = ""
     args: sequence[ParameterValue] = field(default_factory=list)
@@ -69,10 +69,10 @@ class Validator(IdlStruct, typename="paramdds.Validator"):
 
 @fast_cdr
 @dataclass
-@appendable
+@final
 class ParameterDescriptor(IdlStruct, typename="paramdds.ParameterDescriptor"):
     name: str = ""
-    type: uint8 = 0
+    type: byte = 0
     description: str = ""
     additional_constraints: str = ""
     read_only: bool = False
@@ -84,7 +84,7 @@ class ParameterDescriptor(IdlStruct, typename="paramdds.ParameterDescriptor"):
 
 @fast_cdr
 @dataclass
-@appendable
+@final
 class Parameter(IdlStruct, typename="paramdds.Parameter"):
     name: str = ""
     value: ParameterValue = field(default_factory=ParameterValue)
@@ -92,7 +92,7 @@ class Parameter(IdlStruct, typename="paramdds.Parameter"):
 
 @fast_cdr
 @dataclass
-@appendable
+@final
 class Time(IdlStruct, typename="paramdds.Time"):
     sec: int32 = 0
     nanosec: uint32 = 0
@@ -100,7 +100,7 @@ class Time(IdlStruct, typename="paramdds.Time"):
 
 @fast_cdr
 @dataclass
-@appendable
+@final
 class ParameterEvent(IdlStruct, typename="paramdds.ParameterEvent"):
     """State of one parameter of one node (kind 0), or the node's presence (kind 1)."""
 
@@ -108,7 +108,7 @@ class ParameterEvent(IdlStruct, typename="paramdds.ParameterEvent"):
     key("node_id")
     name: bounded_str[255] = ""
     key("name")
-    kind: uint8 = EVENT_PARAMETER
+    kind: byte = EVENT_PARAMETER
     revision: int64 = 0
     stamp: Time = field(default_factory=Time)
     value: ParameterValue = field(default_factory=ParameterValue)
@@ -121,7 +121,7 @@ class ParameterEvent(IdlStruct, typename="paramdds.ParameterEvent"):
 
 @fast_cdr
 @dataclass
-@appendable
+@final
 class SetParametersRequest(IdlStruct, typename="paramdds.SetParametersRequest"):
     node_id: bounded_str[255] = ""
     key("node_id")
@@ -135,7 +135,7 @@ class SetParametersRequest(IdlStruct, typename="paramdds.SetParametersRequest"):
 
 @fast_cdr
 @dataclass
-@appendable
+@final
 class SetParameterResult(IdlStruct, typename="paramdds.SetParameterResult"):
     name: str = ""
     successful: bool = False
@@ -145,7 +145,7 @@ class SetParameterResult(IdlStruct, typename="paramdds.SetParameterResult"):
 
 @fast_cdr
 @dataclass
-@appendable
+@final
 class SetParametersResponse(IdlStruct, typename="paramdds.SetParametersResponse"):
     node_id: bounded_str[255] = ""
     key("node_id")
@@ -159,7 +159,7 @@ class SetParametersResponse(IdlStruct, typename="paramdds.SetParametersResponse"
 
 @fast_cdr
 @dataclass
-@appendable
+@final
 class GetParametersRequest(IdlStruct, typename="paramdds.GetParametersRequest"):
     node_id: bounded_str[255] = ""
     key("node_id")
@@ -171,7 +171,7 @@ class GetParametersRequest(IdlStruct, typename="paramdds.GetParametersRequest"):
 
 @fast_cdr
 @dataclass
-@appendable
+@final
 class GetParameterResult(IdlStruct, typename="paramdds.GetParameterResult"):
     name: str = ""
     code: str = ""  # "" when found, else NOT_FOUND / INVALID_NAME
@@ -182,7 +182,7 @@ class GetParameterResult(IdlStruct, typename="paramdds.GetParameterResult"):
 
 @fast_cdr
 @dataclass
-@appendable
+@final
 class GetParametersResponse(IdlStruct, typename="paramdds.GetParametersResponse"):
     node_id: bounded_str[255] = ""
     key("node_id")
@@ -196,7 +196,7 @@ class GetParametersResponse(IdlStruct, typename="paramdds.GetParametersResponse"
 
 @fast_cdr
 @dataclass
-@appendable
+@final
 class ListParametersRequest(IdlStruct, typename="paramdds.ListParametersRequest"):
     node_id: bounded_str[255] = ""
     key("node_id")
@@ -208,7 +208,7 @@ class ListParametersRequest(IdlStruct, typename="paramdds.ListParametersRequest"
 
 @fast_cdr
 @dataclass
-@appendable
+@final
 class ListParametersResponse(IdlStruct, typename="paramdds.ListParametersResponse"):
     node_id: bounded_str[255] = ""
     key("node_id")

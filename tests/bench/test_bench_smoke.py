@@ -104,6 +104,13 @@ def test_startup(domain_id: int) -> None:
     positive(data, "cli_get_ms", "import_floor_ms", "participant_floor_ms")
 
 
+def test_codec(domain_id: int) -> None:
+    data = bench("codec", domain_id)
+    assert len(data["cases"]) == 10
+    for case in data["cases"]:
+        positive(case, "paramdds_us", "binding_us", "speedup")
+
+
 @pytest.mark.parametrize("argv", [["bench", "nosuch"], ["bench", "scaling", "--nodes", "0"]])
 def test_bad_arguments_are_usage_errors(argv: list[str]) -> None:
     done = subprocess.run(

@@ -99,13 +99,30 @@ def test_a_strict_table_refuses_an_integer_override_for_a_double() -> None:
     assert not t.has("speed") and t.revision == 0
 
 
-def test_a_typed_parameter_without_value_is_required() -> None:
+def test_a_typed_parameter_may_be_declared_without_a_value_and_read_once_set() -> None:
+    # rclcpp/rclpy: declare with a type and no value; reading fails until it is set.
     t = ParameterTable("n")
-    with pytest.raises(InvalidValueError) as info:
-        t.declare("robot.id", None, ParameterDescriptor("", T.INTEGER))
-    assert "'robot.id' is required but has no value" in info.value.message
+    assert t.declare("robot.id", None, ParameterDescriptor("", T.INTEGER)) is NOT_SET
+    assert t.has("robot.id") and t.describe_one("robot.id").type is T.INTEGER
+    with pytest.raises(InvalidValueError, match=r"'robot.id' is declared \(integer\) but has no value"):
+        t.get("robot.id")
+    assert t.get_many(["robot.id"])[0].value is NOT_SET
+    assert not t.set([Parameter("robot.id", V("x"))]).results[0].successful  # still typed
+    assert t.set([Parameter("robot.id", V(3))]).results[0].successful
+    assert t.get("robot.id") == V(3)
     t2 = ParameterTable("n", overrides={"robot.id": V(7)})
+    assert t2.has_override("robot.id") and not t2.has_override("other")
     assert t2.declare("robot.id", None, ParameterDescriptor("", T.INTEGER)) == V(7)
+
+
+def test_not_set_on_an_unset_dynamic_parameter_keeps_it_declared_and_changes_nothing() -> None:
+    t = ParameterTable("n")
+    t.declare("x", None, ParameterDescriptor("", dynamic_typing=True))
+    revision = t.revision
+    outcome = t.set([Parameter("x", NOT_SET)])
+    assert outcome.results[0].successful and t.has("x") and t.revision == revision
+    t.set([Parameter("x", V(1))])
+    assert t.set([Parameter("x", NOT_SET)]).results[0].successful and not t.has("x")  # a value: deleted
 
 
 def test_a_parameter_with_no_type_at_all_is_refused() -> None:

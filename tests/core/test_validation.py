@@ -232,14 +232,43 @@ def test_check_validator_accepts_fitting_validators() -> None:
     check_validator(T.NOT_SET, val("gt", 1))  # dynamic: checked against each value
 
 
+def test_check_descriptor_accepts_ranges_as_rclcpp_does() -> None:
+    # Both ranges, a range of the other kind, from > to and a negative step are all accepted
+    # by rclcpp (its tests pin their meaning); only a non-finite step is refused.
+    check_descriptor(
+        desc(T.INTEGER, integer_range=IntegerRange(0, 1), floating_point_range=FloatingPointRange(0, 1))
+    )
+    check_descriptor(desc(T.STRING, integer_range=IntegerRange(0, 1)))
+    check_descriptor(desc(T.DOUBLE, floating_point_range=FloatingPointRange(2.0, 1.0, -0.5)))
+    with pytest.raises(InvalidValueError, match="finite step"):
+        check_descriptor(desc(T.DOUBLE, floating_point_range=FloatingPointRange(0.0, 1.0, math.nan)))
+
+
 def test_check_descriptor_refuses_contradictions() -> None:
-    with pytest.raises(InvalidValueError, match="not both"):
-        check_descriptor(
-            desc(T.INTEGER, integer_range=IntegerRange(0, 1), floating_point_range=FloatingPointRange(0, 1))
-        )
-    with pytest.raises(InvalidValueError, match="integer_range does not apply to a string"):
-        check_descriptor(desc(T.STRING, integer_range=IntegerRange(0, 1)))
-    with pytest.raises(InvalidValueError, match="from_value <= to_value"):
-        check_descriptor(desc(T.DOUBLE, floating_point_range=FloatingPointRange(2.0, 1.0)))
     with pytest.raises(InvalidValueError, match="Parameter 'p': validator 'gt'"):
         check_descriptor(desc(T.STRING, val("gt", 1)))
+
+
+@pytest.mark.parametrize(("v", "ok"), [(0, True), (4, True), (10, True), (3, False), (12, False)])
+def test_a_negative_integer_step_counts_as_its_magnitude(v: int, ok: bool) -> None:
+    d = desc(ParameterType.INTEGER, integer_range=IntegerRange(0, 10, -2))
+    check_descriptor(d)
+    if ok:
+        validate("p", ParameterValue(ParameterType.INTEGER, v), d)
+    else:
+        with pytest.raises(OutOfRangeError):
+            validate("p", ParameterValue(ParameterType.INTEGER, v), d)
+
+
+def test_a_range_of_the_other_kind_does_not_affect_the_value() -> None:
+    d = desc(
+        ParameterType.STRING, integer_range=IntegerRange(0, 1), floating_point_range=FloatingPointRange(0, 1)
+    )
+    check_descriptor(d)
+    validate("p", ParameterValue(ParameterType.STRING, "anything"), d)
+    with pytest.raises(OutOfRangeError):  # positive control: the same range bounds an integer
+        validate(
+            "p",
+            ParameterValue(ParameterType.INTEGER, 5),
+            desc(ParameterType.INTEGER, integer_range=IntegerRange(0, 1)),
+        )

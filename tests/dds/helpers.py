@@ -28,7 +28,7 @@ from cyclonedds.core import Entity
 from paramdds.core.table import ParameterTable
 from paramdds.dds.client import ParameterClient
 from paramdds.dds.monitor import ParameterMonitor
-from paramdds.dds.participant import make_participant
+from paramdds.dds.participant import close_participant, make_participant
 from paramdds.dds.server import ParameterServer
 
 
@@ -81,7 +81,7 @@ class DdsSession:
             self._closers.pop().close()
         domains = {id(d): d for d in (getattr(p, "_paramdds_domain", None) for p in self._participants) if d}
         for dp in self._participants:
-            Entity.__del__(dp)  # deletes the participant and every entity in it now, not at gc
+            close_participant(dp)  # deletes the participant and every entity in it now, not at gc
         for domain in domains.values():
             Entity.__del__(domain)
         self._participants.clear()
@@ -106,7 +106,7 @@ signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})  # every thread inher
 from paramdds.core.descriptors import IntegerRange, ParameterDescriptor
 from paramdds.core.table import ParameterTable
 from paramdds.core.yaml_seed import load_seed_params
-from paramdds.dds.participant import make_participant
+from paramdds.dds.participant import close_participant, make_participant
 from paramdds.dds.server import ParameterServer
 
 dp = make_participant(cfg["domain"], localhost=True, app_name=cfg.get("app_name", "paramdds-test-server"),
@@ -130,8 +130,7 @@ server.start()
 print("READY", flush=True)
 signal.sigwait({signal.SIGTERM})
 server.close()
-from cyclonedds.core import Entity
-Entity.__del__(dp)  # peers drop this participant now, not after its 10 s lease
+close_participant(dp)  # peers drop this participant now, not after its 10 s lease
 print("CLOSED", flush=True)
 """
 

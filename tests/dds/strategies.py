@@ -8,7 +8,7 @@ from cyclonedds.idl.types import bounded_str, sequence
 from hypothesis import strategies as st
 
 _INTS = {
-    "uint8": (0, 2**8 - 1),
+    "byte": (0, 2**8 - 1),
     "int32": (-(2**31), 2**31 - 1),
     "uint32": (0, 2**32 - 1),
     "int64": (-(2**63), 2**63 - 1),

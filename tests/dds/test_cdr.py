@@ -6,13 +6,12 @@ Bytes that are not a valid sample must come back marked malformed, not raise,
 because the binding decodes inside ``DataReader.take``.
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import pytest
 from cyclonedds.idl import IdlStruct
-from cyclonedds.idl.annotations import appendable
-from cyclonedds.idl.types import bounded_str, int64, sequence, uint8, uint64
+from cyclonedds.idl.annotations import final
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -48,7 +47,7 @@ def test_same_bytes_and_samples_as_the_binding(cls: type[IdlStruct], data: st.Da
     assert ours == _binding_bytes(sample)
     assert sample.serialize() == ours  # the installed method is ours
     assert decode(cls, ours) == sample
-    assert _codec(cls).fast(ours, 4, len(ours))[0] == sample  # the fast path, not its fallback
+    assert _codec(cls).decode(ours, 4, len(ours)) == (sample, len(ours))  # every byte read, none left
     assert cls.__idl__.deserialize(ours) == sample
     assert cls.deserialize(ours) == sample
 
@@ -57,7 +56,7 @@ def test_same_bytes_and_samples_as_the_binding(cls: type[IdlStruct], data: st.Da
 @given(samples(wire.ParameterEvent))
 def test_big_endian_samples_go_to_the_binding(sample: wire.ParameterEvent) -> None:
     data = _binding_bytes(sample, Endianness.Big)
-    assert data[:2] == b"\x00\x08"
+    assert data[:2] == b"\x00\x00"  # CDR_BE
     assert wire.ParameterEvent.deserialize(data) == sample
 
 
@@ -86,8 +85,14 @@ def test_what_is_malformed() -> None:
     assert is_malformed(wire.GetParametersRequest.deserialize(no_nul))
     assert not is_malformed(wire.GetParametersRequest.deserialize(good))
     assert is_malformed(wire.GetParametersRequest.deserialize(b""))  # the binding alone reads defaults
-    assert is_malformed(wire.ParameterEvent.deserialize(_binding_bytes(_UnboundedKey("x" * 256))))
-    assert not is_malformed(wire.ParameterEvent.deserialize(_binding_bytes(_UnboundedKey("x" * 255))))
+    at_bound = wire.ParameterEvent(node_id="x" * 255).serialize()
+    assert not is_malformed(wire.ParameterEvent.deserialize(at_bound))
+    # the same sample with a key past the bound, as a writer that ignores it would send it
+    # (263 bytes and a NUL keep the members after it at the same offsets modulo 8)
+    assert at_bound[4:8] == (256).to_bytes(4, "little")
+    over = at_bound[:4] + (264).to_bytes(4, "little") + b"x" * 263 + at_bound[263:]
+    assert _UnboundedKey.deserialize(over[: 8 + 264]) == _UnboundedKey("x" * 263)
+    assert is_malformed(wire.ParameterEvent.deserialize(over))
 
 
 def test_bounds_are_enforced_when_encoding() -> None:
@@ -100,44 +105,36 @@ def test_bounds_are_enforced_when_encoding() -> None:
 
 
 @dataclass
-@appendable
+@final
 class _UnboundedKey(IdlStruct, typename="test.UnboundedKey"):
     node_id: str = ""  # bounded_str[255] in ParameterEvent
 
 
-# -- appendable evolution: an older writer (fewer members) and a newer one (more) -------------
+# -- the wire every vendor reads: plain XCDR1, and what else we accept ---------------------------
 
 
-@dataclass
-@appendable
-class _OldRequest(IdlStruct, typename="test.OldGetParametersRequest"):
-    node_id: bounded_str[255] = ""
-    client_id: uint64 = 0
+def test_samples_are_plain_xcdr1_little_endian() -> None:
+    data = wire.GetParametersRequest(node_id="n1", client_id=7, names=["a"]).serialize()
+    # header CDR_LE; then the key's length (3 with the NUL), "n1\0", one byte of padding, and
+    # client_id at offset 8 after the header (8-byte alignment, no DHEADER anywhere)
+    assert data[:4] == b"\x00\x01\x00\x00"
+    assert data[4:12] == b"\x03\x00\x00\x00n1\x00\x00"
+    assert data[12:20] == (7).to_bytes(8, "little")
 
 
-@dataclass
-@appendable
-class _NewValue(IdlStruct, typename="test.NewParameterValue"):
-    type: uint8 = 0
-    bool_value: bool = False
-    integer_value: int64 = 0
-    double_value: float = 0.0
-    string_value: str = ""
-    byte_array_value: sequence[uint8] = field(default_factory=list)
-    bool_array_value: sequence[bool] = field(default_factory=list)
-    integer_array_value: sequence[int64] = field(default_factory=list)
-    double_array_value: sequence[float] = field(default_factory=list)
-    string_array_value: sequence[str] = field(default_factory=list)
-    unit: str = ""  # a member added in a later release
+def test_trailing_padding_is_ignored() -> None:
+    """Cyclone C pads a sample to a multiple of 4 and notes it in the header's option bits."""
+    sample = wire.ListParametersRequest(node_id="n1", prefixes=["ab"])
+    data = sample.serialize()
+    padded = data[:3] + bytes([-len(data) & 3]) + data[4:] + bytes(-len(data) & 3)
+    assert len(padded) % 4 == 0 and padded != data
+    assert wire.ListParametersRequest.deserialize(padded) == sample
 
 
-def test_an_older_writers_missing_members_take_their_defaults() -> None:
-    got = wire.GetParametersRequest.deserialize(_binding_bytes(_OldRequest("n1", 7)))
-    assert not is_malformed(got)
-    assert got == wire.GetParametersRequest(node_id="n1", client_id=7)
-
-
-def test_a_newer_writers_extra_members_are_skipped() -> None:
-    newer = _NewValue(type=4, string_value="s", string_array_value=["a"], unit="m/s")
-    got = wire.ParameterValue.deserialize(_binding_bytes(newer))
-    assert got == wire.ParameterValue(type=4, string_value="s", string_array_value=["a"])
+@settings(max_examples=30, deadline=None)
+@given(samples(wire.SetParametersRequest))
+def test_xcdr2_from_a_peer_that_prefers_it_is_read_by_the_binding(sample: wire.SetParametersRequest) -> None:
+    data = bytes(wire.SetParametersRequest.__idl__.serialize(sample, use_version_2=True))
+    assert data[:2] == b"\x00\x07"  # PLAIN_CDR2 little-endian: a final type's XCDR2
+    got = wire.SetParametersRequest.deserialize(data)
+    assert not is_malformed(got) and got == sample

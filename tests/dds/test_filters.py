@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import pytest
 from cyclonedds.idl import IdlStruct
-from cyclonedds.idl.annotations import final, key
+from cyclonedds.idl.annotations import appendable, final, key
 from cyclonedds.idl.types import bounded_str, sequence, uint64
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -29,7 +29,19 @@ pytestmark = pytest.mark.skipif(
 @dataclass
 @final
 class FinalRequest(IdlStruct, typename="paramdds.GetParametersRequest"):
-    """The request as engineer #11's @final form lays it out: node_id, then client_id."""
+    """The request in the @final form (node_id, then client_id), serialized as XCDR1 and XCDR2."""
+
+    node_id: bounded_str[255] = ""
+    key("node_id")
+    client_id: uint64 = 0
+    request_id: uint64 = 0
+    names: sequence[str] = ()  # type: ignore[assignment]
+
+
+@dataclass
+@appendable
+class AppendableRequest(IdlStruct, typename="paramdds.GetParametersRequest"):
+    """The request as the XCDR2 wire laid it out before the @final change: DHEADER first."""
 
     node_id: bounded_str[255] = ""
     key("node_id")
@@ -42,9 +54,9 @@ def encodings(node: str, client_id: int = 7) -> list[bytes]:
     """One request in every encoding the filter reads (header byte 1: 0x00/01, 0x06/07, 0x08/09)."""
     out = []
     for endianness in (Endianness.Little, Endianness.Big):
-        appendable = wire.GetParametersRequest(node_id=node, client_id=client_id, request_id=3, names=["x"])
+        appendable_ = AppendableRequest(node_id=node, client_id=client_id, request_id=3, names=["x"])
         final_ = FinalRequest(node_id=node, client_id=client_id, request_id=3, names=["x"])
-        out.append(appendable.serialize(endianness=endianness))
+        out.append(appendable_.serialize(endianness=endianness))
         out.append(final_.serialize(endianness=endianness, use_version_2=False))
         out.append(final_.serialize(endianness=endianness, use_version_2=True))
     assert sorted(b[1] for b in out) == [0x00, 0x01, 0x06, 0x07, 0x08, 0x09]
@@ -119,7 +131,7 @@ def test_client_filter_accepts_a_reply_cut_before_its_client_id() -> None:
     flt.set_client_id(1)
     whole = wire.GetParametersResponse(node_id="abc", client_id=2).serialize()
     assert not flt.check(whole)  # positive control: the whole reply is read and refused
-    assert flt.check(whole[:12])  # header, DHEADER, "abc": the client id is missing
+    assert flt.check(whole[:12])  # header, then "abc" with its length: the client id is missing
 
 
 @settings(max_examples=200, deadline=None)

@@ -82,6 +82,9 @@ def test_assignment_never_produces_replies_or_stale_replies(dds: DdsSession) -> 
     with ServerProc(dds.domain_id, [NODE]):
         first = dds.client()
         first.wait_for_node("late", timeout=5.0)
+        # the retained assignment reaches the node once discovery matches the assigner: wait for it,
+        # or it may land between the second client's set and get below (a revision apart)
+        assert wait_until(lambda: first.get_value("late", "speed").value == 6, timeout=5.0)
         for i in range(1, 6):
             assert first.set("late", {"label": f"run1-{i}"}).successful
         first.close()

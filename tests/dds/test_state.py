@@ -149,11 +149,11 @@ def test_big_endian_and_special_doubles() -> None:
 
 def test_what_is_refused() -> None:
     good = encode(_event("p", 1))
-    # header, DHEADER, "n", "p" (each length + text + padding), kind + padding, revision, Time
-    # {DHEADER, sec, nanosec}, the value's DHEADER: its type byte is at offset 48
+    # header, "n", "p" (each length + text + padding), kind + padding to 8 after the header,
+    # revision, Time {sec, nanosec}: the value's type byte is at offset 36
     unknown_type = bytearray(good)
-    assert unknown_type[48] == ParameterType.INTEGER
-    unknown_type[48] = 42
+    assert unknown_type[36] == ParameterType.INTEGER
+    unknown_type[36] = 42
     for bad in (good[:-4], good[:20], b"", bytes(unknown_type), good.replace(b"p\x00", b"\xff\x00")):
         with pytest.raises(MalformedSample):
             decode_state(bad)

@@ -1,0 +1,295 @@
+"""When may a client say a node is absent? What its participant knows about discovery.
+
+A node is present when this client holds its presence instance (a ``ParameterEvents``
+sample, TRANSIENT_LOCAL). Its *absence* cannot be observed, only inferred: on a
+lossy link the participant of the node's server, its endpoints, or the historical
+data of its state writer can arrive seconds after the client started. A fixed grace
+period therefore either reports a node that is there as absent (lossy link) or makes
+every answer about a ghost slow (healthy link).
+
+The rule (:meth:`DiscoveryWatch.settled`): a node with no presence instance is
+*absent* only once discovery has **settled**, which is when all three hold:
+
+1. **something that could hold it was found**: at least one ``ParameterEvents``
+   writer (local or remote: a parameter server) is matched to our presence reader.
+   Before that nothing can be concluded, and the caller keeps waiting up to its own
+   timeout (then it reports a timeout that says discovery found no server);
+2. **every matched state writer has delivered**: each writer matched to the presence
+   reader has delivered at least one sample to it (every server writes a presence
+   instance per node it serves, so a matched writer that has delivered nothing still
+   owes us its historical data);
+3. **discovery is quiet**: nothing has changed for ``max(min_quiet, length of the
+   current burst of changes)``: no participant appeared or left (builtin
+   ``DCPSParticipant`` reader), no endpoint matched or unmatched on the presence
+   reader or on the caller-supplied request/reply endpoints, no new ``ParameterEvents``
+   *instance* arrived (updates of known instances do not count: a busy system, where
+   some parameter changes every few milliseconds, still settles). The quiet period
+   scales with how slowly discovery has gone: on a healthy link everything is known
+   within milliseconds and the quiet period is ``min_quiet``; on a lossy one, where
+   the last thing arrived 2 s after the first, the client waits another 2 s of
+   silence before concluding anything. A burst starts at the watch's start, and
+   again at the first change after a quiet period, so a long-lived client (a web
+   console) that sees a new participant an hour later needs only ``min_quiet`` of
+   silence after it, not an hour.
+
+Asking again. A peer answers a *new* participant's announcement (SPDP) with its own,
+four times, one second apart, and otherwise announces itself only every 8 s (Cyclone's
+default: lease minus 2 s). On a link that drops 30 % of packets, all four answers
+are lost for about one process in 120, which then learns of nobody for up to 8 s.
+While no remote participant is known and discovery has not settled, the watch
+therefore creates a **probe**: an empty participant in the same domain (so the same
+process and sockets) every :data:`PROBE_AFTER` seconds, at most :data:`MAX_PROBES`
+times. Each probe is new to every peer, so each peer answers it four more times,
+and since Cyclone keeps what it discovers per domain, not per participant, the
+answer serves the client's own participant too. A probe costs a peer what one more
+short-lived CLI process costs it; probes live until the watch is closed.
+
+The watch reads only sample *infos* of new ``ParameterEvents`` samples (never decodes
+them) and only new participant samples, and does its work at most every
+:data:`POLL_INTERVAL` seconds however often it is asked.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+from enum import Enum
+from typing import Any
+
+from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsParticipant
+from cyclonedds.core import DDSException, Entity, InstanceState, ReadCondition, SampleState, ViewState
+
+from ._binding import read_new_infos
+
+log = logging.getLogger(__name__)
+
+__all__ = [
+    "MAX_PROBES",
+    "MIN_QUIET",
+    "POLL_INTERVAL",
+    "PROBE_AFTER",
+    "DiscoveryState",
+    "DiscoveryWatch",
+    "Presence",
+    "is_settled",
+    "quiet_needed",
+]
+
+PROBE_AFTER = 3.5  # seconds without any remote participant before asking again (4 answers, 1 s apart)
+MAX_PROBES = 3
+MIN_QUIET = 0.5  # seconds of unchanged discovery before a node without presence counts as absent
+POLL_INTERVAL = 0.05  # seconds: the watch refreshes at most this often
+_NEW = SampleState.NotRead | ViewState.Any | InstanceState.Any
+_BATCH = 4096  # infos read per call while catching up
+_U64 = (1 << 64) - 1
+
+
+class Presence(str, Enum):
+    """What a client can say about a node right now."""
+
+    ONLINE = "online"  # its presence instance is alive
+    OFFLINE = "offline"  # it was seen and has gone (instance not alive)
+    ABSENT = "absent"  # never seen, and discovery has settled: it is not there
+    UNKNOWN = "unknown"  # never seen, and discovery is still going on: it may yet appear
+
+
+def quiet_needed(burst: float, min_quiet: float) -> float:
+    """Rule 3's silence: as long as the current burst of changes has lasted, at least ``min_quiet``."""
+    return max(min_quiet, burst)
+
+
+def is_settled(writers: int, pending: int, burst: float, quiet_for: float, min_quiet: float) -> bool:
+    """The rule of this module: ``burst`` is first to last change, ``quiet_for`` last change to now."""
+    return writers > 0 and pending == 0 and quiet_for >= quiet_needed(burst, min_quiet)
+
+
+@dataclass(frozen=True)
+class DiscoveryState:
+    """A snapshot of what the watch knows (seconds are counted from the watch's start)."""
+
+    participants: int  # remote participants known now
+    state_writers: int  # ParameterEvents writers matched to the presence reader
+    pending_writers: int  # ... of which nothing has been delivered yet
+    last_change: float  # when discovery last changed
+    burst: float  # how long the current burst of changes has lasted (first to last change)
+    quiet_needed: float  # the silence rule 3 asks for, from last_change
+    elapsed: float
+    settled: bool
+
+    def describe(self) -> str:
+        """A short human account, for error messages."""
+        if self.settled:
+            return (
+                f"discovery settled: {self.state_writers} parameter server writer(s) "
+                f"from {self.participants} remote participant(s), all delivered"
+            )
+        if self.state_writers == 0:
+            return f"no parameter server discovered yet ({self.participants} remote participant(s) known)"
+        if self.pending_writers:
+            return (
+                f"discovery in progress: {self.pending_writers} of {self.state_writers} "
+                "server(s) still sending their state"
+            )
+        return f"discovery in progress: last change {self.elapsed - self.last_change:.1f} s ago"
+
+
+class DiscoveryWatch:
+    """Tracks discovery progress of one participant as seen by one presence reader.
+
+    ``presence_reader`` is the client's ``ParameterEvents`` reader; ``endpoints`` are
+    further readers/writers whose matches count as discovery progress (the client's
+    request writers and reply readers). Thread-safe.
+    """
+
+    def __init__(
+        self,
+        participant: Any,
+        presence_reader: Any,
+        endpoints: Sequence[Any] = (),
+        *,
+        min_quiet: float = MIN_QUIET,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self._reader = presence_reader
+        self._endpoints = list(endpoints)
+        self._min_quiet = min_quiet
+        self._clock = clock
+        self._lock = threading.Lock()
+        self._domain_id = participant.get_domain_id()
+        self._own = {participant.guid}  # our participant and our probes
+        self._probes: list[Any] = []
+        self._participants = BuiltinDataReader(participant, BuiltinTopicDcpsParticipant)
+        self._new_participants = ReadCondition(self._participants, _NEW)
+        self._remote: set[Any] = set()
+        self._delivered: set[int] = set()  # publication handles that have delivered a sample
+        self._instances = 0
+        self._signature: tuple[int, ...] = ()
+        self._started = clock()
+        self._last_change = self._started
+        self._burst_start = self._started
+        self._polled = float("-inf")
+        self._closed = False
+        self._state = self._snapshot(self._started, 0, 0)
+        self._poll(self._started)  # what is known at creation (on loopback: usually everything)
+
+    def state(self) -> DiscoveryState:
+        """The current state (refreshed if the last refresh is older than :data:`POLL_INTERVAL`)."""
+        with self._lock:
+            now = self._clock()
+            if now - self._polled >= POLL_INTERVAL and not self._closed:
+                self._poll(now)
+            return self._state
+
+    def settled(self) -> bool:
+        return self.state().settled
+
+    def _poll(self, now: float) -> None:
+        self._polled = now
+        self._read_participants()
+        self._read_deliveries()
+        try:
+            # the binding gives these handles signed, sample infos unsigned
+            matched = {h & _U64 for h in self._reader.get_matched_publications()}
+        except DDSException:
+            matched = set()
+        matches = [len(matched)]
+        for entity in self._endpoints:
+            status = (
+                entity.get_subscription_matched_status()
+                if hasattr(entity, "get_subscription_matched_status")
+                else entity.get_publication_matched_status()
+            )
+            matches += [status.total_count, status.current_count]
+        signature = (len(self._remote), self._instances, *matches)
+        if signature != self._signature:
+            burst = self._last_change - self._burst_start
+            if now - self._last_change >= quiet_needed(burst, self._min_quiet):
+                self._burst_start = now  # the first change after a quiet period starts a new burst
+            self._signature = signature
+            self._last_change = now
+        pending = len(matched - self._delivered)
+        self._state = self._snapshot(now, len(matched), pending)
+        if not self._remote and not self._state.settled:
+            self._maybe_probe(now)
+
+    def _maybe_probe(self, now: float) -> None:
+        if len(self._probes) >= MAX_PROBES or now - self._started < PROBE_AFTER * (len(self._probes) + 1):
+            return
+        from cyclonedds.domain import DomainParticipant
+        from cyclonedds.qos import Policy, Qos
+
+        try:
+            probe = DomainParticipant(self._domain_id, qos=Qos(Policy.EntityName("paramdds-probe")))
+        except DDSException as exc:  # asking again is an optimisation: never fail a call for it
+            log.debug("could not create a discovery probe: %s", exc)
+            self._probes.append(None)  # counts against MAX_PROBES, so it is not retried every poll
+            return
+        self._own.add(probe.guid)
+        self._probes.append(probe)
+
+    def _snapshot(self, now: float, writers: int, pending: int) -> DiscoveryState:
+        burst = self._last_change - self._burst_start
+        return DiscoveryState(
+            participants=len(self._remote),
+            state_writers=writers,
+            pending_writers=pending,
+            last_change=self._last_change - self._started,
+            burst=burst,
+            quiet_needed=quiet_needed(burst, self._min_quiet),
+            elapsed=now - self._started,
+            settled=is_settled(writers, pending, burst, now - self._last_change, self._min_quiet),
+        )
+
+    def _read_participants(self) -> None:
+        for sample in self._participants.read(N=_BATCH, condition=self._new_participants):
+            key = getattr(sample, "key", None)
+            if key is None or key in self._own:
+                continue
+            if sample.sample_info.instance_state == InstanceState.Alive:
+                self._remote.add(key)
+            else:
+                self._remote.discard(key)
+
+    def note_read(self, infos: Iterable[Any]) -> None:
+        """Tell the watch about samples someone else read from the presence reader.
+
+        Reading marks a sample read, so the watch's own pass (new samples only) would
+        never see one the client read first: every other read of the presence reader
+        passes its SampleInfos here.
+        """
+        with self._lock:
+            self._count(infos)
+
+    def _count(self, infos: Iterable[Any]) -> int:
+        n = 0
+        for info in infos:
+            n += 1
+            self._delivered.add(info.publication_handle & _U64)
+            if info.sample_state == SampleState.NotRead and info.view_state == ViewState.New:
+                self._instances += 1  # a node or parameter not seen before
+        return n
+
+    def _read_deliveries(self) -> None:
+        while self._count(read_new_infos(self._reader, _NEW, _BATCH)) == _BATCH:
+            pass
+
+    @property
+    def probes(self) -> int:
+        """How many probe participants this watch has created."""
+        return sum(1 for p in self._probes if p is not None)
+
+    def close(self) -> None:
+        """Delete the builtin reader and the probes this watch created."""
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True  # state() keeps answering with the last snapshot
+            self._endpoints.clear()
+            Entity.__del__(self._participants)
+            while self._probes:
+                probe = self._probes.pop()
+                if probe is not None:
+                    Entity.__del__(probe)

@@ -1,0 +1,404 @@
+"""The Starlette application: the page, the JSON API and the event stream.
+
+Routes (all JSON unless said; writes take a JSON body and are absent with --read-only):
+
+=======  =================  ==========================================================
+GET      /                  the console page (static files under /static/)
+GET      /api/info          ``{"read_only", "token_required", "domain"}``
+GET      /api/nodes         ``?q=&offset=&limit=`` → ``{"total", "offset", "nodes": [summary]}``
+GET      /api/node          ``?node=`` → ``{"summary", "rows": [row]}``
+GET      /api/dump          ``?node=&descriptors=0|1`` → a ROS 2 parameter file (text/yaml)
+GET      /api/events        ``?node=`` → server-sent events: node, params, nodes, log, resync
+GET      /api/openapi.json  the OpenAPI schema of these routes
+POST     /api/set           ``{"node", "values": {name: value}, "atomic", "if_revision"}``
+POST     /api/delete        ``{"node", "names": [name]}``
+POST     /api/load          ``{"node", "text", "atomic"}`` (the text of a parameter file)
+=======  =================  ==========================================================
+
+Safety, checked before a route runs: the ``Host`` header must name this server
+(a DNS-rebinding page cannot read or write); a write must come from this origin
+(``Origin``/``Sec-Fetch-Site``), carry ``Content-Type: application/json``, the
+bearer token when one is configured, and a body of at most :data:`.inputs.MAX_BODY`
+bytes. Every error is a JSON body with a code; its status comes from
+:data:`paramdds.web.status.STATUS`.
+"""
+
+from __future__ import annotations
+
+import hmac
+import logging
+from collections.abc import AsyncIterator
+from dataclasses import dataclass
+from typing import Any
+
+from starlette.applications import Starlette
+from starlette.exceptions import HTTPException
+from starlette.requests import Request
+from starlette.responses import FileResponse, JSONResponse, PlainTextResponse, Response, StreamingResponse
+from starlette.routing import Mount, Route
+from starlette.schemas import SchemaGenerator
+from starlette.staticfiles import StaticFiles
+from starlette.types import ASGIApp
+
+from ..core.names import validate_name
+from ..core.values import Parameter
+from ..errors import ErrorCode, FileFormatError, ParamddsError
+from .guard import LOOPBACK_NAMES, Guard, error_response
+from .hub import Hub, sse
+from .inputs import bool_field, file_entries, int_arg, node_arg, read_body, revision_field
+from .model import Row, checked, parameter_row, result_row, typed_values
+from .status import WebCode, WebError, code_of, error_body, status_of
+from .view import NodeDetail, StateView
+
+log = logging.getLogger(__name__)
+
+PAGE_LIMIT = 200  # nodes per page at most
+KEEPALIVE = 15.0  # seconds between comments on an idle event stream
+
+
+@dataclass(frozen=True)
+class WebOptions:
+    read_only: bool = False
+    token: str | None = None
+    domain: int = 0
+    allowed_hosts: tuple[str, ...] = LOOPBACK_NAMES  # empty: any Host (a non-loopback bind)
+    timeout: float = 5.0
+
+
+# -- errors ------------------------------------------------------------------------------
+
+
+async def _paramdds_error(_request: Request, exc: Exception) -> Response:
+    assert isinstance(exc, ParamddsError)
+    return error_response(code_of(exc), exc.message)
+
+
+async def _http_error(_request: Request, exc: Exception) -> Response:
+    assert isinstance(exc, HTTPException)
+    code = {404: ErrorCode.NOT_FOUND.value, 405: "METHOD_NOT_ALLOWED"}.get(exc.status_code, "HTTP_ERROR")
+    return JSONResponse(error_body(code, str(exc.detail)), status_code=exc.status_code)
+
+
+async def _internal_error(_request: Request, exc: Exception) -> Response:
+    log.error("internal error in the web console", exc_info=exc)
+    return JSONResponse(error_body("INTERNAL", "internal error (see the server's log)"), status_code=500)
+
+
+# -- input -------------------------------------------------------------------------------
+
+
+# -- the app -----------------------------------------------------------------------------
+
+
+class Console:
+    """The routes, over one state view, one hub and one client."""
+
+    def __init__(self, view: StateView, hub: Hub, client: Any, options: WebOptions) -> None:
+        self.view = view
+        self.hub = hub
+        self.client = client  # AsyncParameterClient: set, delete
+        self.options = options
+
+    def _detail(self, node: str) -> NodeDetail:
+        detail = self.view.detail(node)
+        if detail is None:
+            raise WebError(ErrorCode.NOT_FOUND, f"node {node!r} is unknown to this console")
+        return detail
+
+    @staticmethod
+    def _rows(detail: NodeDetail) -> list[Row]:
+        return [parameter_row(n, v, d) for n, (v, d) in sorted(detail.parameters.items())]
+
+    # -- reads ------------------------------------------------------------------------------
+
+    async def info(self, _request: Request) -> Response:
+        """What this console allows.
+        ---
+        summary: The console's options
+        responses:
+          200: {description: '{"read_only": bool, "token_required": bool, "domain": int}'}
+        """
+        o = self.options
+        return JSONResponse(
+            {"read_only": o.read_only, "token_required": o.token is not None, "domain": o.domain}
+        )
+
+    async def nodes(self, request: Request) -> Response:
+        """One page of the node list.
+        ---
+        summary: One page of the node list, filtered
+        parameters:
+          - {name: q, in: query, schema: {type: string}, description: part of a node id or a name}
+          - {name: offset, in: query, schema: {type: integer, minimum: 0, default: 0}}
+          - {name: limit, in: query, schema: {type: integer, minimum: 1, maximum: 200, default: 50}}
+        responses:
+          200: {description: '{"total", "offset", "nodes": [summary]}'}
+          400: {description: BAD_REQUEST}
+        """
+        query = request.query_params.get("q", "")[:200]
+        offset = int_arg(request, "offset", 0, 0, 10**9)
+        limit = int_arg(request, "limit", 50, 1, PAGE_LIMIT)
+        page = self.view.page(query, offset, limit)
+        return JSONResponse(
+            {"total": page.total, "offset": page.offset, "nodes": [s.to_json() for s in page.nodes]}
+        )
+
+    async def node(self, request: Request) -> Response:
+        """One node's parameters with descriptors.
+        ---
+        summary: A node's summary and parameter rows
+        parameters:
+          - {name: node, in: query, required: true, schema: {type: string}}
+        responses:
+          200: {description: '{"summary", "rows": [{"name", "value", "type", "descriptor"}]}'}
+          404: {description: NOT_FOUND (unknown node)}
+        """
+        detail = self._detail(node_arg(request.query_params.get("node")))
+        return JSONResponse({"summary": detail.summary.to_json(), "rows": self._rows(detail)})
+
+    async def dump(self, request: Request) -> Response:
+        """A node as a parameter file.
+        ---
+        summary: A node as a ROS 2 parameter file (text/yaml attachment)
+        parameters:
+          - {name: node, in: query, required: true, schema: {type: string}}
+          - {name: descriptors, in: query, schema: {type: integer, enum: [0, 1], default: 1}}
+        responses:
+          200: {description: the file}
+          404: {description: NOT_FOUND}
+        """
+        from ..runtime import dump_text
+
+        node = node_arg(request.query_params.get("node"))
+        detail = self._detail(node)
+        with_descriptors = request.query_params.get("descriptors", "1") != "0"
+        snapshot = [(n, v, d) for n, (v, d) in sorted(detail.parameters.items())]
+        text = dump_text({node: snapshot}, with_descriptors=with_descriptors)
+        filename = node.replace("/", "_") + ".yaml"
+        return PlainTextResponse(
+            text,
+            media_type="text/yaml",
+            headers={"Content-Disposition": f'attachment; filename="{filename}"'},
+        )
+
+    async def events(self, request: Request) -> Response:
+        """The live event stream.
+        ---
+        summary: 'Server-sent events: node, params, nodes, log, resync'
+        parameters:
+          - {name: node, in: query, schema: {type: string}, description: the node whose rows are sent}
+        responses:
+          200: {description: text/event-stream}
+        """
+        raw = request.query_params.get("node", "")
+        node = node_arg(raw) if raw else ""
+        sub = self.hub.subscribe(node)
+
+        async def stream() -> AsyncIterator[str]:
+            import asyncio
+
+            try:
+                yield "retry: 1000\n\n"
+                if node:
+                    detail = self.view.detail(node)
+                    yield sse(
+                        "node",
+                        {
+                            "node": node,
+                            "summary": detail.summary.to_json() if detail else None,
+                            "rows": self._rows(detail) if detail else [],
+                        },
+                    )
+                while True:
+                    try:
+                        message = await asyncio.wait_for(sub.queue.get(), KEEPALIVE)
+                    except TimeoutError:
+                        yield ": keepalive\n\n"
+                        continue
+                    if message is None:
+                        return
+                    yield message
+            finally:
+                self.hub.unsubscribe(sub)
+
+        return StreamingResponse(
+            stream(),
+            media_type="text/event-stream",
+            headers={"Cache-Control": "no-store", "X-Accel-Buffering": "no"},
+        )
+
+    # -- writes -----------------------------------------------------------------------------
+
+    def _check_write(self, request: Request) -> None:
+        origin = request.headers.get("origin")
+        host = request.headers.get("host", "")
+        if origin is not None and origin != f"{request.url.scheme}://{host}":
+            raise WebError(WebCode.CROSS_ORIGIN, f"a write from origin {origin[:100]!r} is refused")
+        if request.headers.get("sec-fetch-site", "same-origin") not in ("same-origin", "none"):
+            raise WebError(WebCode.CROSS_ORIGIN, "a write from another site is refused")
+        token = self.options.token
+        if token is not None:
+            given = request.headers.get("authorization", "")
+            scheme, _, value = given.partition(" ")
+            if scheme.lower() != "bearer" or not hmac.compare_digest(value.strip().encode(), token.encode()):
+                raise WebError(WebCode.UNAUTHORIZED, "this console needs the bearer token for writes")
+
+    async def set(self, request: Request) -> Response:
+        """Set parameters (plain or atomic, optionally compare-and-set).
+        ---
+        summary: 'Set parameters: {"node", "values": {name: value}, "atomic", "if_revision"}'
+        requestBody: {required: true, content: {application/json: {}}}
+        responses:
+          200: {description: '{"node", "revision", "results": [{"name", "successful", "reason", "code"}]}'}
+          400: {description: BAD_REQUEST}
+          401: {description: UNAUTHORIZED}
+          403: {description: READ_ONLY or CROSS_ORIGIN}
+          404: {description: NOT_FOUND}
+          409: {description: CONFLICT (with the current summary and rows)}
+          413: {description: TOO_LARGE}
+          415: {description: UNSUPPORTED_MEDIA}
+          422: {description: TYPE_MISMATCH, OUT_OF_RANGE, INVALID_VALUE, INVALID_NAME}
+          503: {description: UNAVAILABLE}
+          504: {description: TIMEOUT}
+        """
+        self._check_write(request)
+        body = await read_body(request)
+        node = node_arg(body.get("node"))
+        values = body.get("values")
+        if not isinstance(values, dict) or not values:
+            raise WebError(WebCode.BAD_REQUEST, "'values' must be a non-empty object of name: value")
+        atomic = bool_field(body, "atomic")
+        if_revision = revision_field(body)
+        detail = self._detail(node)
+        typed = typed_values(values, detail.parameters)
+        reply = await self.client.set(
+            node,
+            [Parameter(n, v) for n, v in typed.items()],
+            atomic=atomic,
+            if_revision=if_revision,
+            timeout=self.options.timeout,
+        )
+        return self._set_response(node, reply.revision, [result_row(r) for r in reply.results])
+
+    async def delete(self, request: Request) -> Response:
+        """Delete parameters.
+        ---
+        summary: 'Delete parameters: {"node", "names": [name]}'
+        requestBody: {required: true, content: {application/json: {}}}
+        responses:
+          200: {description: '{"node", "revision", "results"}'}
+        """
+        self._check_write(request)
+        body = await read_body(request)
+        node = node_arg(body.get("node"))
+        names = body.get("names")
+        if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
+            raise WebError(WebCode.BAD_REQUEST, "'names' must be a non-empty list of strings")
+        for n in names:
+            validate_name(n)
+        self._detail(node)
+        reply = await self.client.delete(node, names, timeout=self.options.timeout)
+        return self._set_response(node, reply.revision, [result_row(r) for r in reply.results])
+
+    async def load(self, request: Request) -> Response:
+        """Set a node's parameters from the text of a parameter file.
+        ---
+        summary: 'Load a parameter file: {"node", "text", "atomic"}'
+        requestBody: {required: true, content: {application/json: {}}}
+        responses:
+          200: {description: '{"node", "revision", "results"}, one result per parameter'}
+          422: {description: FILE_FORMAT (with file and line) or a refused value}
+        """
+        self._check_write(request)
+        body = await read_body(request)
+        node = node_arg(body.get("node"))
+        text = body.get("text")
+        if not isinstance(text, str) or not text.strip():
+            raise WebError(WebCode.BAD_REQUEST, "'text' must be the non-empty text of a parameter file")
+        atomic = bool_field(body, "atomic")
+        detail = self._detail(node)
+        entries = file_entries(text, node)
+        if not entries:
+            raise FileFormatError(f"no parameters for node {node!r} in this file", file="upload")
+        sendable: list[Parameter] = []
+        refused: list[Row] = []
+        for name, value, _ in entries:
+            described = detail.parameters.get(name)
+            try:
+                sendable.append(Parameter(name, checked(name, value, described[1] if described else None)))
+            except ParamddsError as exc:
+                refused.append(
+                    {"name": name, "successful": False, "reason": exc.message, "code": code_of(exc)}
+                )
+        if refused and atomic:
+            return self._set_response(node, detail.summary.revision, refused)
+        results: list[Row] = list(refused)
+        revision = detail.summary.revision
+        if sendable:
+            reply = await self.client.set(node, sendable, atomic=atomic, timeout=self.options.timeout)
+            results = [result_row(r) for r in reply.results] + refused
+            revision = reply.revision
+        return self._set_response(node, revision, results)
+
+    def _set_response(self, node: str, revision: int, results: list[Row]) -> Response:
+        body: dict[str, object] = {"node": node, "revision": revision, "results": results}
+        failed = [r for r in results if not r["successful"]]
+        if not failed:
+            return JSONResponse(body)
+        first = failed[0]
+        code = str(first["code"] or ErrorCode.INVALID_VALUE.value)
+        body.update(
+            error_body(code, f"{len(failed)} of {len(results)} refused: {first['name']}: {first['reason']}")
+        )
+        if code == ErrorCode.CONFLICT.value:
+            detail = self.view.detail(node)  # the newer values the page shows instead of overwriting
+            if detail is not None:
+                body["summary"] = detail.summary.to_json()
+                body["rows"] = self._rows(detail)
+        return JSONResponse(body, status_code=status_of(code))
+
+
+def build_app(view: StateView, hub: Hub, client: Any, options: WebOptions) -> ASGIApp:
+    """The whole application, wrapped in the Host/header guard."""
+    from importlib.resources import files
+
+    console = Console(view, hub, client, options)
+    index = str(files("paramdds.web") / "static" / "index.html")
+
+    async def page(_request: Request) -> Response:
+        return FileResponse(index, media_type="text/html", headers={"Cache-Control": "no-store"})
+
+    from importlib.metadata import version
+
+    schemas = SchemaGenerator(
+        {"openapi": "3.0.0", "info": {"title": "paramdds web console", "version": version("paramdds")}}
+    )
+
+    async def openapi(request: Request) -> Response:
+        return JSONResponse(schemas.get_schema(routes=request.app.routes))
+
+    routes = [
+        Route("/", page, include_in_schema=False),
+        Route("/api/openapi.json", openapi, include_in_schema=False),
+        Route("/api/info", console.info),
+        Route("/api/nodes", console.nodes),
+        Route("/api/node", console.node),
+        Route("/api/dump", console.dump),
+        Route("/api/events", console.events),
+        Mount("/static", StaticFiles(packages=[("paramdds.web", "static")]), name="static"),
+    ]
+    if not options.read_only:
+        routes += [
+            Route("/api/set", console.set, methods=["POST"]),
+            Route("/api/delete", console.delete, methods=["POST"]),
+            Route("/api/load", console.load, methods=["POST"]),
+        ]
+    app = Starlette(
+        routes=routes,
+        exception_handlers={
+            ParamddsError: _paramdds_error,
+            HTTPException: _http_error,
+            Exception: _internal_error,
+        },
+    )
+    return Guard(app, options.allowed_hosts)

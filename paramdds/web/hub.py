@@ -1,0 +1,161 @@
+"""Monitor events → coalesced server-sent events, per subscriber, for what it shows.
+
+The monitor calls :meth:`Hub.on_event` on Cyclone's receive thread: it only
+appends the event to a list and, for the first event of a burst, asks the event
+loop to flush :data:`FLUSH_DELAY` seconds later. A flush turns the whole burst
+into at most three messages per subscriber:
+
+``params``  the rows of the subscriber's selected node that changed (last value
+            wins), the names deleted, and the node's summary;
+``nodes``   summaries of the nodes that changed (so a visible row updates its
+            revision, count or online state), or ``{"refresh": true}`` when more
+            than :data:`MAX_NODE_UPDATES` changed (the page then re-reads its page);
+``log``     the newest :data:`LOG_LIMIT` events of the burst and how many were left out.
+
+A subscriber whose queue is full (a stalled browser) gets no more messages until
+it drains, then one ``resync``: the page reloads its view instead of replaying.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import threading
+import time
+from dataclasses import dataclass, field
+
+from ..dds.monitor import EventKind, MonitorEvent
+from .model import Row, parameter_row
+from .view import StateView
+
+FLUSH_DELAY = 0.015  # seconds a burst may gather before it is sent
+MAX_NODE_UPDATES = 200
+LOG_LIMIT = 50
+QUEUE_SIZE = 256  # messages per subscriber
+
+
+def sse(event: str, data: object) -> str:
+    return f"event: {event}\ndata: {json.dumps(data, allow_nan=False, separators=(',', ':'))}\n\n"
+
+
+@dataclass(eq=False)
+class Subscriber:
+    node: str  # the node whose rows it shows ("" for none)
+    queue: asyncio.Queue[str | None] = field(default_factory=lambda: asyncio.Queue(QUEUE_SIZE))
+    stalled: bool = False
+
+    def put(self, message: str) -> None:
+        if self.stalled and self.queue.qsize() < QUEUE_SIZE // 2:
+            self.stalled = False
+            self.queue.put_nowait(sse("resync", {}))
+        if self.stalled:
+            return
+        try:
+            self.queue.put_nowait(message)
+        except asyncio.QueueFull:
+            self.stalled = True
+
+
+def log_entry(e: MonitorEvent) -> Row:
+    return {
+        "event": e.event.value,
+        "node": e.node,
+        "name": e.name,
+        "revision": e.revision,
+        "value": parameter_row(e.name, e.value, e.descriptor)["value"] if e.value is not None else None,
+        "stamp": e.stamp or time.time(),
+    }
+
+
+class Hub:
+    def __init__(self, view: StateView, loop: asyncio.AbstractEventLoop) -> None:
+        self._view = view
+        self._loop = loop
+        self._lock = threading.Lock()
+        self._pending: list[MonitorEvent] = []
+        self._scheduled = False
+        self._subscribers: set[Subscriber] = set()
+        self._closed = False
+
+    # -- the monitor's side (Cyclone's thread) ----------------------------------------------
+
+    def on_event(self, event: MonitorEvent) -> None:
+        if event.node and event.event is not EventKind.DELETED:
+            self._view.note_revision(event.node, event.revision)
+        with self._lock:
+            self._pending.append(event)
+            if self._scheduled or self._closed:
+                return
+            self._scheduled = True
+        with contextlib.suppress(RuntimeError):  # the loop is closed: the server is stopping
+            self._loop.call_soon_threadsafe(self._loop.call_later, FLUSH_DELAY, self._flush)
+
+    # -- the event loop's side ----------------------------------------------------------------
+
+    def subscribe(self, node: str) -> Subscriber:
+        sub = Subscriber(node)
+        self._subscribers.add(sub)
+        return sub
+
+    def unsubscribe(self, sub: Subscriber) -> None:
+        self._subscribers.discard(sub)
+
+    def close(self) -> None:
+        """End every stream (each gets ``None``)."""
+        with self._lock:
+            self._closed = True
+        for sub in list(self._subscribers):
+            try:
+                sub.queue.put_nowait(None)
+            except asyncio.QueueFull:
+                sub.queue.get_nowait()
+                sub.queue.put_nowait(None)
+        self._subscribers.clear()
+
+    def _flush(self) -> None:
+        with self._lock:
+            events, self._pending = self._pending, []
+            self._scheduled = False
+        if not events or not self._subscribers:
+            return
+        changed = list(dict.fromkeys(e.node for e in events if e.node))
+        if len(changed) > MAX_NODE_UPDATES:
+            nodes_message = sse("nodes", {"refresh": True})
+        else:
+            nodes_message = sse("nodes", {"nodes": [s.to_json() for s in self._view.summaries(changed)]})
+        shown = [e for e in events if e.event is not EventKind.SYNCED][-LOG_LIMIT:]
+        log_message = sse(
+            "log", {"events": [log_entry(e) for e in shown], "skipped": len(events) - len(shown)}
+        )
+        by_node = {sub.node for sub in self._subscribers if sub.node}
+        params = {node: self._params_message(node, events) for node in by_node if node in changed}
+        for sub in list(self._subscribers):
+            if sub.node in params:
+                sub.put(params[sub.node])
+            if changed:
+                sub.put(nodes_message)
+            sub.put(log_message)
+
+    def _params_message(self, node: str, events: list[MonitorEvent]) -> str:
+        rows: dict[str, Row] = {}
+        deleted: dict[str, None] = {}
+        for e in events:
+            if e.node != node or not e.name:
+                continue
+            if e.event is EventKind.DELETED:
+                rows.pop(e.name, None)
+                deleted[e.name] = None
+            elif e.value is not None:
+                rows[e.name] = parameter_row(e.name, e.value, e.descriptor)
+                deleted.pop(e.name, None)
+        summaries = self._view.summaries([node])
+        return sse(
+            "params",
+            {
+                "node": node,
+                "summary": summaries[0].to_json() if summaries else None,
+                "rows": list(rows.values()),
+                "deleted": list(deleted),
+            },
+        )

@@ -1,0 +1,89 @@
+"""Reading what a request carries: query arguments, a JSON body with a size cap, an uploaded file.
+
+Every problem is a :class:`~paramdds.web.status.WebError` (BAD_REQUEST, TOO_LARGE,
+UNSUPPORTED_MEDIA) or the core's own error (INVALID_NAME, FILE_FORMAT), never a 500.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+from starlette.requests import Request
+
+from ..core.descriptors import ParameterDescriptor
+from ..core.names import canonical_node_id
+from ..core.values import ParameterValue
+from ..errors import ErrorCode
+from .status import WebCode, WebError
+
+MAX_BODY = 1024 * 1024  # bytes
+
+
+def node_arg(raw: object) -> str:
+    if not isinstance(raw, str) or not raw:
+        raise WebError(WebCode.BAD_REQUEST, "'node' must be a non-empty string")
+    return canonical_node_id(raw)
+
+
+def int_arg(request: Request, name: str, default: int, lo: int, hi: int) -> int:
+    text = request.query_params.get(name)
+    if text is None:
+        return default
+    try:
+        value = int(text)
+    except ValueError:
+        raise WebError(WebCode.BAD_REQUEST, f"{name!r} must be an integer, got {text[:40]!r}") from None
+    if not lo <= value <= hi:
+        raise WebError(WebCode.BAD_REQUEST, f"{name!r} must be within [{lo}, {hi}], got {value}")
+    return value
+
+
+async def read_body(request: Request) -> dict[str, Any]:
+    """The JSON object of a write, read with a size cap."""
+    ctype = request.headers.get("content-type", "").split(";")[0].strip().lower()
+    if ctype != "application/json":
+        raise WebError(WebCode.UNSUPPORTED_MEDIA, "a write needs Content-Type: application/json")
+    declared = request.headers.get("content-length")
+    if declared is not None and declared.isdigit() and int(declared) > MAX_BODY:
+        raise WebError(ErrorCode.TOO_LARGE, f"the body is {declared} bytes; the limit is {MAX_BODY}")
+    data = bytearray()
+    async for chunk in request.stream():
+        data += chunk
+        if len(data) > MAX_BODY:
+            raise WebError(ErrorCode.TOO_LARGE, f"the body is over the limit of {MAX_BODY} bytes")
+    try:
+        body = json.loads(data)
+    except (ValueError, RecursionError) as exc:
+        raise WebError(WebCode.BAD_REQUEST, f"the body is not valid JSON: {exc}") from None
+    if not isinstance(body, dict):
+        raise WebError(WebCode.BAD_REQUEST, "the body must be a JSON object")
+    return body
+
+
+def bool_field(body: dict[str, Any], name: str) -> bool:
+    value = body.get(name, False)
+    if not isinstance(value, bool):
+        raise WebError(WebCode.BAD_REQUEST, f"{name!r} must be true or false")
+    return value
+
+
+def revision_field(body: dict[str, Any]) -> int | None:
+    value = body.get("if_revision")
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise WebError(WebCode.BAD_REQUEST, "'if_revision' must be null or a non-negative integer")
+    return value
+
+
+def file_entries(text: str, node: str) -> list[tuple[str, ParameterValue, ParameterDescriptor | None]]:
+    """The entries an uploaded parameter file gives ``node`` (seed or ROS 2 format, as ``paramdds load``)."""
+    from ..runtime import is_seed_format, parse_ros_text
+
+    source = "upload"
+    if is_seed_format(text, source):
+        from ..core.yaml_seed import load_seed_params_str
+
+        return [(p.name, p.value, None) for p in load_seed_params_str(text, source=source)]
+    return parse_ros_text(text, source, node)

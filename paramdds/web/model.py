@@ -1,0 +1,183 @@
+"""What the console shows and accepts, as JSON: pure functions, no DDS, no HTTP.
+
+Shapes (documented in the README):
+
+* a node summary: ``{"node", "online", "host", "pid", "revision", "parameters"}``;
+* a parameter row: ``{"name", "value", "type", "descriptor"}`` with the value and
+  descriptor in the CLI's JSON shapes (:mod:`paramdds.cli._output`: byte arrays as
+  lists of ints, non-finite doubles as ``"nan"``/``"inf"``/``"-inf"``);
+* a set result: ``{"name", "successful", "reason", "code"}``.
+
+Values sent by a browser are typed by the parameter's descriptor
+(:func:`typed_value`): ``1`` for a double parameter is ``1.0``, a byte array may be
+a hex string, and the value is checked against the descriptor with the same core
+validation the node runs, so a value the node would refuse never leaves this
+process and the reason shown is the node's own wording.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+
+from ..cli._output import json_descriptor, json_value
+from ..core.descriptors import ParameterDescriptor
+from ..core.limits import check_value
+from ..core.names import validate_name
+from ..core.results import SetResult
+from ..core.validation import validate
+from ..core.values import ParameterType, ParameterValue
+from ..errors import InvalidValueError, TypeMismatchError
+
+Row = dict[str, object]
+_HEX = re.compile(r"^(?:0x)?((?:[0-9a-fA-F]{2})*)$")
+_NON_FINITE = {"nan": math.nan, "inf": math.inf, "-inf": -math.inf}
+
+
+@dataclass(frozen=True)
+class NodeSummary:
+    node: str
+    online: bool
+    host: str
+    pid: int
+    revision: int
+    parameters: int
+
+    def to_json(self) -> Row:
+        return {
+            "node": self.node,
+            "online": self.online,
+            "host": self.host,
+            "pid": self.pid,
+            "revision": self.revision,
+            "parameters": self.parameters,
+        }
+
+
+def parameter_row(name: str, value: ParameterValue, descriptor: ParameterDescriptor | None) -> Row:
+    described = descriptor or ParameterDescriptor(name, value.type)
+    return {
+        "name": name,
+        "value": json_value(value),
+        "type": value.type.label,
+        "descriptor": json_descriptor(described),
+    }
+
+
+def result_row(r: SetResult) -> Row:
+    return {
+        "name": r.name,
+        "successful": r.successful,
+        "reason": r.reason,
+        "code": r.code.value if r.code is not None else None,
+    }
+
+
+def matches(query: str, node: str, names: Iterable[str]) -> bool:
+    """Whether a node is shown for a search: its id or one of its parameter names contains ``query``."""
+    q = query.strip().lower()
+    return not q or q in node.lower() or any(q in n.lower() for n in names)
+
+
+# -- values from a browser ----------------------------------------------------------------
+
+
+def _double(name: str, raw: object) -> float:
+    if isinstance(raw, str) and raw.strip().lower() in _NON_FINITE:
+        return _NON_FINITE[raw.strip().lower()]
+    if isinstance(raw, bool) or not isinstance(raw, (int, float)):
+        raise TypeMismatchError(f"Parameter {name!r} expects a double, got {_kind(raw)}")
+    try:
+        return float(raw)
+    except OverflowError:
+        raise InvalidValueError(f"Parameter {name!r}: {raw} does not fit in a double") from None
+
+
+def _bytes(name: str, raw: object) -> bytes:
+    if isinstance(raw, str):
+        compact = "".join(raw.split())
+        m = _HEX.match(compact)
+        if m is None:
+            raise TypeMismatchError(
+                f"Parameter {name!r} expects bytes as hex (an even number of 0-9a-f digits), got {raw[:40]!r}"
+            )
+        return bytes.fromhex(m.group(1))
+    value = ParameterValue.of(ParameterType.BYTE_ARRAY, raw)
+    assert isinstance(value.value, bytes)
+    return value.value
+
+
+def _kind(raw: object) -> str:
+    if raw is None:
+        return "null"
+    if isinstance(raw, bool):
+        return "a bool"
+    if isinstance(raw, (int, float)):
+        return "a number"
+    if isinstance(raw, str):
+        return "a string"
+    if isinstance(raw, list):
+        return "a list"
+    return "an object"
+
+
+def _as_type(name: str, ptype: ParameterType, raw: object) -> ParameterValue:
+    if ptype is ParameterType.DOUBLE:
+        return ParameterValue.of(ptype, _double(name, raw))
+    if ptype is ParameterType.DOUBLE_ARRAY:
+        if not isinstance(raw, list):
+            raise TypeMismatchError(f"Parameter {name!r} expects a double_array, got {_kind(raw)}")
+        return ParameterValue.of(ptype, [_double(name, x) for x in raw])
+    if ptype is ParameterType.BYTE_ARRAY:
+        return ParameterValue.of(ptype, _bytes(name, raw))
+    try:
+        return ParameterValue.of(ptype, raw)
+    except TypeMismatchError as exc:
+        raise TypeMismatchError(f"Parameter {name!r}: {exc.message}") from None
+
+
+def typed_value(name: str, raw: object, descriptor: ParameterDescriptor | None) -> ParameterValue:
+    """The value a browser sent for ``name``, typed and checked as the node would check it.
+
+    Raises the same :class:`~paramdds.errors.ParamddsError` (and reason) the node would:
+    TYPE_MISMATCH, OUT_OF_RANGE, INVALID_VALUE, READ_ONLY is left to the node.
+    """
+    validate_name(name)
+    if raw is None:
+        raise InvalidValueError(f"Parameter {name!r}: null is not a value (delete the parameter instead)")
+    dynamic = descriptor is None or descriptor.dynamic_typing or descriptor.type is ParameterType.NOT_SET
+    if dynamic:
+        if isinstance(raw, list) and not raw:
+            raise TypeMismatchError(f"Parameter {name!r}: an empty list has no type of its own")
+        if isinstance(raw, dict):
+            raise TypeMismatchError(f"Parameter {name!r}: cannot make a parameter value of an object")
+        value = ParameterValue.from_python(raw)
+    else:
+        assert descriptor is not None
+        value = _as_type(name, descriptor.type, raw)
+    return checked(name, value, descriptor)
+
+
+def checked(name: str, value: ParameterValue, descriptor: ParameterDescriptor | None) -> ParameterValue:
+    """``value`` widened to the declared type where the node would widen it, then checked
+    against our size limits and the descriptor (the node's own rules, in the core)."""
+    fixed = descriptor is not None and not descriptor.dynamic_typing
+    if fixed and descriptor is not None and descriptor.type is not ParameterType.NOT_SET:
+        value = value.coerce(descriptor.type, name=name)
+    check_value(name, value)
+    if descriptor is not None:
+        validate(name, value, descriptor)
+    return value
+
+
+def typed_values(
+    raw: Mapping[str, object], described: Mapping[str, tuple[ParameterValue, ParameterDescriptor]]
+) -> dict[str, ParameterValue]:
+    """Every value of a set request, typed by the node's descriptors (first error raises)."""
+    out: dict[str, ParameterValue] = {}
+    for name, v in raw.items():
+        entry = described.get(name)
+        out[name] = typed_value(name, v, entry[1] if entry else None)
+    return out

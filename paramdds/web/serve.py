@@ -1,0 +1,144 @@
+"""``paramdds web``: one monitor, one client and uvicorn in one process.
+
+The socket is bound before anything else (a busy port or a bad address is a
+usage error, and ``--bind HOST:0`` picks a free port), then the monitor and the
+client are made, then the URL is printed and uvicorn serves until SIGINT or
+SIGTERM. On the way out the event streams are ended first (uvicorn would wait
+for them), then the client, the monitor and the participant are closed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import ipaddress
+import socket
+import sys
+from pathlib import Path
+
+import uvicorn
+
+from ..cli._errors import Exit, UsageError
+from ..cli._session import Session
+from .app import WebOptions, build_app
+from .guard import LOOPBACK_NAMES
+from .hub import Hub
+from .view import StateView
+
+DEFAULT_BIND = "127.0.0.1:8800"
+
+
+def parse_bind(text: str) -> tuple[str, int]:
+    """``HOST:PORT`` (``[::1]:PORT`` for IPv6) → (host, port); UsageError when malformed."""
+    host, sep, port_text = text.rpartition(":")
+    if not sep or not host:
+        raise UsageError(f"--bind expects HOST:PORT, got {text!r}")
+    host = host[1:-1] if host.startswith("[") and host.endswith("]") else host
+    try:
+        port = int(port_text)
+    except ValueError:
+        raise UsageError(f"--bind: the port must be a number, got {port_text!r}") from None
+    if not 0 <= port <= 65535:
+        raise UsageError(f"--bind: the port must be within [0, 65535], got {port}")
+    return host, port
+
+
+def is_loopback(host: str) -> bool:
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def read_token(path: str) -> str:
+    try:
+        token = Path(path).read_text(encoding="utf-8").strip()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UsageError(f"--token-file {path}: {exc}") from exc
+    if len(token) < 16 or any(c.isspace() for c in token):
+        raise UsageError(f"--token-file {path}: the token must be one word of at least 16 characters")
+    return token
+
+
+def bind_socket(host: str, port: int) -> socket.socket:
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    sock = socket.socket(family, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        sock.bind((host, port))
+    except OSError as exc:
+        sock.close()
+        raise UsageError(f"cannot listen on {host}:{port}: {exc.strerror or exc}") from exc
+    sock.listen(128)
+    sock.set_inheritable(True)
+    return sock
+
+
+class _Server(uvicorn.Server):
+    """uvicorn, ending our event streams before it waits for open connections."""
+
+    def __init__(self, config: uvicorn.Config, hub: Hub) -> None:
+        super().__init__(config)
+        self._hub = hub
+
+    async def shutdown(self, sockets: list[socket.socket] | None = None) -> None:
+        self._hub.close()
+        await super().shutdown(sockets)
+
+
+def options_from(args: argparse.Namespace, host: str) -> WebOptions:
+    token = read_token(args.token_file) if args.token_file else None
+    loopback = is_loopback(host)
+    if not loopback and not args.read_only and token is None:
+        raise UsageError(
+            f"--bind {host} is reachable from other machines: give --token-file (or use --read-only)"
+        )
+    allowed: tuple[str, ...] = LOOPBACK_NAMES if loopback else ()
+    if loopback and host not in allowed:
+        allowed = (*allowed, host)
+    return WebOptions(
+        read_only=args.read_only, token=token, domain=args.domain, allowed_hosts=allowed, timeout=args.timeout
+    )
+
+
+def run_web(args: argparse.Namespace) -> int:
+    host, port = parse_bind(args.bind)
+    options = options_from(args, host)
+    sock = bind_socket(host, port)
+    try:
+        asyncio.run(_serve(args, options, sock))
+    finally:
+        sock.close()
+    return Exit.OK
+
+
+async def _serve(args: argparse.Namespace, options: WebOptions, sock: socket.socket) -> None:
+    from ..dds.client import AsyncParameterClient
+
+    loop = asyncio.get_running_loop()
+    view = StateView()
+    hub = Hub(view, loop)
+    session = Session(args, app_name="paramdds-web")
+    try:
+        monitor = session.monitor(on_event=hub.on_event)
+        view.attach(monitor)
+        client = AsyncParameterClient(session.client())
+        app = build_app(view, hub, client, options)
+        config = uvicorn.Config(
+            app, log_level=args.log_level, access_log=False, lifespan="off", timeout_graceful_shutdown=2
+        )
+        server = _Server(config, hub)
+        name, port = sock.getsockname()[:2]
+        shown = f"[{name}]" if ":" in name else name
+        mode = (
+            "read-only"
+            if options.read_only
+            else ("writes need the token" if options.token else "writes allowed")
+        )
+        sys.stdout.write(f"[WEB] Console on http://{shown}:{port}/ (domain {args.domain}, {mode})\n")
+        sys.stdout.flush()
+        await server.serve(sockets=[sock])
+    finally:
+        await asyncio.to_thread(session.close)

@@ -1,0 +1,97 @@
+"""Reading the monitor's state for the API without copying the whole system.
+
+:meth:`ParameterMonitor.snapshot` copies every node's table (50,000 entries for
+1,000 nodes x 50 parameters); a page of the node list needs 50 summaries and a
+node view one node's rows. :class:`StateView` reads the monitor's live state
+under its lock (through ``wait_until`` with a zero timeout, whose predicate sees
+the live dict) and copies only what was asked for.
+
+A node's revision is the larger of its presence instance's and the newest
+revision carried by one of its events (:meth:`note_revision`): the presence and
+the parameter samples of one change are separate instances and may arrive in
+separate batches, and compare-and-set needs the newest.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, TypeVar
+
+from ..core.descriptors import ParameterDescriptor
+from ..core.values import ParameterValue
+from .model import NodeSummary, matches
+
+if TYPE_CHECKING:
+    from ..dds.monitor import NodeState, ParameterMonitor
+
+T = TypeVar("T")
+Table = dict[str, tuple[ParameterValue, ParameterDescriptor]]
+
+
+@dataclass(frozen=True)
+class NodePage:
+    total: int  # nodes matching the query
+    offset: int
+    nodes: list[NodeSummary]
+
+
+@dataclass(frozen=True)
+class NodeDetail:
+    summary: NodeSummary
+    parameters: Table
+
+
+class StateView:
+    def __init__(self, monitor: ParameterMonitor | None = None) -> None:
+        self._monitor = monitor
+        self._revisions: dict[str, int] = {}
+        self._lock = threading.Lock()
+
+    def attach(self, monitor: ParameterMonitor) -> None:
+        """Read ``monitor`` from now on (it is made after the hub that receives its events)."""
+        self._monitor = monitor
+
+    def note_revision(self, node: str, revision: int) -> None:
+        with self._lock:
+            if revision > self._revisions.get(node, -1):
+                self._revisions[node] = revision
+
+    def _peek(self, fn: Callable[[dict[str, NodeState]], T]) -> T:
+        out: list[T] = []
+        if self._monitor is None:
+            return fn({})
+
+        def take(states: dict[str, NodeState]) -> bool:
+            out.append(fn(states))
+            return True
+
+        self._monitor.wait_until(take, 0.0)
+        return out[0]
+
+    def _summary(self, st: NodeState) -> NodeSummary:
+        with self._lock:
+            revision = max(st.revision, self._revisions.get(st.node, -1))
+        return NodeSummary(st.node, st.online, st.host, st.pid, revision, len(st.parameters))
+
+    def page(self, query: str, offset: int, limit: int) -> NodePage:
+        def build(states: dict[str, NodeState]) -> NodePage:
+            names = sorted(n for n, st in states.items() if matches(query, n, st.parameters))
+            shown = [self._summary(states[n]) for n in names[offset : offset + limit]]
+            return NodePage(len(names), offset, shown)
+
+        return self._peek(build)
+
+    def summaries(self, nodes: list[str]) -> list[NodeSummary]:
+        def build(states: dict[str, NodeState]) -> list[NodeSummary]:
+            return [self._summary(states[n]) for n in nodes if n in states]
+
+        return self._peek(build)
+
+    def detail(self, node: str) -> NodeDetail | None:
+        def build(states: dict[str, NodeState]) -> NodeDetail | None:
+            st = states.get(node)
+            return None if st is None else NodeDetail(self._summary(st), dict(st.parameters))
+
+        return self._peek(build)

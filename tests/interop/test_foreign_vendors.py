@@ -1,0 +1,226 @@
+"""Other DDS implementations serve, read and call paramdds: real processes over loopback.
+
+Each test runs once per vendor (``conftest.py`` builds the programs of
+``examples/cyclone_c`` and ``examples/fastdds_cpp`` from ``idl/paramdds.idl``):
+
+* a foreign monitor that joins late gets every parameter of a paramdds server,
+  every type, each value exactly;
+* a foreign client lists, gets and sets against a paramdds server (its replies
+  are the ones echoing its client_id and request_id; a refused set is reported);
+* a foreign node shows in ``paramdds nodes`` and ``paramdds watch``, answers
+  ``paramdds get``/``set``/``list``, and a paramdds monitor sees it offline when it
+  is killed.
+
+Fast DDS knows no Cyclone discovery tags, so the paramdds side here runs without
+the test run's tag (isolated by its domain id only), on paramdds's localhost
+set-up: unicast to 127.0.0.1, participant indices 0..119. The foreign programs
+join that set-up their own way: Cyclone C through ``CYCLONEDDS_URI`` (the very
+configuration paramdds builds), Fast DDS through ``PARAMDDS_LOCALHOST=1`` (UDPv4
+on 127.0.0.1, initial peers 127.0.0.1).
+"""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from paramdds.core.descriptors import FloatingPointRange, ParameterDescriptor
+from paramdds.core.table import ParameterTable
+from paramdds.core.values import ParameterValue
+from paramdds.dds.monitor import EventKind
+from paramdds.dds.participant import domain_config
+
+from ..dds.helpers import DdsSession, wait_until
+from .conftest import Vendor
+
+pytestmark = pytest.mark.timeout(120)
+
+PARAMDDS = str(Path(sys.executable).with_name("paramdds"))
+
+# every type, with values that a lossy conversion would change
+EVERY_TYPE: dict[str, object] = {
+    "t.flag": False,
+    "t.int_min": -(2**63),
+    "t.int_max": 2**63 - 1,
+    "t.tenth": 0.1,
+    "t.tiny": 5e-324,
+    "t.huge": -1.25e300,
+    "t.text": 'héllo "quoted" \\ tab\t日本',
+    "t.bytes": bytes([0, 7, 255]),
+    "t.bools": [True, False],
+    "t.ints": [1, -(2**63)],
+    "t.doubles": [0.1, 1e-300],
+    "t.strings": ["a", "", "ü"],
+}
+
+
+@pytest.fixture
+def envs(monkeypatch: pytest.MonkeyPatch, domain_id: int) -> Iterator[tuple[dict[str, str], dict[str, str]]]:
+    """(environment of the foreign program, of a paramdds command); this process untagged too."""
+    monkeypatch.delenv("CYCLONEDDS_URI", raising=False)  # for DdsSession's participants
+    base = {k: v for k, v in os.environ.items() if k != "CYCLONEDDS_URI"}
+    base.update(PARAMDDS_DOMAIN=str(domain_id), PARAMDDS_LOCALHOST="1", PYTHONUNBUFFERED="1")
+    foreign = dict(base, CYCLONEDDS_URI=domain_config(localhost=True) or "")
+    yield foreign, base
+
+
+def _run(cmd: list[str], env: dict[str, str], timeout: float = 30) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=timeout)
+
+
+def _typed(kind: str, text: str) -> object:
+    """A value printed by a foreign program (its type name, then JSON) as the Python value."""
+    value = json.loads(text)
+    if kind == "double":
+        return float(value)
+    if kind == "double_array":
+        return [float(x) for x in value]
+    if kind == "byte_array":
+        return bytes(value)
+    return value
+
+
+def _lines(out: str, tag: str) -> list[list[str]]:
+    return [line.split(" ", 4)[1:] for line in out.splitlines() if line.startswith(tag + " ")]
+
+
+def test_a_foreign_monitor_joining_late_gets_every_value_exactly(
+    vendor: tuple[Vendor, Path], envs: tuple[dict[str, str], dict[str, str]], domain_id: int
+) -> None:
+    _, program = vendor
+    foreign_env, _ = envs
+    table = ParameterTable("robot1")
+    for name, value in EVERY_TYPE.items():
+        table.declare(name, value)
+    with DdsSession(domain_id) as session:
+        session.server(table)
+        done = _run([str(program), "monitor", "10"], foreign_env)  # starts after the server: late
+    assert done.returncode == 0, done.stderr
+    seen: dict[str, object] = {}
+    for node, name, kind, text in _lines(done.stdout, "PARAM"):
+        assert node == "robot1"
+        assert kind == ParameterValue.from_python(EVERY_TYPE[name]).type.label, name
+        seen[name] = _typed(kind, text)
+    assert seen == EVERY_TYPE  # every parameter, every value exactly (0.1, 5e-324, the int64 limits)
+    ((node, _host, pid, rest),) = _lines(done.stdout, "NODE")
+    assert (node, pid, rest.split()[-1]) == ("robot1", str(os.getpid()), str(len(EVERY_TYPE)))
+
+
+def test_a_foreign_client_lists_gets_and_sets_on_a_paramdds_server(
+    vendor: tuple[Vendor, Path], envs: tuple[dict[str, str], dict[str, str]], domain_id: int
+) -> None:
+    _, program = vendor
+    foreign_env, _ = envs
+    table = ParameterTable("robot1")
+    table.declare(
+        "robot.speed",
+        1.5,
+        ParameterDescriptor("robot.speed", floating_point_range=FloatingPointRange(0.0, 5.0)),
+    )
+    table.declare("robot.name", "rx")
+    table.declare("sensor.rate", 30)
+    with DdsSession(domain_id) as session:
+        session.server(table)
+        listed = _run([str(program), "list", "robot1"], foreign_env)
+        assert listed.returncode == 0, listed.stderr
+        assert [n for (n,) in _lines(listed.stdout, "NAME")] == ["robot.name", "robot.speed", "sensor.rate"]
+
+        got = _run([str(program), "get", "robot1", "robot.speed", "robot.name", "nope"], foreign_env)
+        assert got.returncode == 1, got.stderr  # one name is missing: reported, not dropped
+        assert [(n, k, t) for n, k, t in _lines(got.stdout, "VALUE")] == [
+            ("robot.speed", "double", "1.5"),
+            ("robot.name", "string", '"rx"'),
+        ]
+        assert _lines(got.stdout, "MISSING") == [["nope", "NOT_FOUND"]]
+
+        done = _run([str(program), "set", "robot1", "robot.speed=2.5", "sensor.rate=60"], foreign_env)
+        assert done.returncode == 0, done.stdout + done.stderr
+        assert _lines(done.stdout, "RESULT") == [["robot.speed", "OK"], ["sensor.rate", "OK"]]
+        assert (table.get("robot.speed").value, table.get("sensor.rate").value) == (2.5, 60)
+
+        refused = _run([str(program), "set", "robot1", "robot.speed=9.5"], foreign_env)
+        assert refused.returncode == 1
+        ((name, verdict, code, _reason),) = _lines(refused.stdout, "RESULT")
+        assert (name, verdict, code) == ("robot.speed", "FAILED", "OUT_OF_RANGE")
+        assert table.get("robot.speed").value == 2.5  # unchanged
+
+
+class _Node:
+    """A foreign node process: started, waited for (READY), killed with SIGKILL at the end."""
+
+    def __init__(self, program: Path, node: str, env: dict[str, str]) -> None:
+        self.proc = subprocess.Popen(
+            [str(program), "node", node], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+        )
+        assert self.proc.stdout is not None
+        line = self.proc.stdout.readline()
+        assert line.strip() == "READY", line + (self.proc.stderr.read() if self.proc.stderr else "")
+
+    def kill(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGKILL)
+        self.proc.communicate(timeout=10)
+
+
+def test_a_foreign_node_is_served_by_the_paramdds_tools(
+    vendor: tuple[Vendor, Path], envs: tuple[dict[str, str], dict[str, str]], domain_id: int
+) -> None:
+    info, program = vendor
+    foreign_env, cli_env = envs
+    p = info.prefix
+    node = _Node(program, "fnode", foreign_env)
+    try:
+        # `nodes` shows what discovery has found when it runs; a Fast DDS participant is
+        # sometimes found ~1 s after a new one starts, so ask until it shows (at most 5 tries)
+        rows: list[Any] = []
+        for _ in range(5):
+            rows = [
+                (n["node"], n["online"], n["parameters"], n["pid"])
+                for n in json.loads(_run([PARAMDDS, "nodes", "-o", "json"], cli_env).stdout)
+            ]
+            if rows:
+                break
+        assert rows == [("fnode", True, 4, node.proc.pid)]
+        got = _run([PARAMDDS, "get", "fnode", f"{p}speed", f"{p}count", "-o", "json"], cli_env)
+        assert (got.returncode, json.loads(got.stdout)) == (0, {f"{p}speed": 1.5, f"{p}count": 3}), got.stderr
+        listed = _run([PARAMDDS, "list", "fnode", "-o", "json"], cli_env)
+        assert json.loads(listed.stdout) == sorted(f"{p}{n}" for n in ("speed", "count", "label", "enabled"))
+        done = _run([PARAMDDS, "set", "fnode", f"{p}speed=2.5", f"{p}label=on-ice", "-o", "json"], cli_env)
+        assert done.returncode == 0, done.stdout + done.stderr
+        result: dict[str, Any] = json.loads(done.stdout)
+        assert result["revision"] == 2 and result[f"{p}speed"]["successful"]
+        refused = _run([PARAMDDS, "set", "fnode", f"{p}speed=true"], cli_env)  # the node checks types
+        assert refused.returncode == 1 and "TYPE" in refused.stdout + refused.stderr.upper()
+
+        watch = subprocess.Popen(
+            [PARAMDDS, "watch", "fnode", "-o", "json"], env=cli_env, stdout=subprocess.PIPE, text=True
+        )
+        try:
+            assert watch.stdout is not None
+            added: dict[str, object] = {}
+            while len(added) < 4:
+                event = json.loads(watch.stdout.readline())
+                if event["event"] == "added":
+                    added[event["name"]] = event["value"]
+            assert added == {f"{p}speed": 2.5, f"{p}count": 3, f"{p}label": "on-ice", f"{p}enabled": True}
+        finally:
+            watch.terminate()
+            watch.communicate(timeout=10)
+
+        with DdsSession(domain_id) as session:
+            monitor = session.monitor()
+            assert wait_until(lambda: monitor.snapshot().get("fnode", None) is not None, 10)
+            assert monitor.snapshot()["fnode"].online
+            offline: list[str] = []
+            monitor.add_callback(lambda e: offline.append(e.node) if e.event is EventKind.OFFLINE else None)
+            node.kill()
+            assert wait_until(lambda: offline == ["fnode"], 10)  # the node's lease, ~1-2 s
+            assert monitor.snapshot()["fnode"].parameters[f"{p}speed"][0].value == 2.5  # last values kept
+    finally:
+        node.kill()

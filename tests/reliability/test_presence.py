@@ -1,0 +1,148 @@
+"""The client's presence rule on real Cyclone (loopback, in process): when is a node "not present"?
+
+:mod:`paramdds.dds.discovery` says a node never seen is absent only once discovery
+has settled: a state writer was found, every matched one has delivered, and
+discovery has been quiet. Each test first shows the path works (a present node is
+ONLINE and answers), then holds one condition open and checks that a ghost is
+UNKNOWN, never "not present", until it closes.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import pytest
+from cyclonedds.core import Entity
+from cyclonedds.pub import DataWriter
+from cyclonedds.topic import Topic
+
+from paramdds.core.table import ParameterTable
+from paramdds.dds import types as wire
+from paramdds.dds.discovery import Presence, is_settled
+from paramdds.dds.qos import QosProfiles
+from paramdds.errors import TimeoutError_, UnavailableError
+
+from .conftest import DDS, wait
+
+
+@pytest.mark.parametrize(
+    ("writers", "pending", "burst", "quiet_for", "settled"),
+    [
+        (1, 0, 0.0, 0.5, True),  # healthy loopback: known at once, then 0.5 s of quiet
+        (1, 0, 0.0, 0.49, False),
+        (0, 0, 0.0, 60.0, False),  # no server found: never settled, the call's timeout decides
+        (2, 1, 0.0, 60.0, False),  # a matched server that has delivered nothing
+        (1, 0, 2.0, 1.9, False),  # slow discovery (changes over 2 s) needs 2 s of quiet
+        (1, 0, 2.0, 2.0, True),
+    ],
+)
+def test_the_rule(writers: int, pending: int, burst: float, quiet_for: float, settled: bool) -> None:
+    assert is_settled(writers, pending, burst, quiet_for, min_quiet=0.5) is settled
+
+
+def test_a_state_writer_that_has_not_delivered_keeps_a_ghost_unknown(dds: DDS, domain_id: int) -> None:
+    dds.server(domain_id, ParameterTable("present"))
+    dp = dds.participant(domain_id)
+    silent = DataWriter(
+        dp, Topic(dp, "ParameterEvents", wire.ParameterEvent), QosProfiles.load().writer("ParameterEvents")
+    )
+    client = dds.client(domain_id)
+    assert client.wait_for_node("present", timeout=5.0).online  # positive control
+    assert client.presence("present") is Presence.ONLINE
+
+    state = client.discovery()
+    assert (state.state_writers, state.pending_writers) == (2, 1), state
+    time.sleep(1.0)  # well past the quiet period: only the silent writer holds the answer back
+    assert client.presence("ghost") is Presence.UNKNOWN
+    with pytest.raises(TimeoutError_, match="1 of 2 server"):
+        client.get("ghost", ["x"], timeout=0.8)
+
+    Entity.__del__(silent)  # it goes without ever having delivered: nothing is owed any more
+    assert wait(lambda: client.presence("ghost") is Presence.ABSENT, timeout=5.0)
+    started = time.monotonic()
+    with pytest.raises(UnavailableError, match="'ghost' is not present"):
+        client.get("ghost", ["x"], timeout=10.0)
+    assert time.monotonic() - started < 0.5
+
+
+def test_with_no_parameter_server_anywhere_a_ghost_is_a_timeout_not_absent(dds: DDS, domain_id: int) -> None:
+    client = dds.client(domain_id)
+    started = time.monotonic()
+    with pytest.raises(TimeoutError_, match="no parameter server discovered"):
+        client.get("ghost", ["x"], timeout=1.0)
+    assert 1.0 <= time.monotonic() - started < 2.0  # the call's own timeout, no fixed grace
+    with pytest.raises(TimeoutError_, match="'late' not seen within"):
+        client.wait_for_node("late", timeout=0.5)
+    assert client.presence("late") is Presence.UNKNOWN
+
+    dds.server(domain_id, ParameterTable("late"))  # the same client finds it once it exists
+    assert client.wait_for_node("late", timeout=5.0).online
+    assert client.list("late").names == ()
+    assert wait(lambda: client.presence("ghost") is Presence.ABSENT, timeout=5.0)
+
+
+def test_a_node_that_went_away_is_offline_at_once(dds: DDS, domain_id: int) -> None:
+    server = dds.server(domain_id, ParameterTable("brief"))
+    client = dds.client(domain_id)
+    assert client.wait_for_node("brief", timeout=5.0).online
+    server.close()
+    assert wait(lambda: client.presence("brief") is Presence.OFFLINE, timeout=5.0)
+    with pytest.raises(UnavailableError, match="'brief' is offline"):
+        client.wait_for_node("brief", timeout=0.3)
+
+
+def test_a_busy_system_still_settles(dds: DDS, domain_id: int) -> None:
+    table = ParameterTable("busy")
+    table.declare("tick", 0)
+    dds.server(domain_id, table)
+    writer = dds.client(domain_id)
+    assert writer.wait_for_node("busy", timeout=5.0).online
+    stop = threading.Event()
+
+    def churn() -> None:  # a parameter changing every 20 ms: updates, never new instances
+        k = 0
+        while not stop.is_set():
+            k += 1
+            writer.set("busy", {"tick": k})
+            stop.wait(0.02)
+
+    thread = threading.Thread(target=churn, daemon=True)
+    thread.start()
+    try:
+        client = dds.client(domain_id)
+        assert client.wait_for_node("busy", timeout=5.0).online  # positive control
+        started = time.monotonic()
+        with pytest.raises(UnavailableError, match="'ghost' is not present"):
+            client.get("ghost", ["x"], timeout=10.0)
+        assert time.monotonic() - started < 2.0
+        assert writer.get_value("busy", "tick").value > 10  # it really was busy
+    finally:
+        stop.set()
+        thread.join(5)
+
+
+def test_a_long_lived_client_needs_only_a_short_quiet_after_a_late_change(dds: DDS, domain_id: int) -> None:
+    dds.server(domain_id, ParameterTable("first"))
+    client = dds.client(domain_id)
+    assert client.wait_for_node("first", timeout=5.0).online
+    assert wait(lambda: client.presence("ghost") is Presence.ABSENT, timeout=5.0)
+    time.sleep(2.0)  # a client that has been up for a while
+
+    dds.server(domain_id, ParameterTable("second"))  # discovery changes again, late
+    started = time.monotonic()
+    assert client.wait_for_node("second", timeout=5.0).online
+    with pytest.raises(UnavailableError, match="'ghost' is not present"):
+        client.get("ghost", ["x"], timeout=10.0)
+    # a new burst: 0.5 s of quiet, not as long again as the client's whole life
+    assert time.monotonic() - started < 1.5
+
+
+def test_presence_after_close_answers_without_touching_deleted_entities(dds: DDS, domain_id: int) -> None:
+    dds.server(domain_id, ParameterTable("kept"))
+    client = dds.client(domain_id)
+    assert client.wait_for_node("kept", timeout=5.0).online
+    client.close()
+    client.close()  # twice is harmless
+    assert client.presence("kept") is Presence.ONLINE  # the reader is the participant's, still there
+    assert client.discovery().state_writers == 1

@@ -1,0 +1,120 @@
+"""Pure parts of the console, without DDS or HTTP: the status table, value typing, options, the hub."""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import math
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from paramdds.cli._errors import UsageError
+from paramdds.core.descriptors import FloatingPointRange, ParameterDescriptor
+from paramdds.core.values import ParameterType, ParameterValue
+from paramdds.dds.monitor import EventKind, MonitorEvent
+from paramdds.errors import ErrorCode, OutOfRangeError, TypeMismatchError
+from paramdds.web.hub import Hub
+from paramdds.web.model import typed_value
+from paramdds.web.serve import is_loopback, options_from, parse_bind
+from paramdds.web.status import STATUS, WebCode, status_of
+from paramdds.web.view import StateView
+
+SPEED = ParameterDescriptor("speed", ParameterType.DOUBLE, floating_point_range=FloatingPointRange(0.0, 5.0))
+
+
+def test_every_error_code_has_a_4xx_or_5xx_status() -> None:
+    for code in [*ErrorCode, *WebCode]:
+        assert code.value in STATUS and 400 <= STATUS[code.value] < 600, code
+    assert (status_of("NOT_FOUND"), status_of("READ_ONLY"), status_of("CONFLICT")) == (404, 403, 409)
+    assert (status_of("OUT_OF_RANGE"), status_of("UNAVAILABLE"), status_of("TIMEOUT")) == (422, 503, 504)
+
+
+def test_a_double_takes_an_integer_and_the_non_finite_words() -> None:
+    assert typed_value("speed", 2, SPEED) == ParameterValue(ParameterType.DOUBLE, 2.0)
+    free = ParameterDescriptor("x", ParameterType.DOUBLE)
+    assert math.isinf(typed_value("x", "-inf", free).value)  # type: ignore[arg-type]
+    with pytest.raises(OutOfRangeError, match=r"must be within \[0.0, 5.0\]"):
+        typed_value("speed", 5.5, SPEED)
+    with pytest.raises(TypeMismatchError):
+        typed_value("speed", True, SPEED)
+
+
+def test_bytes_from_hex_or_ints() -> None:
+    key = ParameterDescriptor("key", ParameterType.BYTE_ARRAY)
+    assert typed_value("key", "0a FF", key).value == b"\x0a\xff"
+    assert typed_value("key", [1, 2], key).value == b"\x01\x02"
+    with pytest.raises(TypeMismatchError, match="hex"):
+        typed_value("key", "abc", key)
+
+
+@given(st.floats(min_value=0.0, max_value=5.0))
+def test_every_double_in_range_is_accepted(x: float) -> None:
+    assert typed_value("speed", x, SPEED).value == x
+
+
+def test_undeclared_names_are_typed_by_their_json() -> None:
+    assert typed_value("new", [1, 2], None).type is ParameterType.INTEGER_ARRAY
+    with pytest.raises(TypeMismatchError, match="empty list"):
+        typed_value("new", [], None)
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [("127.0.0.1:8800", ("127.0.0.1", 8800)), ("[::1]:0", ("::1", 0)), ("0.0.0.0:80", ("0.0.0.0", 80))],
+)
+def test_parse_bind(text: str, expected: tuple[str, int]) -> None:
+    assert parse_bind(text) == expected
+
+
+@pytest.mark.parametrize("text", ["8800", ":8800", "host:x", "host:70000"])
+def test_parse_bind_refuses(text: str) -> None:
+    with pytest.raises(UsageError):
+        parse_bind(text)
+
+
+def test_writes_on_a_non_loopback_bind_need_a_token() -> None:
+    args = argparse.Namespace(token_file=None, read_only=False, domain=1, timeout=5.0)
+    assert is_loopback("127.0.0.1") and is_loopback("::1") and not is_loopback("0.0.0.0")
+    assert options_from(args, "127.0.0.1").allowed_hosts[:2] == ("localhost", "127.0.0.1")
+    with pytest.raises(UsageError, match="--token-file"):
+        options_from(args, "0.0.0.0")
+    args.read_only = True
+    assert options_from(args, "0.0.0.0").allowed_hosts == ()  # read-only: any Host may read
+
+
+def test_a_burst_is_coalesced_into_one_message_per_kind() -> None:
+    async def run() -> list[str]:
+        hub = Hub(StateView(), asyncio.get_running_loop())
+        sub = hub.subscribe("arm")
+        for i in range(500):
+            value = ParameterValue(ParameterType.INTEGER, i)
+            hub.on_event(MonitorEvent(EventKind.MODIFIED, "arm", "gain", value, None, i + 1))
+        await asyncio.sleep(0.2)
+        messages = []
+        while not sub.queue.empty():
+            item = sub.queue.get_nowait()
+            assert item is not None
+            messages.append(item)
+        return messages
+
+    messages = asyncio.run(run())
+    kinds = [m.split("\n", 1)[0] for m in messages]
+    assert kinds == ["event: params", "event: nodes", "event: log"]
+    params = messages[0]
+    assert params.count('"name":"gain"') == 1 and '"value":499' in params  # last value wins
+    assert '"skipped":450' in messages[2]  # the log keeps the newest 50 of a burst
+
+
+def test_a_missing_web_extra_is_a_clear_usage_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    import importlib.util
+
+    from paramdds.cli import _web
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda name, *a: None if name == "uvicorn" else real(name, *a)
+    )
+    with pytest.raises(UsageError, match=r"uvicorn not installed.*pip install 'paramdds\[web\]'"):
+        _web.run_web(argparse.Namespace())
