@@ -18,6 +18,8 @@ map errors without matching on message text::
     ├── FileFormatError                FILE_FORMAT (YAML file; carries file and line)
     ├── TooLargeError                  TOO_LARGE (a request or value over our limits)
     ├── NotPersistedError              NOT_PERSISTED (applied, but not written to --persist)
+    ├── InternalError                  INTERNAL (a bug on the node's side, reported to the caller)
+    ├── RemoteError                    UNKNOWN (a code this version does not know; ``remote_code``)
     └── TransportError                 the node could not be reached
         ├── TimeoutError_              TIMEOUT (no answer within the timeout)
         └── UnavailableError           UNAVAILABLE (the node is not present)
@@ -46,6 +48,8 @@ class ErrorCode(str, Enum):
     TIMEOUT = "TIMEOUT"
     UNAVAILABLE = "UNAVAILABLE"
     NOT_PERSISTED = "NOT_PERSISTED"
+    INTERNAL = "INTERNAL"
+    UNKNOWN = "UNKNOWN"  # a code this version does not know (a newer node's): see RemoteError
 
 
 class ParamddsError(Exception):
@@ -126,6 +130,23 @@ class NotPersistedError(ParamddsError):
     code = ErrorCode.NOT_PERSISTED
 
 
+class InternalError(ParamddsError):
+    """The node failed while handling the request (a bug there); the request may not be applied."""
+
+    code = ErrorCode.INTERNAL
+
+
+class RemoteError(ParamddsError):
+    """The node answered with an error code this version does not know (a newer node):
+    ``remote_code`` is the code as sent."""
+
+    code = ErrorCode.UNKNOWN
+
+    def __init__(self, message: str, *, remote_code: str) -> None:
+        super().__init__(f"{message} [{remote_code}]")
+        self.remote_code = remote_code
+
+
 class TransportError(ParamddsError):
     """The node could not be reached."""
 
@@ -153,6 +174,7 @@ _BY_CODE: dict[ErrorCode, type[ParamddsError]] = {
         FileFormatError,
         TooLargeError,
         NotPersistedError,
+        InternalError,
         TimeoutError_,
         UnavailableError,
     )
@@ -161,10 +183,23 @@ _BY_CODE: dict[ErrorCode, type[ParamddsError]] = {
 
 def error_for(code: ErrorCode | str, message: str) -> ParamddsError:
     """The exception a remote ``code`` stands for (used where a reply carries a code)."""
-    try:
-        cls = _BY_CODE[ErrorCode(code)]
-    except ValueError:
-        return ParamddsError(message)
+    known = code_of(str(code.value if isinstance(code, ErrorCode) else code))
+    if known is ErrorCode.UNKNOWN or known is None:
+        return RemoteError(message, remote_code=str(code))
+    cls = _BY_CODE.get(known)
+    if cls is None:
+        return ParamddsError(message, code=known)
     if cls is FileFormatError:
         return FileFormatError(message)
     return cls(message)
+
+
+def code_of(text: str) -> ErrorCode | None:
+    """The ErrorCode a reply's code string stands for: None for "", UNKNOWN for one this
+    version does not know (an older client must keep working against a newer node)."""
+    if not text:
+        return None
+    try:
+        return ErrorCode(text)
+    except ValueError:
+        return ErrorCode.UNKNOWN

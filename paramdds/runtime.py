@@ -272,7 +272,7 @@ class ServerProcess:
         participant = self._participant_factory()
         server = ParameterServer(participant, self._qos)
         if self.store is not None:
-            server.before_reply.append(self.store.hook)
+            server.persisters.append(self.store.record)
         for table in self.tables.values():
             server.add_node(table)
         self._server = server.start()
@@ -282,3 +282,5 @@ class ServerProcess:
         if self._server is not None:
             self._server.close()
             self._server = None
+        if self.store is not None:
+            self.store.close()  # releases the journal's lock

@@ -22,6 +22,7 @@ SCENARIOS = {
     "web": "browser console in headless Chromium: set ack → value in the DOM; first render of 1000 x 50",
     "fleet": "10 server processes x 1,000 nodes x 20 params: monitor synced, `paramdds get` vs an empty "
     "system, a server's CPU under foreign traffic (native filter vs handler), loopback bytes per request",
+    "persist": "sets/s with --persist at 10 and 1,000 params vs without; restart from a 100k-change journal",
 }
 
 
@@ -75,13 +76,17 @@ def register(subparsers: Any) -> None:
         "hosting, web: node ids in the one process (default 1000); fleet: node ids per server process (1000)",
     )
     p.add_argument(
-        "--params", type=_positive_int, metavar="P", help="parameters per node (scaling 50, hosting 20)"
+        "--params",
+        type=_positive_int,
+        metavar="P",
+        help="parameters per node (scaling 50, hosting 20, persist 10 and 1000)",
     )
     p.add_argument(
         "--requests",
         type=_positive_int,
         metavar="N",
-        help="latency: requests per system (default 2000); web: sets (200); fleet: gets per second (1000)",
+        help="latency: requests per system (default 2000); web: sets (200); "
+        "persist: journal changes (100000); fleet: gets per second (1000)",
     )
     p.add_argument("--rounds", type=_positive_int, metavar="R", help="alternation rounds / repetitions")
     p.add_argument(
@@ -94,7 +99,7 @@ def register(subparsers: Any) -> None:
         "--window", type=_positive_int, metavar="W", help="throughput: requests in flight per client"
     )
     p.add_argument(
-        "--seconds", type=_positive_float, metavar="S", help="throughput: measured seconds per round"
+        "--seconds", type=_positive_float, metavar="S", help="throughput, persist: measured seconds per round"
     )
     p.set_defaults(func=run)
 

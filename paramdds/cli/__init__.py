@@ -20,7 +20,7 @@ import sys
 from collections.abc import Callable, Sequence
 from types import FrameType
 
-from ._errors import Exit, Refused, Terminated, UsageError, exit_code, one_line
+from ._errors import Exit, Refused, Terminated, UsageError, exit_code, is_dds_failure, one_line
 from ._parser import build_parser, find_verb, resolve_globals
 
 __all__ = ["Exit", "main"]
@@ -107,7 +107,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         if debug:
             log.debug("the %s verb failed", args.verb, exc_info=exc)
         message = str(exc) or type(exc).__name__
-        if code is Exit.REFUSED and not _is_ours(exc):
+        if is_dds_failure(exc):
+            message = f"DDS failed in this process: {message}"
+        elif not _is_ours(exc):
             message = f"internal error: {type(exc).__name__}: {message} (--log-level debug shows more)"
         _error(message)
         return code

@@ -10,6 +10,8 @@ code   when
 2      usage error or bad local input (unknown flag, unparsable value, unreadable
        or invalid YAML with file and line)
 3      node not present, or no answer within the timeout
+4      a failure, not an answer: DDS failed in this process (participant,
+       entity, write), or the node or this program hit an internal error
 130    interrupted by Ctrl-C
 =====  ==========================================================================
 
@@ -18,6 +20,7 @@ Errors are mapped by their :class:`~paramdds.errors.ErrorCode`, never by message
 
 from __future__ import annotations
 
+import sys
 from enum import IntEnum
 
 from ..errors import ErrorCode, ParamddsError
@@ -28,6 +31,7 @@ class Exit(IntEnum):
     REFUSED = 1
     USAGE = 2
     UNREACHABLE = 3
+    FAILURE = 4
     INTERRUPTED = 130
 
 
@@ -45,6 +49,13 @@ class Terminated(Exception):
 
 _UNREACHABLE = {ErrorCode.TIMEOUT, ErrorCode.UNAVAILABLE}
 _LOCAL = {ErrorCode.FILE_FORMAT}
+_FAILURE = {ErrorCode.INTERNAL}
+
+
+def is_dds_failure(exc: BaseException) -> bool:
+    """Whether ``exc`` is Cyclone's own exception (a local DDS failure)."""
+    core = sys.modules.get("cyclonedds.core")
+    return core is not None and isinstance(exc, core.DDSException)
 
 
 def exit_code(exc: BaseException) -> Exit:
@@ -60,8 +71,10 @@ def exit_code(exc: BaseException) -> Exit:
             return Exit.UNREACHABLE
         if exc.code in _LOCAL:
             return Exit.USAGE
+        if exc.code in _FAILURE:
+            return Exit.FAILURE
         return Exit.REFUSED
-    return Exit.REFUSED
+    return Exit.FAILURE  # a DDSException, or a bug of ours
 
 
 def one_line(text: str) -> str:

@@ -71,11 +71,17 @@ class EventPrinter:
         if matches_prefix(event.name, self._prefixes):
             self._write(self._parameter_line(event))
 
-    def synced(self) -> None:
-        """Print the ``synced`` line: the current state has been printed."""
+    def synced(self, settled: bool = True, waited: float = 0.0) -> None:
+        """Print the ``synced`` line: the current state has been printed. When discovery
+        did not settle within the timeout, say so (``not_synced``) instead."""
         with self._lock:
             self._synced = True
-        self._write('{"event": "synced"}' if self._json else "synced")
+        if settled:
+            self._write('{"event": "synced"}' if self._json else "synced")
+        elif self._json:
+            self._write(dumps_json({"event": "not_synced", "waited": round(waited, 3)}, pretty=False))
+        else:
+            self._write(f"not synced: the state did not settle within {waited:g} s; it may be incomplete")
 
     def _node_line(self, e: MonitorEvent) -> str:
         if self._json:
@@ -152,8 +158,8 @@ def run_watch(args: argparse.Namespace) -> int:
     with Session(args) as session:
         started = time.monotonic()
         monitor = session.monitor(nodes or None, on_event=printer)
-        settle(monitor, started, args.timeout, lambda: printer.last_event)
-        printer.synced()
+        settled = settle(monitor, started, args.timeout, lambda: printer.last_event)
+        printer.synced(settled, time.monotonic() - started)
         wait_until_interrupted(printer.broken)
     return Exit.OK
 

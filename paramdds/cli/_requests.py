@@ -67,6 +67,7 @@ def run_nodes(args: argparse.Namespace) -> int:
             "host": st.host,
             "pid": st.pid,
             "revision": st.revision,
+            "also_hosted_by": list(st.duplicates),  # other processes hosting the same node id
         }
         for st in sorted(states.values(), key=lambda st: st.node)
         if st.online

@@ -224,6 +224,19 @@ class ParameterTable:
 
     # --- reading ---------------------------------------------------------------------------
 
+    @contextmanager
+    def try_locked(self) -> Iterator[bool]:
+        """Hold the table's lock if it is free right now (yields True), else yield False at once.
+
+        For a caller that must never wait on a callback another thread is running (the
+        server's dispatch thread answers reads inline only when this succeeds)."""
+        got = self._lock.acquire(blocking=False)
+        try:
+            yield got
+        finally:
+            if got:
+                self._lock.release()
+
     def has(self, name: str) -> bool:
         with self._lock:
             return isinstance(name, str) and name in self._params

@@ -21,6 +21,12 @@ measured reason:
   Cyclone's C API;
 * :func:`live_endpoints` lists the readers and writers of a participant that exist
   as Python objects (the binding's entity registry), for :mod:`.peers`;
+* :func:`assert_liveliness` asserts a MANUAL liveliness writer's liveliness
+  (``dds_assert_liveliness``, which the binding does not wrap), so a server's
+  dispatch loop, not Cyclone's own threads, keeps its nodes alive;
+* :func:`dispose_serialized` and :func:`unregister_serialized` dispose or
+  unregister an instance given as raw key bytes (the fault-injection tests send
+  keys no encoder would write);
 * :func:`install_native_filter` installs a C filter function (see
   :mod:`.filters`) on a topic with ``dds_set_topic_filter_and_arg``, through the
   binding's handle on the C library. The binding's samples reach it as its sample
@@ -43,9 +49,11 @@ import cyclonedds
 __all__ = [
     "SUPPORTED_VERSION",
     "Endianness",
+    "assert_liveliness",
     "binding_deserialize",
     "compute_type_data",
     "cookie_buffer",
+    "dispose_serialized",
     "entity_handle",
     "install_native_filter",
     "install_type_data",
@@ -53,6 +61,7 @@ __all__ = [
     "live_endpoints",
     "read_new_infos",
     "take_serialized",
+    "unregister_serialized",
     "waitset_attach_indexed",
     "waitset_wait_indexed",
     "write_serialized",
@@ -83,7 +92,13 @@ def _check_version() -> None:
 
 _check_version()
 
-from cyclonedds._clayer import ddspy_read, ddspy_take, ddspy_write  # noqa: E402  (after the version check)
+from cyclonedds._clayer import (  # noqa: E402  (after the version check)
+    ddspy_dispose,
+    ddspy_read,
+    ddspy_take,
+    ddspy_unregister_instance,
+    ddspy_write,
+)
 from cyclonedds.core import DDSException  # noqa: E402
 from cyclonedds.idl._support import Endianness  # noqa: E402
 from cyclonedds.internal import DDS  # noqa: E402
@@ -139,6 +154,38 @@ def write_serialized(writer: Any, data: bytes) -> None:
     ret = ddspy_write(writer._ref, data)
     if ret < 0:
         raise DDSException(ret, f"Occurred while writing to {writer!r}")
+
+
+def dispose_serialized(writer: Any, data: bytes) -> None:
+    """Dispose the instance whose key is in ``data`` (a serialized sample, header included)."""
+    ret = ddspy_dispose(writer._ref, data)
+    if ret < 0:
+        raise DDSException(ret, f"Occurred while disposing with {writer!r}")
+
+
+def unregister_serialized(writer: Any, data: bytes) -> None:
+    """Unregister the instance whose key is in ``data`` (a serialized sample, header included)."""
+    ret = ddspy_unregister_instance(writer._ref, data)
+    if ret < 0:
+        raise DDSException(ret, f"Occurred while unregistering with {writer!r}")
+
+
+_lib: ct.CDLL | None = None
+
+
+def assert_liveliness(entity: Any) -> None:
+    """Assert the liveliness of a MANUAL_BY_TOPIC writer (or MANUAL_BY_PARTICIPANT participant)."""
+    global _lib
+    if _lib is None:
+        from cyclonedds.internal import load_cyclonedds
+
+        lib = load_cyclonedds()
+        lib.dds_assert_liveliness.restype = ct.c_int32
+        lib.dds_assert_liveliness.argtypes = [ct.c_int32]
+        _lib = lib
+    ret = _lib.dds_assert_liveliness(entity._ref)
+    if ret < 0:
+        raise DDSException(ret, f"Occurred while asserting the liveliness of {entity!r}")
 
 
 def binding_deserialize(cls: type, data: bytes, has_header: bool, use_version_2: bool | None) -> Any:

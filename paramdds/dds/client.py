@@ -45,12 +45,12 @@ from ..core.names import canonical_node_id, validate_name
 from ..core.results import GetResult, ListResult, SetResult
 from ..core.values import NOT_SET, Parameter, ParameterValue
 from ..errors import (
-    ErrorCode,
     NotFoundError,
     ParamddsError,
     TimeoutError_,
     TooLargeError,
     UnavailableError,
+    code_of,
     error_for,
 )
 from . import types as wire
@@ -493,7 +493,7 @@ class ParameterClient:
         self._check(reply)
         results = []
         for r in reply.results:
-            code = ErrorCode(r.code) if r.code else None
+            code = code_of(r.code)
             results.append(
                 GetResult(
                     name=r.name,
@@ -507,10 +507,7 @@ class ParameterClient:
 
     def _finish_set(self, reply: Any) -> SetReply:
         self._check(reply)
-        results = tuple(
-            SetResult(r.name, r.successful, r.reason, ErrorCode(r.code) if r.code else None)
-            for r in reply.results
-        )
+        results = tuple(SetResult(r.name, r.successful, r.reason, code_of(r.code)) for r in reply.results)
         return SetReply(reply.node_id, reply.revision, results)
 
 

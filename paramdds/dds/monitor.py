@@ -16,6 +16,7 @@ presence announces and no sample has arrived for :data:`QUIET` seconds.
 
 from __future__ import annotations
 
+import logging
 import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
@@ -23,7 +24,8 @@ from dataclasses import dataclass, field, replace
 from enum import Enum
 from typing import Any
 
-from cyclonedds.core import InstanceState
+from cyclonedds.core import InstanceState, Policy
+from cyclonedds.qos import Qos
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 
@@ -34,6 +36,8 @@ from . import types as wire
 from .dispatch import Dispatcher
 from .qos import QosProfiles
 from .state import StateKey, StateSample, decode_key, decode_state
+
+log = logging.getLogger(__name__)
 
 QUIET = 0.1  # seconds without new samples before the initial state counts as received
 
@@ -66,6 +70,10 @@ class NodeState:
     pid: int = 0
     revision: int = 0
     announced: int = -1  # parameter count from the presence instance; -1 before it is seen
+    # other processes seen publishing this node's presence while it was online ("pid N on H"):
+    # one node id hosted twice, whose requests reach both
+    duplicates: list[str] = field(default_factory=list)
+    writer: int = 0  # the publication handle of the last presence sample
     parameters: dict[str, tuple[ParameterValue, ParameterDescriptor]] = field(default_factory=dict)
 
     @property
@@ -96,7 +104,11 @@ class ParameterMonitor:
         # no topic filter (it deadlocks against take under load): _apply skips other nodes
         topic = Topic(participant, "ParameterEvents", wire.ParameterEvent)
         self._dispatcher = Dispatcher(participant, "paramdds-monitor")
-        reader = DataReader(participant, topic, qos.reader("ParameterEvents"))
+        # depth 4, not 1: a late joiner must see the presence samples of every writer of one
+        # node (two processes hosting one node id), not only the last one delivered
+        reader = DataReader(
+            participant, topic, qos.reader("ParameterEvents") + Qos(Policy.History.KeepLast(4))
+        )
         self._dispatcher.add_raw(reader, _decode, self._on_samples)
         self._dispatcher.start()
         self._closed = False
@@ -123,7 +135,10 @@ class ParameterMonitor:
     def snapshot(self) -> dict[str, NodeState]:
         """A copy of every node's state as this monitor holds it now."""
         with self._cond:
-            return {n: replace(s, parameters=dict(s.parameters)) for n, s in self._states.items()}
+            return {
+                n: replace(s, parameters=dict(s.parameters), duplicates=list(s.duplicates))
+                for n, s in self._states.items()
+            }
 
     @property
     def synced(self) -> bool:
@@ -183,6 +198,25 @@ class ParameterMonitor:
         return MonitorEvent(kind, state.node, s.name, s.value, s.descriptor, s.revision, s.stamp)
 
     def _apply_presence(self, state: NodeState, s: StateSample, info: Any) -> MonitorEvent | None:
+        writer = int(getattr(info, "publication_handle", 0))
+        if (
+            state.online
+            and state.writer
+            and writer != state.writer
+            and (s.host, s.pid) != (state.host, state.pid)
+        ):
+            # a second live writer of this node's presence: two processes host one node id
+            previous, new = f"pid {state.pid} on {state.host}", f"pid {s.pid} on {s.host}"
+            state.duplicates = [d for d in state.duplicates if d != new]  # host and pid show the new one
+            if previous not in state.duplicates:
+                state.duplicates.append(previous)
+                log.warning(
+                    "node %r is hosted by two processes: %s and %s; requests reach both",
+                    state.node,
+                    previous,
+                    new,
+                )
+        state.writer = writer
         state.host, state.pid = s.host, s.pid
         state.revision, state.announced = s.revision, s.parameter_count
         return self._set_online(state, info.instance_state == InstanceState.Alive)
@@ -191,13 +225,18 @@ class ParameterMonitor:
         if state.online == online:
             return None
         state.online = online
+        if not online:
+            state.writer, state.duplicates = 0, []
         kind = EventKind.ONLINE if online else EventKind.OFFLINE
         return MonitorEvent(kind, state.node, revision=state.revision, stamp=time.time())
 
     def _emit(self, events: list[MonitorEvent]) -> None:
         for event in events:
             for fn in self._callbacks:
-                fn(event)
+                try:  # one failing callback must not cost the others (or the rest of the batch)
+                    fn(event)
+                except Exception:
+                    log.exception("monitor callback %r failed on %s", fn, event.event.value)
 
     def _watch_sync(self) -> None:
         with self._cond:

@@ -8,25 +8,34 @@ How it works:
   them. (A *Python* filter would deadlock: it runs on Cyclone's receive thread
   under the reader's lock and waits for the GIL, which ``take`` holds while it
   waits for that lock.) The handlers still ignore requests for node ids not
-  hosted here: that is the whole filter where the extension is not built.
-* One dispatch thread wakes on a WaitSet, applies each request atomically through
-  the node's :class:`~paramdds.core.table.ParameterTable`, and answers with the
-  requester's ``client_id`` and ``request_id``.
+  hosted here: that is the whole filter where the extension is not built. The
+  assignment reader is not filtered: it keeps assignments for nodes added later.
+* **One dispatch thread** takes the samples and hands each request to its node's
+  worker. It runs no user code, so nothing a node does can stall it; it asserts
+  the state writer's MANUAL_BY_TOPIC liveliness on every tick, so if the loop
+  stops or stalls every node of the process goes offline within the lease.
+* **One worker per hosted node** (a thread, started on first use) is that node's
+  one commit path, used by every source of change: a DDS request, a retained
+  assignment, and the application's own ``table.set``/``declare``/``undeclare``
+  (a change listener queues those). For each it runs, in this order: validate
+  and commit (the table, with its callbacks), persist (the ``persisters``, e.g.
+  ``--persist``'s journal), reply, publish. A slow callback or fsync of one node
+  never delays another. A get or list is answered on the dispatch thread when the
+  node's worker is idle and its table's lock free (never waiting), else queued
+  behind the node's sets. A worker busy with one job for longer than the lease is
+  reported stalled: logged, and its presence unregistered (monitors show it
+  offline) until the job returns.
 * Parameter state goes to ``ParameterEvents`` keyed by (node_id, name): declare and
   change write, delete disposes, a graceful stop unregisters (the State profile
   turns autodispose off, so readers see "no writers", not "deleted"). Each node
   also keeps a presence instance (name ``""``) with host, pid, revision and count.
-* A set's reply is written before its state samples, so publishing state does not
-  add to the round trip. With ``before_reply`` hooks (persistence) a change is on
-  disk before it is acknowledged.
 * Retained assignments arrive on ``SetParametersRequest`` with ``retained=True``
-  from a TRANSIENT_LOCAL writer; a second, TRANSIENT_LOCAL reader takes them. The
-  interactive (VOLATILE) reader ignores them and the assignment reader never sees
-  interactive requests (a VOLATILE writer does not match a TRANSIENT_LOCAL reader).
-* Retried requests (same client_id, request_id and content) get the cached reply
-  again and are never applied twice. The same ids with other content are a new
-  request: a client restarted with a fixed client_id counts from 1 again and must
-  not be answered with the previous run's replies.
+  from a TRANSIENT_LOCAL writer; a second, TRANSIENT_LOCAL reader takes them. Those
+  for nodes not hosted yet are kept (the newest per node, bounded) and applied
+  when such a node is added, also after ``start()``.
+* Retried requests (same client_id, request_id and bytes as received) get the cached
+  reply again and are never applied twice. The same ids with other content are a
+  new request: a client restarted with a fixed client_id counts from 1 again.
 """
 
 from __future__ import annotations
@@ -38,30 +47,42 @@ import threading
 import time
 from collections import OrderedDict
 from collections.abc import Callable, Sequence
+from functools import partial
 from typing import Any
 
+from cyclonedds.core import InstanceState, Policy, SampleState, ViewState
 from cyclonedds.pub import DataWriter
+from cyclonedds.qos import Qos
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
+from cyclonedds.util import duration
 
 from ..core.limits import MAX_PARAMETERS_PER_REQUEST
 from ..core.names import canonical_node_id
 from ..core.results import ChangeKind, ChangeSet, SetResult
 from ..core.table import ParameterTable
 from ..core.values import Parameter
-from ..errors import ErrorCode, NotPersistedError, ParamddsError
+from ..errors import ErrorCode, ParamddsError
 from . import types as wire
-from ._binding import write_serialized
+from ._binding import assert_liveliness, take_serialized, write_serialized
+from .cdr import MalformedSample, encode
 from .convert import descriptor_to_wire, parameter_from_wire, state_descriptor_to_wire, value_to_wire
-from .dispatch import Dispatcher
+from .dispatch import SERIALIZED, Dispatcher
 from .filters import NativeFilter, filtered_topic
+from .node_worker import NodeWorker
 from .qos import QosProfiles
-from .state import encode_state
+from .state import decode_state, encode_state
 
 log = logging.getLogger(__name__)
 
 DEDUP_WINDOW = 4096  # replies kept for retried requests, per server
-BeforeReply = Callable[[str, ParameterTable, ChangeSet], None]
+DEDUP_BYTES = 16 * 1024 * 1024  # and at most this many bytes of request content
+RETAINED_NODES = 1024  # nodes not hosted (yet) whose retained assignments are kept
+DUPLICATE_CHECK = 2.0  # seconds after start() during which another host of our nodes is looked for
+LEASE = 1.0  # seconds: the state writer's liveliness lease, asserted from the dispatch loop
+# persist the changes of one node (called on its worker, before the reply); raising means
+# the changes are applied but not persisted (NOT_PERSISTED)
+Persister = Callable[[ParameterTable, Sequence[ChangeSet]], None]
 
 
 def now_stamp() -> wire.Time:
@@ -76,29 +97,34 @@ class ParameterServer:
         self._dp = participant
         self._qos = qos or QosProfiles.load()
         self._tables: dict[str, ParameterTable] = {}
-        self._listener_handles: dict[str, object] = {}
+        self._workers: dict[str, NodeWorker] = {}
         self._host = socket.gethostname()
         self._pid = os.getpid()
-        self._lock = threading.Lock()
-        self._deferred: list[ChangeSet] | None = None
-        # (node, client_id, request_id) -> (request content, reply), for retried requests
-        self._replies: OrderedDict[tuple[str, int, int], tuple[Any, Any]] = OrderedDict()
+        self._replies_lock = threading.Lock()
+        # (node, client_id, request_id) -> (encoded request, reply), for retried requests
+        self._replies: OrderedDict[tuple[str, int, int], tuple[bytes, Any]] = OrderedDict()
+        self._replies_bytes = 0
+        self._retained: OrderedDict[str, list[Any]] = OrderedDict()  # node -> assignments
+        self._hosting = threading.Lock()  # guards _workers/_tables/_retained changes
         self._logged_bad: set[str] = set()
-        self.before_reply: list[BeforeReply] = []
+        self.persisters: list[Persister] = []
+        self._started = False
         self._closed = False
         self._filter = NativeFilter("nodes")  # the request readers' filter: the nodes hosted here
         self.foreign_requests = 0  # requests that reached a handler for a node not hosted here
+        self._check: threading.Thread | None = None
 
+        state_qos = self._qos.writer("ParameterEvents")
+        # liveliness is asserted by our dispatch loop, not by Cyclone's threads (see above)
+        state_qos += _manual_liveliness()
         self._state_writer = DataWriter(
-            participant,
-            Topic(participant, "ParameterEvents", wire.ParameterEvent),
-            self._qos.writer("ParameterEvents"),
+            participant, Topic(participant, "ParameterEvents", wire.ParameterEvent), state_qos
         )
         self._reply_writers = {
             name: DataWriter(participant, Topic(participant, name, wire.TOPICS[name]), self._qos.writer(name))
             for name in ("SetParametersResponse", "GetParametersResponse", "ListParametersResponse")
         }
-        self._dispatcher = Dispatcher(participant, "paramdds-server")
+        self._dispatcher = Dispatcher(participant, "paramdds-server", tick=self._tick, period=LEASE / 4)
         handlers = {
             "SetParametersRequest": self._on_set,
             "GetParametersRequest": self._on_get,
@@ -123,18 +149,25 @@ class ParameterServer:
         node_id = table.node_id
         if node_id in self._tables:
             raise ParamddsError(f"node {node_id!r} is already hosted by this server")
-        self._tables[node_id] = table
-        self._filter.set_nodes(self._tables)
-        self._listener_handles[node_id] = table.add_change_listener(self._on_change)
+        worker = NodeWorker(self, table)
         for name, value, descriptor in table.snapshot():
             self._write_state(table, name, value, descriptor, table.revision)
         self._write_presence(table)
+        with self._hosting:  # against _on_assignment: no assignment falls between the two
+            self._workers[node_id] = worker
+            self._tables[node_id] = table
+            self._filter.set_nodes(self._tables)
+            retained = self._retained.pop(node_id, [])
+        for request in retained:  # assignments that arrived before this node was hosted
+            worker.submit(partial(self._handle_set, worker, request, reply=False))
 
     def remove_node(self, node_id: str) -> None:
         """Stop hosting ``node_id`` gracefully: its instances become "no writers", not deleted."""
-        table = self._tables.pop(node_id)
-        self._filter.set_nodes(self._tables)
-        table.remove_change_listener(self._listener_handles.pop(node_id))
+        with self._hosting:
+            table = self._tables.pop(node_id)
+            worker = self._workers.pop(node_id)
+            self._filter.set_nodes(self._tables)
+        worker.close(timeout=2.0)
         for name in [*table.names(), ""]:
             self._state_writer.unregister_instance(wire.ParameterEvent(node_id=node_id, name=name))
 
@@ -143,24 +176,71 @@ class ParameterServer:
         return dict(self._tables)
 
     def start(self) -> ParameterServer:
-        """Serve. Retained assignments for the nodes hosted now are applied from here on.
-
-        The assignment reader is created here, after the nodes are added, because it
-        takes the retained samples once, when they are delivered, and ignores those
-        of nodes not hosted then.
-        """
-        reader = DataReader(
-            self._dp, self._request_topic("SetParametersRequest"), self._qos.assignment_reader()
-        )
+        """Serve. Retained assignments are applied from here on, also to nodes added later."""
+        # not filtered: assignments for nodes not hosted yet are kept for when they are added
+        topic = Topic(self._dp, "SetParametersRequest", wire.SetParametersRequest)
+        reader = DataReader(self._dp, topic, self._qos.assignment_reader())
         self._dispatcher.add(reader, self._on_assignment)
         self._dispatcher.start()
+        self._started = True
+        nodes = set(self._tables)
+        self._check = threading.Thread(
+            target=self._warn_if_hosted_elsewhere, args=(nodes,), name="paramdds-twin-check", daemon=True
+        )
+        self._check.start()
         return self
+
+    def _warn_if_hosted_elsewhere(self, nodes: set[str], seconds: float = DUPLICATE_CHECK) -> None:
+        """Once, at start: warn loudly when another process already hosts one of ``nodes``.
+
+        Reads the retained presence samples for a short while with a reader of its own,
+        then drops it (a server does not follow other servers' state for good: that would
+        cost every server every change in the system). Monitors and ``paramdds nodes``
+        detect the same thing at any time.
+        """
+        try:
+            reader = DataReader(
+                self._dp,
+                Topic(self._dp, "ParameterEvents", wire.ParameterEvent),
+                # not our own process's samples: they are many (hosting) and never a twin
+                self._qos.reader("ParameterEvents")
+                + Qos(Policy.History.KeepLast(4), Policy.IgnoreLocal.Process),
+            )
+            seen: set[tuple[str, str, int]] = set()
+            deadline = time.monotonic() + seconds
+            while time.monotonic() < deadline and not self._closed:
+                for data, info in take_serialized(
+                    reader, SampleState.Any | ViewState.Any | InstanceState.Alive, 256
+                ):
+                    if not info.valid_data:
+                        continue
+                    try:
+                        sample = decode_state(data)
+                    except MalformedSample:
+                        continue
+                    other = (sample.node_id, sample.host, sample.pid)
+                    if sample.name or sample.node_id not in nodes or other in seen:
+                        continue
+                    if (sample.host, sample.pid) != (self._host, self._pid):
+                        seen.add(other)
+                        log.warning(
+                            "node %r is also hosted by pid %d on %s: two processes serve one node id and "
+                            "requests reach both; stop one of them",
+                            sample.node_id,
+                            sample.pid,
+                            sample.host,
+                        )
+                time.sleep(0.05)
+        except Exception as exc:  # the participant closed under us, or DDS failed: only a check
+            log.debug("the duplicate-host check ended: %s", exc)
 
     def close(self) -> None:
         """Graceful stop: unregister every instance (readers see the nodes offline)."""
         if self._closed:
             return
         self._closed = True
+        if self._check is not None:
+            self._check.join(timeout=1.0)  # it looks at _closed every 50 ms
         self._dispatcher.close()
         for node_id in list(self._tables):
             self.remove_node(node_id)
@@ -170,6 +250,23 @@ class ParameterServer:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+    # -- liveliness ----------------------------------------------------------------
+
+    def _tick(self) -> None:
+        """From the dispatch loop: we are alive; a node whose worker is stuck is not."""
+        assert_liveliness(self._state_writer)
+        now = time.monotonic()
+        for worker in list(self._workers.values()):
+            if worker.check_stall(now, LEASE):
+                node = worker.table.node_id
+                log.warning(
+                    "node %r stalled: one job (a callback or a persistence write) has run for over "
+                    "%.1f s; it shows offline until the job returns",
+                    node,
+                    LEASE,
+                )
+                self._state_writer.unregister_instance(wire.ParameterEvent(node_id=node, name=""))
 
     # -- state publication ---------------------------------------------------------
 
@@ -208,61 +305,87 @@ class ParameterServer:
             )
         )
 
-    def _on_change(self, change: ChangeSet) -> None:
-        if self._deferred is not None and threading.get_ident() == self._dispatcher.thread_ident:
-            self._deferred.append(change)
-        else:
-            self._publish(change)
-
-    def _publish(self, change: ChangeSet) -> None:
-        table = self._tables.get(change.node_id)
-        if table is None:
+    def _publish(self, table: ParameterTable, changes: Sequence[ChangeSet]) -> None:
+        if table.node_id not in self._tables:
             return
-        for item in change.changes:
-            if item.kind is ChangeKind.DELETED:
-                self._state_writer.dispose(wire.ParameterEvent(node_id=change.node_id, name=item.name))
-            else:
-                self._write_state(table, item.name, item.value, item.descriptor, change.revision)
-        self._write_presence(table)
+        try:
+            for change in changes:
+                for item in change.changes:
+                    if item.kind is ChangeKind.DELETED:
+                        self._state_writer.dispose(
+                            wire.ParameterEvent(node_id=change.node_id, name=item.name)
+                        )
+                    else:
+                        self._write_state(table, item.name, item.value, item.descriptor, change.revision)
+            self._write_presence(table)
+        except Exception as exc:  # a local DDS failure: the table is right, the events are late
+            self._log_once("publish", "could not publish the state of %s: %s", table.node_id, exc)
 
-    def _flush_deferred(self) -> None:
-        deferred, self._deferred = self._deferred or [], None
-        for change in deferred:
-            self._publish(change)
+    def _persist(self, table: ParameterTable, changes: Sequence[ChangeSet]) -> str:
+        """Run the persisters; what failed ("" when every one succeeded)."""
+        for persist in self.persisters if changes else []:
+            try:
+                persist(table, changes)
+            except Exception as exc:
+                log.exception("persisting %s at revision %d failed", table.node_id, changes[-1].revision)
+                return str(exc) or type(exc).__name__
+        return ""
 
     # -- requests -------------------------------------------------------------------
 
-    def _table_for(self, node_id: str) -> ParameterTable | None:
-        table = self._tables.get(node_id)
-        if table is None:
+    def _worker_for(self, node_id: str) -> NodeWorker | None:
+        worker = self._workers.get(node_id)
+        if worker is None:
             try:
-                table = self._tables.get(canonical_node_id(node_id))
+                worker = self._workers.get(canonical_node_id(node_id))
             except ParamddsError:
-                table = None
-        if table is None:
-            self.foreign_requests += 1
-        return table
+                return None
+        return worker
 
     def _on_set(self, samples: Sequence[Any]) -> None:
         for request in samples:
             # assignments (retained) are taken by the assignment reader
             if request.sample_info.valid_data and not request.retained:
-                self._handle_set(request, reply=True)
+                worker = self._worker_for(request.node_id)
+                if worker is None:
+                    self.foreign_requests += 1
+                else:
+                    worker.submit(partial(self._handle_set, worker, request, reply=True))
 
     def _on_assignment(self, samples: Sequence[Any]) -> None:
         for request in samples:
-            if request.sample_info.valid_data and request.retained:
-                self._handle_set(request, reply=False)
+            if not (request.sample_info.valid_data and request.retained):
+                continue
+            with self._hosting:
+                worker = self._worker_for(request.node_id)
+                if worker is None:
+                    self._keep_retained(request)
+            if worker is not None:
+                worker.submit(partial(self._handle_set, worker, request, reply=False))
 
-    def _handle_set(self, request: Any, *, reply: bool) -> None:
-        table = self._table_for(request.node_id)
-        if table is None:
+    def _keep_retained(self, request: Any) -> None:
+        """Keep an assignment for a node not hosted (yet): applied if it is added later."""
+        try:
+            node = canonical_node_id(request.node_id)
+        except ParamddsError:
             return
+        kept = self._retained.setdefault(node, [])
+        kept.append(request)
+        del kept[:-16]  # the newest few per node
+        self._retained.move_to_end(node)
+        while len(self._retained) > RETAINED_NODES:
+            self._retained.popitem(last=False)
+
+    def _handle_set(self, worker: NodeWorker, request: Any, *, reply: bool) -> None:
+        """Validate and commit, persist, reply, publish: one request, on the node's worker."""
+        table = worker.table
         key = (table.node_id, request.client_id, request.request_id)
-        content = (request.atomic, request.expected_revision, request.parameters)
+        content = b""
         if reply:
-            seen = self._replies.get(key)
-            # a retry carries the same content; the same ids with other content are a new
+            content = _content(request)
+            with self._replies_lock:
+                seen = self._replies.get(key)
+            # a retry carries the same bytes; the same ids with other content are a new
             # request (a client restarted with a fixed client_id counts from 1 again)
             if seen is not None and seen[0] == content:
                 self._send_reply("SetParametersResponse", seen[1])
@@ -270,23 +393,25 @@ class ParameterServer:
         response = wire.SetParametersResponse(
             node_id=table.node_id, client_id=request.client_id, request_id=request.request_id
         )
-        self._deferred = []
         try:
             response.results, response.revision = self._apply_set(table, request)
         except ParamddsError as exc:
             response.code, response.reason, response.revision = exc.code.value, exc.message, table.revision
         except Exception as exc:  # never let a bad request take the server down
             log.exception("set request on %s failed", table.node_id)
-            response.code, response.reason = ErrorCode.INVALID_VALUE.value, f"internal error: {exc}"
+            response.code, response.reason = ErrorCode.INTERNAL.value, f"internal error: {exc}"
             response.revision = table.revision
-        try:
-            if reply:
-                self._remember(key, content, response)
-                self._send_reply("SetParametersResponse", response)
-            elif not all(r.successful for r in response.results) or response.code:
-                log.warning("assignment for %s partly refused: %s", table.node_id, _summary(response))
-        finally:
-            self._flush_deferred()
+        changes = worker.take_pending()
+        failure = self._persist(table, changes)
+        if failure:
+            response.results = [_not_persisted(r, changes[-1].revision, failure) for r in response.results]
+        if reply:
+            self._remember(key, content, response)
+            self._send_reply("SetParametersResponse", response)
+        elif not all(r.successful for r in response.results) or response.code:
+            log.warning("assignment for %s partly refused: %s", table.node_id, _summary(response))
+        if changes:
+            self._publish(table, changes)
 
     def _apply_set(self, table: ParameterTable, request: Any) -> tuple[list[Any], int]:
         count = len(request.parameters)
@@ -318,23 +443,9 @@ class ParameterServer:
             ]
             return [_result_to_wire(r) for r in refused], table.revision
         outcome = (table.set_atomically if request.atomic else table.set)(good, expected_revision=expected)
-        if outcome.change is not None:
-            self._run_hooks(table, outcome.change)
         merged = iter(outcome.results)
         results = [bad[i] if i in bad else next(merged) for i in range(len(params))]
         return [_result_to_wire(r) for r in results], outcome.revision
-
-    def _run_hooks(self, table: ParameterTable, change: ChangeSet) -> None:
-        """Run the ``before_reply`` hooks; a failure is NOT_PERSISTED (the change stays applied)."""
-        for hook in self.before_reply:
-            try:
-                hook(table.node_id, table, change)
-            except Exception as exc:
-                log.exception("persisting %s at revision %d failed", table.node_id, change.revision)
-                raise NotPersistedError(
-                    f"applied at revision {change.revision}, but not persisted: {exc}; "
-                    "the value holds until the server restarts"
-                ) from exc
 
     def _send_reply(self, topic: str, response: Any) -> None:
         """Write a reply; a failed write is logged and never loses the rest of the batch."""
@@ -350,11 +461,17 @@ class ParameterServer:
             self._logged_bad.add(kind)
             log.warning(message + " (further ones are not logged)", *args)
 
-    def _remember(self, key: tuple[str, int, int], content: tuple[Any, ...], response: Any) -> None:
-        self._replies.pop(key, None)  # re-inserted at the end: the window keeps the newest
-        self._replies[key] = (content, response)
-        while len(self._replies) > DEDUP_WINDOW:
-            self._replies.popitem(last=False)
+    def _remember(self, key: tuple[str, int, int], content: bytes, response: Any) -> None:
+        """Keep the reply for retries: the newest DEDUP_WINDOW requests, DEDUP_BYTES at most."""
+        with self._replies_lock:
+            old = self._replies.pop(key, None)  # re-inserted at the end: the window keeps the newest
+            if old is not None:
+                self._replies_bytes -= len(old[0])
+            self._replies[key] = (content, response)
+            self._replies_bytes += len(content)
+            while len(self._replies) > DEDUP_WINDOW or self._replies_bytes > DEDUP_BYTES:
+                _, (dropped, _) = self._replies.popitem(last=False)
+                self._replies_bytes -= len(dropped)
 
     def _on_get(self, samples: Sequence[Any]) -> None:
         self._answer(samples, "GetParametersResponse", _fill_get)
@@ -363,30 +480,66 @@ class ParameterServer:
         self._answer(samples, "ListParametersResponse", _fill_list)
 
     def _answer(self, samples: Sequence[Any], reply_topic: str, fill: Fill) -> None:
-        """Answer read-only requests: ``fill(table, request, response)`` does the work.
-
-        Requests for nodes not hosted here are ignored; a refusal becomes the reply's
-        code and reason, and no exception escapes to take the server down.
-        """
-        reply_type: Any = wire.TOPICS[reply_topic]
+        """Answer read-only requests: at once when the node's worker is idle and its table
+        free, else queued on the worker, in order with the node's sets."""
         for request in samples:
             if not request.sample_info.valid_data:
                 continue
-            table = self._table_for(request.node_id)
-            if table is None:
+            worker = self._worker_for(request.node_id)
+            if worker is None:
+                self.foreign_requests += 1
                 continue
-            response = reply_type(
-                node_id=table.node_id, client_id=request.client_id, request_id=request.request_id
-            )
-            try:
-                fill(table, request, response)
-                response.revision = table.revision
-            except ParamddsError as exc:
-                response.code, response.reason = exc.code.value, exc.message
-            except Exception as exc:
-                log.exception("%s on %s failed", type(request).__name__, table.node_id)
-                response.code, response.reason = ErrorCode.INVALID_VALUE.value, f"internal error: {exc}"
-            self._send_reply(reply_topic, response)
+            if worker.idle():  # nothing of this node's in flight: answer now, skipping a thread hop
+                with worker.table.try_locked() as free:  # never wait on a callback's lock
+                    if free:
+                        self._fill_and_reply(worker.table, request, reply_topic, fill)
+                        continue
+            worker.submit(partial(self._fill_and_reply, worker.table, request, reply_topic, fill))
+
+    def _fill_and_reply(self, table: ParameterTable, request: Any, reply_topic: str, fill: Fill) -> None:
+        """``fill(table, request, response)`` does the work; a refusal becomes the reply's code."""
+        reply_type: Any = wire.TOPICS[reply_topic]
+        response = reply_type(
+            node_id=table.node_id, client_id=request.client_id, request_id=request.request_id
+        )
+        try:
+            fill(table, request, response)
+            response.revision = table.revision
+        except ParamddsError as exc:
+            response.code, response.reason = exc.code.value, exc.message
+        except Exception as exc:
+            log.exception("%s on %s failed", type(request).__name__, table.node_id)
+            response.code, response.reason = ErrorCode.INTERNAL.value, f"internal error: {exc}"
+        self._send_reply(reply_topic, response)
+
+
+def _manual_liveliness() -> Qos:
+    return Qos(Policy.Liveliness.ManualByTopic(duration(seconds=LEASE)))
+
+
+def _content(request: Any) -> bytes:
+    """A set request's content as bytes (NaN equals itself here, unlike with ``==``): the
+    bytes it arrived as (a retry is the same sample, written again), else encoded."""
+    received = getattr(request, SERIALIZED, None)
+    if isinstance(received, bytes):
+        return received
+    sample = wire.SetParametersRequest(
+        atomic=request.atomic, expected_revision=request.expected_revision, parameters=request.parameters
+    )
+    return encode(sample)
+
+
+def _not_persisted(result: Any, revision: int, failure: str) -> Any:
+    """An applied parameter whose change did not reach the disk."""
+    if not result.successful:
+        return result
+    return wire.SetParameterResult(
+        name=result.name,
+        successful=False,
+        reason=f"applied at revision {revision}, but not persisted: {failure}; "
+        "the value holds until the server restarts",
+        code=ErrorCode.NOT_PERSISTED.value,
+    )
 
 
 Fill = Callable[[ParameterTable, Any, Any], None]

@@ -129,3 +129,9 @@ def test_fleet(domain_id: int) -> None:
     assert data["cpu_native_ms_per_s"] >= 0 and data["cpu_handler_ms_per_s"] >= 0
     assert data["partition_client"]["1"]["writers"] == 1  # 100 and 1,000 need a fleet that large
     assert data["partition_client"]["1"]["matched_ms"] is not None
+
+
+def test_persist(domain_id: int) -> None:
+    data = bench("persist", domain_id, "--seconds", "0.3", "--params", "10", "--requests", "2000")
+    positive(data, "sets_per_s_10", "sets_per_s_10_no_persist", "restart_ms", "restart_empty_journal_ms")
+    assert data["journal_changes"] == 2000

@@ -201,7 +201,8 @@ def test_a_framed_file_round_trips_and_damage_is_detected(tmp_path: Path) -> Non
         unframe(b"", "f")
     with pytest.raises(PersistError, match="UTF-8"):
         unframe(b"\xff\xfe", "f")
-    assert unframe(BODY.encode(), "f") == BODY  # hand-written ROS 2 files are accepted
+    with pytest.raises(PersistError, match="not a paramdds persistence file"):
+        unframe(BODY.encode(), "f")  # a hand-written ROS 2 file: refused, never rewritten
 
 
 def test_atomic_write_replaces_and_leaves_no_temporary_file(tmp_path: Path) -> None:

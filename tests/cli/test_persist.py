@@ -8,9 +8,17 @@ from pathlib import Path
 
 import pytest
 
-from paramdds.persist import HEADER, TRAILER_PREFIX
+from paramdds.core.values import ParameterValue
+from paramdds.persist import HEADER, TRAILER_PREFIX, PersistStore, frame
+from paramdds.runtime import dump_text, parse_ros_text
 
 from ._support import next_domain, run_cli, start_server
+
+
+def _persisted(state: Path) -> tuple[dict[str, ParameterValue], list[str]]:
+    """What a restart would load for robot1 (snapshot + journal), read without the lock."""
+    store = PersistStore(state, dumper=lambda s: dump_text(s, with_descriptors=True), parser=parse_ros_text)
+    return {name: value for name, value, _ in store.read("robot1")}, store.deleted("robot1")
 
 
 def test_a_restart_restores_every_acknowledged_change(params_file: Path, tmp_path: Path) -> None:
@@ -24,8 +32,9 @@ def test_a_restart_restores_every_acknowledged_change(params_file: Path, tmp_pat
         assert out.returncode == 0, out.stderr
     finally:
         server.stop(signal.SIGKILL)  # no graceful anything: the reply came after the write
-    text = state.read_text()
-    assert "3.25" in text and text.splitlines()[-1].startswith(TRAILER_PREFIX)
+    assert state.read_text().splitlines()[-1].startswith(TRAILER_PREFIX)
+    values, _ = _persisted(state)  # the snapshot, and the journal appended since
+    assert values["robot.max_velocity"].value == 3.25
     server = start_server(domain, *args)
     try:
         got = run_cli(
@@ -49,16 +58,20 @@ def valid_state(params_file: Path, tmp_path_factory: pytest.TempPathFactory) -> 
     return state.read_text()
 
 
+BAD = "max_velocity: fast"
+
+
 @pytest.mark.parametrize(
     ("damage", "message"),
     [
         (lambda text: text[: len(text) // 2], "truncated"),
-        (lambda text: "robot1: [unclosed\n", "YAML"),  # not YAML (a hand-written file without the header)
+        (lambda text: frame("robot1: [unclosed\n"), "YAML"),  # not YAML
         (lambda text: text.replace("robot.max_velocity", "x").replace("1.5", '"fast"'), "checksum"),
-        (lambda text: "robot1:\n  ros__parameters:\n    robot:\n      max_velocity: fast\n", "max_velocity"),
+        (lambda text: frame(f"robot1:\n  ros__parameters:\n    robot:\n      {BAD}\n"), "max_velocity"),
+        (lambda text: "robot1:\n  ros__parameters:\n    robot:\n      max_velocity: 2.0\n", "-p"),  # not ours
         (lambda text: "", "empty"),
     ],
-    ids=["truncated", "not-yaml", "edited", "wrong-type", "empty"],
+    ids=["truncated", "not-yaml", "edited", "wrong-type", "hand-written", "empty"],
 )
 def test_a_damaged_file_refuses_the_start_and_is_left_untouched(
     params_file: Path, tmp_path: Path, valid_state: str, damage: object, message: str
@@ -91,7 +104,7 @@ def test_a_parameter_deleted_at_runtime_stays_deleted_after_a_restart(tmp_path: 
         assert out.returncode == 0, out.stderr
     finally:
         server.stop(signal.SIGKILL)
-    assert '# paramdds deleted {"node": "robot1", "names": ["scratch.value"]}' in state.read_text()
+    assert _persisted(state)[1] == ["scratch.value"]
 
     server = start_server(domain, *args)  # the params file still declares it
     try:
@@ -100,7 +113,8 @@ def test_a_parameter_deleted_at_runtime_stays_deleted_after_a_restart(tmp_path: 
         assert out.returncode == 0, out.stderr
     finally:
         server.stop(signal.SIGKILL)
-    assert "# paramdds deleted" not in state.read_text()
+    assert _persisted(state)[1] == []
+    # the next start compacts: the snapshot alone holds the deletion record, then not
 
     server = start_server(domain, *args)
     try:

@@ -180,7 +180,16 @@ def test_nodes_json_lists_every_live_node(c: Cluster) -> None:
     assert isinstance(rows, list)
     by_name = {r["node"]: r for r in rows}
     assert set(by_name) == {"robot1", "robot2", "frozen", "strict"}
-    assert set(by_name["robot1"]) == {"node", "online", "parameters", "host", "pid", "revision"}
+    assert set(by_name["robot1"]) == {
+        "node",
+        "online",
+        "parameters",
+        "host",
+        "pid",
+        "revision",
+        "also_hosted_by",
+    }
+    assert by_name["robot1"]["also_hosted_by"] == []
     assert by_name["robot1"]["online"] is True and by_name["robot1"]["parameters"] == 18
     assert by_name["robot1"]["pid"] == by_name["robot2"]["pid"] == c.procs[0].popen.pid
 

@@ -153,3 +153,25 @@ def test_dedup_window_is_bounded(domain_id: int, dds: DDS, monkeypatch: pytest.M
     peer.send(oldest)  # out of the window: a new request as far as the server knows
     assert len(peer.replies(oldest, count=2)) == 2
     assert table.revision == revision + 1
+
+
+@pytest.mark.timeout(30)
+def test_dedup_window_is_bounded_by_bytes_too(
+    domain_id: int, dds: DDS, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A few big requests cannot hold unbounded memory: the window also stops at DEDUP_BYTES."""
+    monkeypatch.setattr(server_module, "DEDUP_BYTES", 4096)
+    table = _table()
+    server = dds.server(domain_id, table)
+    peer = RawPeer(dds.participant(domain_id))
+    small = _set(NODE, 5, 1, count=1)
+    peer.call(small)
+    revision = table.revision
+    peer.send(small)  # positive control: still in the window, answered from it
+    assert len(peer.replies(small, count=2)) == 2 and table.revision == revision
+    for i in range(2, 5):
+        peer.call(_set(NODE, 5, i, label="x" * 1500))  # 3 x ~1.5 kB: over 4 kB in all
+    assert server._replies_bytes <= 4096 and len(server._replies) < 4
+    peer.send(small)  # pushed out by bytes, not by count: applied again
+    assert len(peer.replies(small, count=3)) == 3
+    assert table.revision == revision + 4

@@ -155,6 +155,7 @@ def test_restart_with_persist_restores_values_and_waiting_client_succeeds(
     for name, value in runtime.items():  # one request each: four revisions, four file writes
         assert client.set(NODE, {name: value}).successful
     expected = {name: ParameterValue.from_python(v) for name, v in runtime.items()}
+    assert monitor.wait_complete([NODE], timeout=10)  # it must know the node to see it go
 
     first.kill()
     assert monitor.wait_until(lambda s: not s[NODE].online, timeout=OFFLINE_WITHIN + 1)

@@ -5,11 +5,15 @@ Proves: a truncated, corrupted, non-YAML or ill-typed persistence file stops
 problem, and the file is left byte for byte as it was (never replaced by
 defaults); a crash between the temporary write and the rename leaves the old
 file intact; and SIGKILL at random moments during a stream of sets always
-leaves a file that loads and holds at least every acknowledged change.
+leaves a file that loads and holds at least every acknowledged change, also
+while the store compacts its journal every other change; a second server on the
+same file refuses to start and names the holder; changes the application makes
+itself are persisted too.
 """
 
 from __future__ import annotations
 
+import os
 import random
 import subprocess
 import sys
@@ -20,14 +24,15 @@ from pathlib import Path
 
 import pytest
 
+from paramdds.core.descriptors import ParameterDescriptor
 from paramdds.core.table import ParameterTable
-from paramdds.core.values import ParameterValue
+from paramdds.core.values import Parameter, ParameterValue
 from paramdds.dds.client import ParameterClient
-from paramdds.errors import ErrorCode, NotPersistedError, ParamddsError
+from paramdds.errors import ErrorCode, ParamddsError
 from paramdds.persist import HEADER, PersistStore, frame, unframe
 from paramdds.runtime import dump_text, parse_ros_text
 
-from .conftest import DDS, PARAMDDS, Proc, make_dds_env, start_server
+from .conftest import DDS, PARAMDDS, Proc, make_dds_env, other_domain, start_server
 
 NODE = "robot"
 
@@ -45,7 +50,9 @@ def _valid_state(path: Path) -> bytes:
     table.declare("robot.enabled", True)
     table.declare("robot.wheel_count", 6)
     table.declare("sensor.frame_ids", ["a", "b"])
-    _store(path).attach({NODE: table})
+    store = _store(path)
+    store.attach({NODE: table})
+    store.close()
     return path.read_bytes()
 
 
@@ -180,8 +187,8 @@ def test_crash_between_temp_write_and_rename_keeps_the_old_file(
 
 
 def _persisted(state: Path) -> dict[str, ParameterValue]:
-    text = unframe(state.read_bytes(), str(state))
-    return {name: value for name, value, _ in parse_ros_text(text, str(state), NODE)}
+    """What a restart loads (snapshot and journal), read without taking the lock."""
+    return {name: value for name, value, _ in _store(state).read(NODE)}
 
 
 def _stream_sets(
@@ -202,16 +209,19 @@ def _stream_sets(
 
 @pytest.mark.slow
 @pytest.mark.timeout(120)
+@pytest.mark.parametrize("compact_every", ["10000", "2"], ids=["journal", "compacting"])
 def test_sigkill_during_a_stream_of_sets_never_leaves_a_broken_file(
-    domain_id: int, params_file: Path, tmp_path: Path, dds: DDS, procs: list[Proc]
+    compact_every: str, domain_id: int, params_file: Path, tmp_path: Path, dds: DDS, procs: list[Proc]
 ) -> None:
+    # "compacting": a new snapshot every second change, so most kills land in or near one
     state = tmp_path / "state.yaml"
     args = ("-n", NODE, "-p", str(params_file), "--persist", str(state))
+    env = make_dds_env(domain_id, PARAMDDS_PERSIST_COMPACT_EVERY=compact_every)
     client = dds.client(domain_id, timeout=2.0)
-    rng = random.Random(6)
+    rng = random.Random(6 + len(compact_every))
     first = 1000
-    for _round in range(5):
-        server = start_server(domain_id, *args)  # a broken file would fail this start (exit 2)
+    for _round in range(6):
+        server = start_server(domain_id, *args, env=env)  # a broken file would fail this start (exit 2)
         procs.append(server)
         client.wait_for_node(NODE, timeout=10)
         stop = threading.Event()
@@ -256,20 +266,79 @@ def test_a_failed_persistence_write_is_not_persisted_not_an_internal_error(
     store = _store(state)
     store.attach({NODE: table})
     server = dds.server(domain_id, table)
-    server.before_reply.append(store.hook)
+    server.persisters.append(store.record)
     client = dds.client(domain_id, timeout=5.0)
     client.wait_for_node(NODE)
 
-    state.unlink()
-    state.mkdir()  # the rename over it now fails, even for root (disk full behaves alike)
-    with pytest.raises(NotPersistedError) as caught:
-        client.set(NODE, {"robot.max_velocity": 2.0})
-    assert caught.value.code is ErrorCode.NOT_PERSISTED
-    assert "applied at revision" in caught.value.message and "not persisted" in caught.value.message
+    journal = store._journal  # the disk fills up: every write to the journal fails with ENOSPC
+    assert journal is not None
+    saved = os.dup(journal.fd)
+    full = os.open("/dev/full", os.O_WRONLY)
+    os.dup2(full, journal.fd)
+    reply = client.set(NODE, {"robot.max_velocity": 2.0, "nope": 1})
+    # per-parameter results, as always: the applied one says NOT_PERSISTED, the other its own reason
+    by_name = {r.name: r for r in reply.results}
+    assert by_name["robot.max_velocity"].code is ErrorCode.NOT_PERSISTED
+    assert not by_name["robot.max_velocity"].successful
+    message = by_name["robot.max_velocity"].reason
+    assert "applied at revision" in message and "not persisted" in message
+    assert by_name["nope"].code is ErrorCode.NOT_FOUND
     assert table.get("robot.max_velocity").value == 2.0  # applied, as the message says
     assert client.get(NODE, ["robot.max_velocity"]).values()["robot.max_velocity"].value == 2.0
 
-    state.rmdir()  # the disk recovers: the next change persists the whole table again
+    os.dup2(saved, journal.fd)  # the disk recovers: the next change persists the whole table again
+    os.close(saved)
+    os.close(full)
     client.set(NODE, {"robot.max_velocity": 3.0})
     assert _persisted(state)["robot.max_velocity"] == ParameterValue.from_python(3.0)
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["state.yaml"]  # no temporary file left behind
+    assert "3.0" in state.read_text()  # by a compaction: the snapshot itself holds it
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["state.yaml", "state.yaml.journal"]
+    store.close()
+
+
+@pytest.mark.timeout(60)
+def test_a_second_server_on_the_same_file_refuses_and_names_the_holder(
+    domain_id: int, params_file: Path, tmp_path: Path, procs: list[Proc]
+) -> None:
+    state = tmp_path / "state.yaml"
+    args = ["-n", NODE, "-p", str(params_file), "--persist", str(state)]
+    first = start_server(domain_id, *args)
+    procs.append(first)
+    before = state.read_bytes()
+    code, out, err = _run_until_exit([PARAMDDS, "server", *args], make_dds_env(other_domain(domain_id)))
+    assert code == 2, (code, out, err)
+    assert f"pid {first.pid}" in err and str(state) in err, err
+    assert state.read_bytes() == before
+    assert first.stop() == 0
+    # positive control: once the holder is gone, the same command starts
+    procs.append(start_server(domain_id, *args))
+
+
+@pytest.mark.timeout(30)
+def test_changes_made_by_the_application_itself_are_persisted(
+    tmp_path: Path, domain_id: int, dds: DDS
+) -> None:
+    state = tmp_path / "state.yaml"
+    table = ParameterTable(NODE, allow_undeclared=True)
+    table.declare("robot.max_velocity", 1.0)
+    table.declare("scratch", 1, ParameterDescriptor("scratch", dynamic_typing=True))
+    store = _store(state)
+    store.attach({NODE: table})
+    server = dds.server(domain_id, table)
+    server.persisters.append(store.record)
+    try:
+        client = dds.client(domain_id, timeout=5.0)
+        client.wait_for_node(NODE)
+        client.set(NODE, {"robot.max_velocity": 2.0})  # positive control: over DDS
+        assert _persisted(state)["robot.max_velocity"].value == 2.0
+        table.set([Parameter("robot.max_velocity", ParameterValue.from_python(4.0))])  # in-process
+        table.declare("added.later", "x")
+        table.undeclare("scratch")
+        assert _wait(lambda: "added.later" in _persisted(state), 5.0)
+        persisted = _persisted(state)
+        assert persisted["robot.max_velocity"].value == 4.0
+        assert "scratch" not in persisted and store.deleted(NODE) == ["scratch"]
+        # and they are published too, after the disk
+        assert client.get_value(NODE, "robot.max_velocity").value == 4.0
+    finally:
+        store.close()

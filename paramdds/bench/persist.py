@@ -1,0 +1,207 @@
+"""``paramdds bench persist``: what ``--persist`` costs per set, and a restart from a long journal.
+
+Sets per second: a ``paramdds server`` process hosting one node of ``P`` parameters
+(``--params``, default 10 and 1,000), and a client in this process that sets one
+parameter after another (each waits for its reply) for ``--seconds`` (default 3). The
+same server without ``--persist`` is the baseline; the two alternate in rounds
+(``--rounds``, default 3) and the median round is reported, with the ratio.
+
+Restart: a persistence file for a node of 1,000 parameters whose journal holds
+``--requests`` changes (default 100,000; written in one append, as a server would have
+written them one by one), then the whole ``paramdds server`` process is timed from
+its start until it serves the node. The baseline is the same start from the same
+snapshot with an empty journal.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from ._common import emit, median, note, render, worker_env
+
+NODE = "bench_persist"
+RESTART_PARAMS = 1000
+
+
+def _params_file(directory: Path, count: int) -> Path:
+    path = directory / f"params{count}.yaml"
+    lines = [f"{NODE}:", "  ros__parameters:"]
+    lines += [f"    p{i:05d}: {i}" for i in range(count)]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+class _Server:
+    """A ``paramdds server`` subprocess, timed from its start until it serves the node."""
+
+    def __init__(self, args: argparse.Namespace, params: Path, persist: Path | None) -> None:
+        cmd = [sys.executable, "-m", "paramdds.cli", "server", "-n", NODE, "-p", str(params)]
+        if persist is not None:
+            cmd += ["--persist", str(persist)]
+        env = worker_env(args.localhost)
+        env["PARAMDDS_DOMAIN"] = str(args.domain)
+        t0 = time.perf_counter()
+        self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+        assert self.proc.stdout is not None
+        for line in self.proc.stdout:
+            if line.startswith("[SERVER] Serving node"):
+                break
+        else:
+            raise RuntimeError(
+                f"the server did not start: {self.proc.stderr.read() if self.proc.stderr else ''}"
+            )
+        self.start_ms = (time.perf_counter() - t0) * 1e3
+
+    def stop(self) -> None:
+        self.proc.terminate()
+        try:
+            self.proc.communicate(timeout=10)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.communicate()
+
+
+def _sets_per_s(client: Any, count: int, seconds: float) -> float:
+    from ..core.values import Parameter, ParameterValue
+
+    client.wait_for_node(NODE, timeout=20)
+    names = [f"p{i:05d}" for i in range(count)]
+    done = 0
+    end = time.perf_counter() + seconds
+    t0 = time.perf_counter()
+    while time.perf_counter() < end:
+        name = names[done % count]
+        reply = client.set(NODE, [Parameter(name, ParameterValue.from_python(done))])
+        if not reply.successful:
+            raise RuntimeError(f"a set failed: {reply.results}")
+        done += 1
+    return done / (time.perf_counter() - t0)
+
+
+def _round(args: argparse.Namespace, client: Any, directory: Path, count: int, persist: bool) -> float:
+    state = directory / f"state{count}.yaml"
+    for leftover in (state, Path(f"{state}.journal")):
+        leftover.unlink(missing_ok=True)
+    server = _Server(args, _params_file(directory, count), state if persist else None)
+    try:
+        return _sets_per_s(client, count, args.seconds or (0.5 if args.quick else 3.0))
+    finally:
+        server.stop()
+
+
+def _journal_of(directory: Path, changes: int) -> Path:
+    """A persistence file for NODE (1,000 parameters) whose journal holds ``changes`` changes."""
+    from ..core.descriptors import ParameterDescriptor
+    from ..core.results import ChangeKind, ChangeSet, ParameterChange
+    from ..core.table import ParameterTable
+    from ..core.values import ParameterType, ParameterValue
+    from ..runtime import _persist_store
+
+    state = directory / "restart.yaml"
+    table = ParameterTable(NODE)
+    for i in range(RESTART_PARAMS):
+        table.declare(f"p{i:05d}", i)
+    store = _persist_store(str(state))
+    store.compact_every = changes + 1
+    store.attach({NODE: table})
+    sets = [
+        ChangeSet(
+            NODE,
+            2 + n,
+            (
+                ParameterChange(
+                    ChangeKind.CHANGED,
+                    f"p{n % RESTART_PARAMS:05d}",
+                    ParameterValue.from_python(n),
+                    ParameterDescriptor(f"p{n % RESTART_PARAMS:05d}", ParameterType.INTEGER),
+                ),
+            ),
+        )
+        for n in range(changes)
+    ]
+    store.record(table, sets)
+    store.close()
+    return state
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..dds.client import ParameterClient
+    from ..dds.participant import make_participant
+
+    counts = [args.params] if args.params else [10, 1000]
+    rounds = args.rounds or (1 if args.quick else 3)
+    changes = args.requests or (10_000 if args.quick else 100_000)
+    data: dict[str, Any] = {"rounds": rounds}
+    rows: list[tuple[object, ...]] = []
+    with tempfile.TemporaryDirectory(prefix="paramdds-bench-persist-") as tmp:
+        directory = Path(tmp)
+        participant = make_participant(args.domain, localhost=args.localhost)
+        client = ParameterClient(participant, timeout=10.0)
+        try:
+            for count in counts:
+                persisted: list[float] = []
+                plain: list[float] = []
+                for r in range(rounds):
+                    for persist in (True, False) if r % 2 == 0 else (False, True):
+                        note(
+                            f"persist: {count} params, --persist {'on' if persist else 'off'}, round {r + 1}"
+                        )
+                        rate = _round(args, client, directory, count, persist)
+                        (persisted if persist else plain).append(rate)
+                data[f"sets_per_s_{count}"] = round(median(persisted), 0)
+                data[f"sets_per_s_{count}_no_persist"] = round(median(plain), 0)
+                data[f"ratio_{count}"] = round(median(persisted) / median(plain), 3)
+                rows.append(
+                    (
+                        f"sets/s, {count} params",
+                        data[f"sets_per_s_{count}"],
+                        data[f"sets_per_s_{count}_no_persist"],
+                        data[f"ratio_{count}"],
+                    )
+                )
+        finally:
+            client.close()
+        note(f"persist: writing a journal of {changes:,} changes")
+        state = _journal_of(directory, changes)
+        journal_mb = os.path.getsize(f"{state}.journal") / 1e6
+        params = _params_file(directory, RESTART_PARAMS)
+        restart: list[float] = []
+        empty: list[float] = []
+        for _ in range(rounds):
+            copy = directory / "restart-copy.yaml"
+            for src, dst in ((state, copy), (Path(f"{state}.journal"), Path(f"{copy}.journal"))):
+                dst.write_bytes(src.read_bytes())  # each start compacts: start from the same files
+            server = _Server(args, params, copy)
+            restart.append(server.start_ms)
+            server.stop()  # its compaction left an empty journal: the baseline's start
+            server = _Server(args, params, copy)
+            empty.append(server.start_ms)
+            server.stop()
+    data.update(
+        restart_ms=round(median(restart), 0),
+        restart_empty_journal_ms=round(median(empty), 0),
+        journal_changes=changes,
+        journal_mb=round(journal_mb, 1),
+    )
+    rows.append(
+        (
+            f"restart, {changes:,}-change journal (ms)",
+            data["restart_ms"],
+            data["restart_empty_journal_ms"],
+            round(data["restart_ms"] / data["restart_empty_journal_ms"], 2),
+        )
+    )
+    table = render(["measure", "--persist", "baseline", "ratio"], rows)
+    table += (
+        "\n\nbaseline: the same server without --persist (sets), the same start with an empty journal "
+        f"(restart); journal {data['journal_mb']} MB"
+    )
+    emit(args, data, table)
+    return 0
