@@ -22,6 +22,7 @@ import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from enum import Enum
+from functools import partial
 from typing import Any
 
 from cyclonedds.core import InstanceState, Policy
@@ -34,6 +35,7 @@ from ..core.names import canonical_node_id
 from ..core.values import ParameterValue
 from . import types as wire
 from .dispatch import Dispatcher
+from .participant import poll_peers
 from .qos import QosProfiles
 from .state import StateKey, StateSample, decode_key, decode_state
 
@@ -103,7 +105,10 @@ class ParameterMonitor:
         qos = qos or QosProfiles.load()
         # no topic filter (it deadlocks against take under load): _apply skips other nodes
         topic = Topic(participant, "ParameterEvents", wire.ParameterEvent)
-        self._dispatcher = Dispatcher(participant, "paramdds-monitor")
+        # its tick looks into peers whose type or QoS does not match (see .peers)
+        self._dispatcher = Dispatcher(
+            participant, "paramdds-monitor", tick=partial(poll_peers, participant), period=1.0
+        )
         # depth 4, not 1: a late joiner must see the presence samples of every writer of one
         # node (two processes hosting one node id), not only the last one delivered
         reader = DataReader(

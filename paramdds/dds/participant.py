@@ -61,6 +61,7 @@ __all__ = [
     "localhost_from_env",
     "make_participant",
     "peer_mismatches",
+    "poll_peers",
 ]
 
 LOCALHOST_ENV = "PARAMDDS_LOCALHOST"
@@ -155,9 +156,19 @@ def make_participant(
 
 
 def peer_mismatches(participant: DomainParticipant) -> list[PeerMismatch]:
-    """The peers Cyclone refused to match with ``participant``'s endpoints, so far (see :mod:`.peers`)."""
+    """The peers Cyclone refused to match with ``participant``'s endpoints, so far (see :mod:`.peers`).
+
+    Looks into new incompatible-QoS events first, on this thread.
+    """
     watch = getattr(participant, "_paramdds_peers", None)
-    return [] if watch is None else watch.mismatches()
+    return [] if watch is None else watch.check()
+
+
+def poll_peers(participant: DomainParticipant) -> None:
+    """Look into new incompatible-QoS events in the background (a dispatch loop's tick)."""
+    watch = getattr(participant, "_paramdds_peers", None)
+    if watch is not None:
+        watch.poll()
 
 
 def _domain(domain_id: int, config: str) -> Domain:
@@ -174,10 +185,12 @@ def _domain(domain_id: int, config: str) -> Domain:
         return existing
     try:
         domain = Domain(domain_id, config)
-    except DDSException as exc:
-        raise ValueError(
-            f"cannot configure DDS domain {domain_id}: it already exists in this process "
-            f"without paramdds's configuration, or the configuration is invalid ({exc})"
+    except DDSException as exc:  # still a DDS failure (the CLI exits 4), with what to look at
+        raise DDSException(
+            exc.code,
+            f"cannot configure DDS domain {domain_id}: the configuration is invalid "
+            f"(CYCLONEDDS_URI: interfaces, peers), or the domain already exists in this process "
+            f"without paramdds's configuration ({exc.msg})",
         ) from exc
     _domains[domain_id] = (config, weakref.ref(domain))
     return domain

@@ -8,34 +8,31 @@ never show, with nothing said anywhere.
 
 Cyclone reports each such peer on our side as a status: REQUESTED_INCOMPATIBLE_QOS
 on our reader, OFFERED_INCOMPATIBLE_QOS on our writer (a type mismatch is the
-policy TYPE_CONSISTENCY_ENFORCEMENT, an unreadable encoding DATA_REPRESENTATION),
-INCONSISTENT_TOPIC on the topic. The status says which policy, not which peer,
-and the endpoint it names is often not a Python object yet (a match found while
-its constructor runs). So an event only wakes :class:`PeerWatch`'s thread, which
-then checks every reader and writer of the participant for these statuses and
-reads Cyclone's builtin discovery topics: the endpoints on that topic name that
-are not matched with ours are the culprits, and the participant they belong to
-gives the host, pid and process name. Each is logged
-once, as a warning on the ``paramdds.peers`` logger, and kept in
-:meth:`PeerWatch.mismatches`.
+policy TYPE_CONSISTENCY_ENFORCEMENT, an unreadable encoding DATA_REPRESENTATION).
+The status says which policy, not which peer. :meth:`PeerWatch.poll` adds up those
+statuses' counts over the participant's readers and writers (a few status reads:
+cheap enough for every tick of a dispatch loop); when the sum has grown, it wakes
+a thread of the watch's own, which reads Cyclone's builtin discovery topics: the
+endpoints on that topic name that are not matched with ours are the culprits, and
+the participant they belong to gives the host, pid and process name. Each is
+logged once, as a warning on the ``paramdds.peers`` logger, and kept in
+:meth:`PeerWatch.mismatches`. :meth:`PeerWatch.check` does the same at once, on
+the caller's thread (a client whose call is failing, a test).
 
-Costs nothing while every peer matches: the listener's callbacks (which run on
-Cyclone's own threads, so they only queue the event) are the only thing
-installed; the reporting thread and the builtin readers are created on the
-first mismatch. :func:`.participant.close_participant` removes the listener
-before deleting the participant, as a listener still attached at exit can hang
-it; for a process that never calls it, an ``atexit`` hook does.
+Who polls: a server and a monitor from their dispatch loop's tick; a client when a
+call fails (its TIMEOUT or UNAVAILABLE names the peers). No Cyclone listener is
+installed: a listener's callbacks run on Cyclone's own receive and discovery
+threads and must take the GIL, so every event (and a client's volatile set writer
+meets a server's transient-local assignment reader, by design, at every start)
+made discovery wait for whatever Python was doing; at 30 % packet loss that turned
+a few fresh ``paramdds`` processes in a hundred into a 10 s TIMEOUT.
 """
 
 from __future__ import annotations
 
-import atexit
 import logging
 import queue
 import threading
-import time
-import weakref
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -77,7 +74,6 @@ POLICY_NAMES = {
 }
 
 _IDLE = 5.0  # seconds without an event before the thread ends (the next event starts another)
-_SETTLE = 0.05  # seconds between an event and the scan
 
 
 @dataclass(frozen=True)
@@ -123,64 +119,67 @@ def _by_design(ours: Any, endpoint: Any) -> bool:
     )
 
 
-def _closer(ref: weakref.ref[PeerWatch]) -> Callable[[], None]:
-    def close() -> None:
-        watch = ref()
-        if watch is not None:
-            watch.close()
-
-    return close
-
-
 class PeerWatch:
     """Reports mismatched peers of one participant (see the module doc)."""
 
     def __init__(self, participant: Any) -> None:
-        from cyclonedds.core import Listener
-
         self._dp = participant
         self._own = participant.guid
         self._events: queue.SimpleQueue[bool] = queue.SimpleQueue()  # True: scan, False: stop
         self._lock = threading.Lock()
+        self._scanning = threading.Lock()
         self._thread: threading.Thread | None = None
         self._builtin: dict[str, Any] = {}
         self._seen: set[str] = set()
         self._found: list[PeerMismatch] = []
+        self._counted = 0  # the incompatible-QoS counts already looked into
         self._closed = False
-        # The entity Cyclone names is often not a Python object yet (a match found while
-        # its constructor runs), so an event only wakes the thread, which then checks
-        # every endpoint of the participant.
-        listener = Listener(  # type: ignore[no-untyped-call]
-            on_requested_incompatible_qos=lambda _reader, _status: self._wake(),
-            on_offered_incompatible_qos=lambda _writer, _status: self._wake(),
-            on_inconsistent_topic=lambda _topic, _status: self._wake(),
-        )
-        participant.set_listener(listener)
-        self._at_exit = _closer(weakref.ref(self))
-        atexit.register(self._at_exit)
 
     def mismatches(self) -> list[PeerMismatch]:
         """Every mismatched peer endpoint reported so far."""
         with self._lock:
             return list(self._found)
 
+    def poll(self) -> None:
+        """Look into new incompatible-QoS events on the watch's thread (cheap when there are none)."""
+        if self._changed():
+            self._wake()
+
+    def check(self) -> list[PeerMismatch]:
+        """Look into new incompatible-QoS events now, on this thread; every mismatch so far."""
+        if self._changed():
+            with self._scanning:
+                self._scan_safely()
+        return self.mismatches()
+
     def close(self) -> None:
-        """Remove the listener and stop the thread (before the participant is deleted)."""
+        """Stop the thread (before the participant is deleted)."""
         with self._lock:
             if self._closed:
                 return
             self._closed = True
             thread = self._thread
-        atexit.unregister(self._at_exit)
-        try:
-            self._dp.set_listener(None)
-        except Exception:  # the participant is already deleted, and its listener with it
-            log.debug("participant gone before its peer watch", exc_info=True)
         self._events.put(False)
         if thread is not None and thread is not threading.current_thread():
             thread.join(timeout=2.0)
 
-    # ---- on Cyclone's thread: queue and return ------------------------------------------------
+    def _changed(self) -> bool:
+        total = 0
+        try:
+            for entity in live_endpoints(self._dp):
+                ep: Any = entity  # the binding's entities are untyped
+                if isinstance(entity, DataReader):
+                    total += ep.get_requested_incompatible_qos_status().total_count
+                else:
+                    total += ep.get_offered_incompatible_qos_status().total_count
+        except Exception:  # an endpoint deleted meanwhile, the participant closing
+            log.debug("could not read the incompatible-QoS statuses", exc_info=True)
+            return False
+        with self._lock:
+            if self._closed or total == self._counted:
+                return False
+            self._counted = total
+            return True
 
     def _wake(self) -> None:
         with self._lock:
@@ -205,14 +204,17 @@ class PeerWatch:
                 continue
             if not scan:
                 return
-            time.sleep(_SETTLE)  # let a constructor that is matching right now finish
             while not self._events.empty():  # one scan covers every event so far
                 if not self._events.get():
                     return
-            try:
-                self._scan()
-            except Exception:  # a peer vanishing mid-scan, the participant closing: never fatal
-                log.debug("could not identify a mismatched peer", exc_info=True)
+            with self._scanning:
+                self._scan_safely()
+
+    def _scan_safely(self) -> None:
+        try:
+            self._scan()
+        except Exception:  # a peer vanishing mid-scan, the participant closing: never fatal
+            log.debug("could not identify a mismatched peer", exc_info=True)
 
     def _scan(self) -> None:
         for entity in live_endpoints(self._dp):

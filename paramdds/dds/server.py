@@ -70,6 +70,7 @@ from .convert import descriptor_to_wire, parameter_from_wire, state_descriptor_t
 from .dispatch import SERIALIZED, Dispatcher
 from .filters import NativeFilter, filtered_topic
 from .node_worker import NodeWorker
+from .participant import poll_peers
 from .qos import QosProfiles
 from .state import decode_state, encode_state
 
@@ -113,6 +114,7 @@ class ParameterServer:
         self._filter = NativeFilter("nodes")  # the request readers' filter: the nodes hosted here
         self.foreign_requests = 0  # requests that reached a handler for a node not hosted here
         self._check: threading.Thread | None = None
+        self._last_tick = time.monotonic()
 
         state_qos = self._qos.writer("ParameterEvents")
         # liveliness is asserted by our dispatch loop, not by Cyclone's threads (see above)
@@ -181,6 +183,7 @@ class ParameterServer:
         topic = Topic(self._dp, "SetParametersRequest", wire.SetParametersRequest)
         reader = DataReader(self._dp, topic, self._qos.assignment_reader())
         self._dispatcher.add(reader, self._on_assignment)
+        self._last_tick = time.monotonic()
         self._dispatcher.start()
         self._started = True
         nodes = set(self._tables)
@@ -257,6 +260,10 @@ class ParameterServer:
         """From the dispatch loop: we are alive; a node whose worker is stuck is not."""
         assert_liveliness(self._state_writer)
         now = time.monotonic()
+        late, self._last_tick = now - self._last_tick, now
+        if late > LEASE:
+            self._present_again(late)
+        poll_peers(self._dp)
         for worker in list(self._workers.values()):
             if worker.check_stall(now, LEASE):
                 node = worker.table.node_id
@@ -267,6 +274,22 @@ class ParameterServer:
                     LEASE,
                 )
                 self._state_writer.unregister_instance(wire.ParameterEvent(node_id=node, name=""))
+
+    def _present_again(self, late: float) -> None:
+        """After the whole loop stalled past the lease: write every node's presence again.
+
+        The process was stopped (SIGSTOP, a debugger) or starved, so its liveliness
+        lapsed and every monitor marked its nodes offline. Asserting liveliness again
+        does not bring an instance back: Cyclone keeps it not-alive until the writer
+        writes it, so without this a node that recovered would look offline until its
+        next change. A node whose worker is busy writes its presence when the job ends.
+        """
+        log.warning("the server did not run for %.1f s (stopped or starved): writing presence again", late)
+        for worker in list(self._workers.values()):
+            if worker.idle():
+                self._write_presence(worker.table)
+            else:
+                worker.submit(partial(self._write_presence, worker.table))
 
     # -- state publication ---------------------------------------------------------
 

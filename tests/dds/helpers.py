@@ -207,6 +207,10 @@ class ServerProc:
         self.proc.send_signal(signal.SIGSTOP)
         assert wait_until(self._stopped, timeout), "the server process did not stop"
 
+    def thaw(self) -> None:
+        """SIGCONT: a frozen server runs on."""
+        self.proc.send_signal(signal.SIGCONT)
+
     def _stopped(self) -> bool:
         tasks = f"/proc/{self.pid}/task"
         try:

@@ -164,6 +164,28 @@ def test_sigterm_server_is_offline_and_keeps_values(dds: DdsSession) -> None:
     assert [e.node for e in recorder.of(EventKind.OFFLINE)] == ["term"]
 
 
+# -- stopped, then resumed: offline, then online again without a change ------------------------------
+
+
+def test_a_server_stopped_past_its_lease_comes_back_online_when_it_resumes(dds: DdsSession) -> None:
+    node = {"id": "sleeper", "params": {"speed": 3}}
+    recorder = Recorder()
+    monitor = dds.monitor(on_event=recorder)
+    client = dds.client(timeout=5.0)
+    with ServerProc(dds.domain_id, [node]) as server:
+        assert monitor.wait_complete(["sleeper"], timeout=5.0)
+        server.freeze()
+        assert monitor.wait_until(lambda s: not s["sleeper"].online, timeout=3.0)
+        server.thaw()
+        # nothing changes on the node: its presence alone must bring it back
+        assert monitor.wait_until(lambda s: s["sleeper"].online, timeout=3.0)
+        assert wait_until(lambda: getattr(client.node_info("sleeper"), "online", False), 3.0)
+        assert client.get_value("sleeper", "speed").value == 3
+        assert monitor.snapshot()["sleeper"].parameters["speed"][0].value == 3
+    kinds = [e.event for e in recorder.of(EventKind.ONLINE, EventKind.OFFLINE)]
+    assert kinds[:3] == [EventKind.ONLINE, EventKind.OFFLINE, EventKind.ONLINE]
+
+
 # -- killed server: offline fast, calls fail fast, restart seen online --------------------------------
 
 
