@@ -1,11 +1,13 @@
 """The DDS side of the baselines, and counting with the builtin topics.
 
-* :class:`Echo` and :class:`EchoClient` / :func:`serve_echo`: a raw request/reply
-  over cyclonedds Python with the payload size of a real get, the same QoS
-  profiles and the same wake-up mechanism as :class:`~paramdds.dds.client.ParameterClient`
-  (a WaitSet dispatcher thread completing a ``concurrent.futures.Future``). It is
-  the floor of this stack: everything paramdds adds (filters, conversion, the
-  table) is absent.
+* :class:`Echo` and :class:`EchoClient` / :func:`serve_echo`: the floor. A raw
+  request/reply on a keyed topic (key ``node_id``, like ours), with the serialized
+  sizes of a real get, the same QoS profiles and the same wake-up mechanism as
+  :class:`~paramdds.dds.client.ParameterClient` (a WaitSet dispatcher thread
+  completing a ``concurrent.futures.Future``). Samples are pre-encoded bytes
+  written and taken raw (``write_serialized`` / ``take_serialized``); only the ids
+  are patched in and read out at fixed offsets. No codec runs at all, so nothing
+  paramdds does (encoding, decoding, the table, the filters) is in the floor.
 * :class:`PollingClient`: the seed's client design, a get request answered by the
   paramdds server, whose reply is found by taking from the reader and sleeping
   10 ms between attempts.
@@ -19,6 +21,7 @@
 
 import itertools
 import secrets
+import struct
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -28,13 +31,14 @@ from typing import Any
 
 from cyclonedds.core import InstanceState, ReadCondition, SampleState, ViewState, WaitSet
 from cyclonedds.idl import IdlStruct
+from cyclonedds.idl.annotations import key
 from cyclonedds.idl.types import sequence, uint8, uint64
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 
 from ..dds import types as wire
-from ..dds._binding import cookie_buffer, waitset_attach_indexed, waitset_wait_indexed
+from ..dds._binding import cookie_buffer, waitset_attach_indexed, waitset_wait_indexed, write_serialized
 from ..dds.dispatch import Dispatcher
 from ..dds.qos import QosProfiles
 
@@ -47,7 +51,21 @@ ANY_STATE = SampleState.Any | ViewState.Any | InstanceState.Any
 class Echo(IdlStruct, typename="paramdds_bench.Echo"):
     client_id: uint64 = 0
     request_id: uint64 = 0
+    node_id: str = ""
+    key("node_id")
     payload: sequence[uint8] = field(default_factory=list)
+
+
+_IDS = struct.Struct("<QQ")
+
+
+def _ids_offset() -> int:
+    """Where (client_id, request_id) sit in a serialized Echo (found, not assumed)."""
+    marker = Echo(client_id=0x0102030405060708, request_id=0x1112131415161718).serialize()
+    offset = marker.find(_IDS.pack(0x0102030405060708, 0x1112131415161718))
+    if offset < 0:
+        raise RuntimeError("the Echo encoding changed: ids not found little-endian")
+    return offset
 
 
 def get_sizes(node: str, name: str, value: object) -> tuple[int, int]:
@@ -66,25 +84,27 @@ def get_sizes(node: str, name: str, value: object) -> tuple[int, int]:
     return len(req.serialize()), len(rep.serialize())
 
 
-def echo_padding(size: int) -> int:
-    """Payload bytes that make an Echo sample serialize to ``size`` bytes."""
-    base = len(Echo(client_id=1, request_id=1, payload=[]).serialize())
-    return max(0, size - base)
+def echo_template(size: int, node: str = "bench_n0000") -> bytearray:
+    """A serialized Echo of ``size`` bytes (or the smallest above it), for patching ids into."""
+    base = len(Echo(node_id=node).serialize())
+    return bytearray(Echo(node_id=node, payload=[7] * max(0, size - base)).serialize())
 
 
 def serve_echo(participant: Any, qos: QosProfiles, reply_size: int) -> Dispatcher:
-    """Answer every Echo request with an Echo of ``reply_size`` bytes (same ids)."""
+    """Answer every Echo request with a pre-encoded Echo of ``reply_size`` bytes (same ids)."""
     writer = DataWriter(participant, Topic(participant, ECHO_REPLY, Echo), qos.writer(ECHO_REPLY))
-    payload = [7] * echo_padding(reply_size)
+    reply = echo_template(reply_size)
+    at = _ids_offset()
     reader = DataReader(participant, Topic(participant, ECHO_REQUEST, Echo), qos.reader(ECHO_REQUEST))
     dispatcher = Dispatcher(participant, "bench-echo")
 
-    def on_requests(samples: Sequence[Any]) -> None:
-        for s in samples:
-            if s.sample_info.valid_data:
-                writer.write(Echo(client_id=s.client_id, request_id=s.request_id, payload=payload))
+    def on_requests(samples: Sequence[tuple[bytes, Any]]) -> None:
+        for data, info in samples:
+            if info.valid_data:
+                reply[at : at + 16] = data[at : at + 16]
+                write_serialized(writer, bytes(reply))
 
-    dispatcher.add(reader, on_requests)
+    dispatcher.add_raw(reader, lambda data, _info: data, on_requests)
     dispatcher.start()
     dispatcher._bench_keep = (writer, reader)  # type: ignore[attr-defined]
     return dispatcher
@@ -98,27 +118,33 @@ class EchoClient:
             participant, Topic(participant, ECHO_REQUEST, Echo), qos.writer(ECHO_REQUEST)
         )
         reader = DataReader(participant, Topic(participant, ECHO_REPLY, Echo), qos.reader(ECHO_REPLY))
-        self._payload = [3] * echo_padding(request_size)
+        self._request = echo_template(request_size)
+        self._at = _ids_offset()
         self._ids = itertools.count(1)
         self._pending: dict[int, Future[Any]] = {}
         self.client_id = secrets.randbits(63) or 1  # every echo client sees every reply
         self._dispatcher = Dispatcher(participant, "bench-echo-client")
-        self._dispatcher.add(reader, self._on_replies)
+        self._dispatcher.add_raw(reader, lambda data, _info: data, self._on_replies)
         self._dispatcher.start()
         self._reader = reader
 
-    def _on_replies(self, samples: Sequence[Any]) -> None:
-        for s in samples:
-            if s.sample_info.valid_data and s.client_id == self.client_id:
-                future = self._pending.pop(s.request_id, None)
+    def _on_replies(self, samples: Sequence[tuple[bytes, Any]]) -> None:
+        at = self._at
+        for data, info in samples:
+            if not info.valid_data:
+                continue
+            client_id, request_id = _IDS.unpack_from(data, at)
+            if client_id == self.client_id:
+                future = self._pending.pop(request_id, None)
                 if future is not None:
-                    future.set_result(s)
+                    future.set_result(request_id)
 
     def send(self) -> Future[Any]:
         rid = next(self._ids)
         future: Future[Any] = Future()
         self._pending[rid] = future
-        self._writer.write(Echo(client_id=self.client_id, request_id=rid, payload=self._payload))
+        _IDS.pack_into(self._request, self._at, self.client_id, rid)
+        write_serialized(self._writer, bytes(self._request))
         return future
 
     def call(self, timeout: float = 5.0) -> Any:
@@ -288,6 +314,7 @@ def _handler(service: str, table: Any) -> Callable[[Any], Any]:
         return cls(node_id=table.node_id, client_id=request.client_id, request_id=request.request_id)
 
     def get(request: Any) -> Any:
+        # as rcl_interfaces: get_parameters returns values only, describe_parameters descriptors only
         reply = ids(wire.GetParametersResponse, request)
         describe = service == "describe_parameters"
         reply.revision = table.revision
@@ -295,7 +322,7 @@ def _handler(service: str, table: Any) -> Callable[[Any], Any]:
             wire.GetParameterResult(
                 name=r.name,
                 code=r.code.value if r.code else "",
-                value=value_to_wire(r.value) if r.value is not None else wire.ParameterValue(),
+                value=wire.ParameterValue() if describe or r.value is None else value_to_wire(r.value),
                 descriptor=[descriptor_to_wire(r.descriptor)] if r.descriptor is not None else [],
             )
             for r in table.get_many(list(request.names), with_descriptors=describe)
@@ -394,16 +421,21 @@ class RosLayoutMonitor:
     describe (a request writer and a reply reader each), wait until those match the node's
     services, then list → get + describe. Every node is worked on concurrently (one
     WaitSet, requests pipelined), which is the most favourable form of the baseline.
-    A request unanswered for ``retry`` seconds is sent again (the reply writer may not
-    have matched the new reply reader yet: the usual DDS service race).
+
+    As rclcpp does, each request is sent once, when the node's services are ready
+    (request writer and reply reader matched). rclcpp never resends: a reply sent
+    before the server's reply writer matched our reader is lost and the call hangs.
+    So that the bench completes, such a request is sent again after ``retry``
+    seconds; :attr:`resends` counts them (the price of the race, reported).
     """
 
     CALLS = ("list_parameters", "get_parameters", "describe_parameters")
 
-    def __init__(self, participant: Any, qos: QosProfiles, nodes: Sequence[str], retry: float = 0.5) -> None:
+    def __init__(self, participant: Any, qos: QosProfiles, nodes: Sequence[str], retry: float = 2.0) -> None:
         from cyclonedds.core import DDSStatus
 
         self._retry = retry
+        self.resends = 0
         self.nodes = list(nodes)
         n = len(self.nodes)
         self._ws = IndexedWaitSet(participant, capacity=max(1024, 8 * n))
@@ -489,7 +521,7 @@ class RosLayoutMonitor:
                 raise TimeoutError(
                     f"baseline monitor: {n - done} of {n} nodes incomplete after {timeout:g} s"
                 )
-            for index in self._ws.wait(int(self._retry * 1e9 / 5)):
+            for index in self._ws.wait(int(self._retry * 1e9 / 10)):
                 i, slot = divmod(index, 8)
                 if slot < 6:
                     check_match(i, slot)
@@ -516,6 +548,7 @@ class RosLayoutMonitor:
             for i in range(n):
                 for call, (_rid, sent) in list(outstanding[i].items()):
                     if now - sent > self._retry:
+                        self.resends += 1
                         send(i, call)
         return {
             node: {k: (values[i][k], (descriptors[i] or {}).get(k)) for k in (values[i] or {})}  # type: ignore[index]

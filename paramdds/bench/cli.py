@@ -20,6 +20,8 @@ SCENARIOS = {
     "startup": "whole-process time of `paramdds get` vs `import cyclonedds` and a bare participant",
     "codec": "encode/decode per sample (CPU time), paramdds's codecs vs the binding's interpreter",
     "web": "browser console in headless Chromium: set ack → value in the DOM; first render of 1000 x 50",
+    "fleet": "10 server processes x 1,000 nodes x 20 params: monitor synced, `paramdds get` vs an empty "
+    "system, a server's CPU under foreign traffic (native filter vs handler), loopback bytes per request",
     "persist": "sets/s with --persist at 10 and 1,000 params vs without; restart from a 100k-change journal",
 }
 
@@ -71,7 +73,7 @@ def register(subparsers: Any) -> None:
         type=_int_list,
         metavar="N,N…",
         help="scaling: node counts (default 10,50,100,200); "
-        "hosting, web: node ids in the one process (default 1000)",
+        "hosting, web: node ids in the one process (default 1000); fleet: node ids per server process (1000)",
     )
     p.add_argument(
         "--params",
@@ -84,10 +86,12 @@ def register(subparsers: Any) -> None:
         type=_positive_int,
         metavar="N",
         help="latency: requests per system (default 2000); web: sets (200); "
-        "persist: journal changes (100000)",
+        "persist: journal changes (100000); fleet: gets per second (1000)",
     )
     p.add_argument("--rounds", type=_positive_int, metavar="R", help="alternation rounds / repetitions")
-    p.add_argument("--servers", type=_positive_int, metavar="K", help="scaling: server processes (default 2)")
+    p.add_argument(
+        "--servers", type=_positive_int, metavar="K", help="server processes: scaling (default 2), fleet (10)"
+    )
     p.add_argument(
         "--clients", type=_positive_int, metavar="C", help="throughput: client processes (default 2)"
     )

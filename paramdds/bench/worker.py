@@ -8,7 +8,9 @@ Roles (see :mod:`paramdds.bench._common` for the READY / RESULT protocol):
 ``echo``     the raw echo server of the latency and throughput baselines;
 ``monitor``  start, time until the full state of every node is held, report, exit;
 ``census``   count topics and endpoints in the domain with the builtin topics;
-``load``     a throughput client: keep ``--window`` gets (or echoes) in flight.
+``load``     a throughput client: keep ``--window`` gets (or echoes) in flight;
+``partition`` the partition-per-node alternative (fleet bench): a request reader
+             whose subscriber's partitions are the hosted node ids.
 
 A worker exits when its stdin closes or on SIGTERM, closing its DDS entities.
 """
@@ -48,20 +50,65 @@ def _on_sigterm(_signum: int, _frame: Any) -> None:
     raise SystemExit(0)
 
 
+# The benchmark parameter set, in the proportions of real ROS 2 files (/work/shared/realworld:
+# 617 values of five parameter files: 36 % double, 29 % string, 15 % bool, 11 % int, 8 % arrays;
+# 122 parameters of four generate_parameter_library specs: 82 % described, 34 % validated,
+# 28 % read-only). Per 20 parameters: 7 double, 6 string, 3 bool, 2 int, a string array and a
+# double array; 16 described, 7 with a range or validators, 5 read-only (all at j % 20 >= 12,
+# so the latency bench's set of parameters 0..9 only touches writable ones).
+_KINDS = "dibdssdsbdsidsbdsdSD"  # d double, s string, b bool, i int, S string[], D double[]
+# (slot 1 is an integer: the web bench sets group0.param_001 to integers)
+_READ_ONLY = {12, 13, 14, 16, 18}
+
+
 def value_for(j: int, salt: int = 0) -> object:
     """The value of parameter ``j`` (its type depends on j only; ``salt`` varies it)."""
-    kind = j % 4
-    if kind == 0:
+    kind = _KINDS[j % 20]
+    if kind == "d":
         return float(j) + salt * 0.001
-    if kind == 1:
+    if kind == "i":
         return j + salt
-    if kind == 2:
+    if kind == "s":
         return f"value_{j}_{salt}"
-    return bool((j + salt) % 2)
+    if kind == "b":
+        return bool((j + salt) % 2)
+    if kind == "S":
+        return [f"frame_{j}", f"link_{salt}"]
+    return [float(j), salt * 0.5, 1.0]
 
 
 def param_name(j: int) -> str:
     return f"group{j // 10}.param_{j:03d}"
+
+
+def descriptor_for(j: int) -> Any:
+    """Parameter ``j``'s descriptor: what a generate_parameter_library spec would declare."""
+    from ..core.descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
+    from ..core.values import ParameterValue
+
+    def v(x: object) -> ParameterValue:
+        return ParameterValue.from_python(x)
+
+    slot = j % 20
+    described = slot % 5 != 4
+    fields: dict[str, Any] = {
+        "description": f"{'Gain' if _KINDS[slot] == 'd' else 'Setting'} {j} of the controller, "
+        "as the spec file documents it"
+        if described
+        else "",
+        "read_only": slot in _READ_ONLY,
+    }
+    if slot in (0, 3, 6):
+        fields["floating_point_range"] = FloatingPointRange(-1.0e6, 1.0e6)
+    elif slot == 1:
+        fields["integer_range"] = IntegerRange(0, 1_000_000_000)
+    elif slot == 16:
+        fields["validators"] = (Validator("one_of", (v([str(value_for(j)), "other"]),)),)
+    elif slot == 18:
+        fields["validators"] = (Validator("not_empty"), Validator("unique"))
+    elif slot == 19:
+        fields["validators"] = (Validator("element_bounds", (v(-1.0e6), v(1.0e6))),)
+    return ParameterDescriptor(param_name(j), **fields)
 
 
 def make_table(node: str, params: int) -> Any:
@@ -69,7 +116,9 @@ def make_table(node: str, params: int) -> Any:
     from ..core.values import ParameterValue
 
     table = ParameterTable(node)
-    table.declare_from((param_name(j), ParameterValue.from_python(value_for(j)), None) for j in range(params))
+    table.declare_from(
+        (param_name(j), ParameterValue.from_python(value_for(j)), descriptor_for(j)) for j in range(params)
+    )
     return table
 
 
@@ -103,6 +152,10 @@ def role_server(args: argparse.Namespace) -> None:
     qos = QosProfiles.load()
     dp = _participant(args, topic_discovery=args.topic_discovery)
     names = node_names(args.offset + args.nodes)[args.offset :]
+    if args.no_native_filter:
+        from ..dds.filters import disable_native
+
+        disable_native()
     server: Any
     if args.layout == "ros":
         from ._dds import RosLayoutServer
@@ -121,6 +174,36 @@ def role_server(args: argparse.Namespace) -> None:
         _wait_for_stdin_eof()
     finally:
         server.close()
+
+
+def role_partition(args: argparse.Namespace) -> None:
+    """The alternative layout (measured, not adopted): one request reader whose subscriber's
+    partitions are the node ids hosted, so requests for other nodes never reach this process."""
+    from cyclonedds.qos import Policy, Qos
+    from cyclonedds.sub import DataReader, Subscriber
+    from cyclonedds.topic import Topic
+
+    from ..dds import types as wire
+    from ..dds.dispatch import Dispatcher
+    from ..dds.qos import QosProfiles
+    from ._common import NODE_PREFIX, node_names
+
+    qos = QosProfiles.load()
+    dp = _participant(args)
+    # a wildcard reads every node's partition (a monitor's form); Cyclone 11.0.1's binding
+    # crashed with 10,000 partition names on one subscriber (1,000 work)
+    names = [f"{NODE_PREFIX}*"] if args.wildcard else node_names(args.offset + args.nodes)[args.offset :]
+    subscriber = Subscriber(dp, qos=Qos(Policy.Partition(partitions=names)))
+    topic = Topic(dp, "GetParametersRequest", wire.GetParametersRequest)
+    reader = DataReader(subscriber, topic, qos.reader("GetParametersRequest"))
+    dispatcher = Dispatcher(dp, "bench-partition")
+    dispatcher.add_raw(reader, lambda data, _info: data, lambda _samples: None)
+    dispatcher.start()
+    _say("READY", pid=os.getpid())
+    try:
+        _wait_for_stdin_eof()
+    finally:
+        dispatcher.close()
 
 
 def role_echo(args: argparse.Namespace) -> None:
@@ -174,6 +257,7 @@ def role_monitor(args: argparse.Namespace) -> None:
         import_ms=_ms(T_EXEC, t_import),
         participant_ms=_ms(t_import, t_dp),
         full_state_ms=_ms(t_dp, t_done),
+        resends=monitor.resends if args.layout == "ros" else 0,
         params=params,
         described=described,
         endpoints=endpoints,
@@ -276,7 +360,7 @@ def role_load(args: argparse.Namespace) -> None:
 
 def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(prog="python -m paramdds.bench.worker")
-    p.add_argument("role", choices=("server", "echo", "monitor", "census", "load"))
+    p.add_argument("role", choices=("server", "echo", "monitor", "census", "load", "partition"))
     p.add_argument("-d", "--domain", type=int, required=True)
     p.add_argument("--localhost", action="store_true")
     p.add_argument("--layout", choices=("paramdds", "ros"), default="paramdds")
@@ -284,6 +368,8 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--offset", type=int, default=0)
     p.add_argument("--params", type=int, default=50)
     p.add_argument("--topic-discovery", action="store_true")
+    p.add_argument("--no-native-filter", action="store_true", help="server: filter in the handlers only")
+    p.add_argument("--wildcard", action="store_true", help="partition: every node's partition")
     p.add_argument("--reply-size", type=int, default=100)
     p.add_argument("--request-size", type=int, default=100)
     p.add_argument("--timeout", type=float, default=60.0)
@@ -303,6 +389,7 @@ def main(argv: list[str] | None = None) -> None:
             "monitor": role_monitor,
             "census": role_census,
             "load": role_load,
+            "partition": role_partition,
         }[args.role](args)
     finally:
         _delete_participants()

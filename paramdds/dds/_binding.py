@@ -26,7 +26,11 @@ measured reason:
   dispatch loop, not Cyclone's own threads, keeps its nodes alive;
 * :func:`dispose_serialized` and :func:`unregister_serialized` dispose or
   unregister an instance given as raw key bytes (the fault-injection tests send
-  keys no encoder would write).
+  keys no encoder would write);
+* :func:`install_native_filter` installs a C filter function (see
+  :mod:`.filters`) on a topic with ``dds_set_topic_filter_and_arg``, through the
+  binding's handle on the C library. The binding's samples reach it as its sample
+  container (pointer and size of the CDR bytes, ``clayer/pysertype.c``).
 
 All of them are checked against one binding version: importing this module with
 another major.minor version of cyclonedds raises :class:`ImportError` naming
@@ -51,6 +55,7 @@ __all__ = [
     "cookie_buffer",
     "dispose_serialized",
     "entity_handle",
+    "install_native_filter",
     "install_type_data",
     "installed_version",
     "live_endpoints",
@@ -96,6 +101,7 @@ from cyclonedds._clayer import (  # noqa: E402  (after the version check)
 )
 from cyclonedds.core import DDSException  # noqa: E402
 from cyclonedds.idl._support import Endianness  # noqa: E402
+from cyclonedds.internal import DDS  # noqa: E402
 
 
 def entity_handle(entity: Any) -> int:
@@ -240,3 +246,19 @@ def waitset_wait_indexed(waitset: Any, buffer: Any, timeout_ns: int) -> list[int
 def cookie_buffer(capacity: int) -> Any:
     """A buffer for :func:`waitset_wait_indexed`."""
     return (ct.c_void_p * capacity)()
+
+
+# void dds_set_topic_filter_and_arg(dds_entity_t topic, dds_topic_filter_arg_fn filter, void *arg):
+# a prototype of our own, so the binding's own declaration of it is left untouched
+_set_topic_filter_and_arg = ct.CFUNCTYPE(None, ct.c_int32, ct.c_void_p, ct.c_void_p)(
+    ("dds_set_topic_filter_and_arg", DDS._dll_handle)
+)
+
+
+def install_native_filter(topic: Any, function: int, argument: int) -> None:
+    """Install the C filter at address ``function`` with ``argument`` on ``topic``.
+
+    Call it before creating the topic's reader. The caller keeps whatever
+    ``argument`` points to alive as long as a reader of ``topic`` exists.
+    """
+    _set_topic_filter_and_arg(int(topic._ref), function, argument)

@@ -1,12 +1,14 @@
 """Clients: request/reply over the six request/reply topics, and node presence.
 
 Correlation: every request carries this client's random 64-bit ``client_id`` and
-a request id counted from 1; the reply handler drops every reply whose
-``client_id`` is not this client's, so two clients (in one process or two) never
-take each other's replies, and replies are matched to calls by request id. (No
-Cyclone topic filter: a Python filter deadlocks against ``take`` under load; see
-:mod:`paramdds.dds.server`.) Many calls may be outstanding at
-once (pipelining).
+a request id counted from 1. Reply readers are content-filtered on that
+``client_id`` (a native filter reading it from the serialized reply, see
+:mod:`.filters`), and the reply handler checks it again, so two clients (in one
+process or two) never take each other's replies; replies are matched to calls by
+request id. Many calls may be outstanding at once (pipelining).
+
+Presence: the state reader is content-filtered on presence instances (name
+``""``), so the parameters' state samples never reach Python here.
 
 No call ever hangs: each has a timeout (default :data:`DEFAULT_TIMEOUT`). A node
 that has no presence instance is reported UNAVAILABLE ("not present") only once
@@ -56,6 +58,7 @@ from .cdr import is_malformed
 from .convert import descriptor_from_wire, parameter_to_wire, value_from_wire
 from .discovery import MIN_QUIET, DiscoveryState, DiscoveryWatch, Presence
 from .dispatch import Dispatcher
+from .filters import NativeFilter, filtered_topic
 from .participant import peer_mismatches
 from .qos import QosProfiles
 
@@ -161,6 +164,8 @@ class ParameterClient:
             for name in ("SetParametersRequest", "GetParametersRequest", "ListParametersRequest")
         }
         self._dispatcher = Dispatcher(participant, "paramdds-client")
+        self._reply_filter = NativeFilter("client")
+        self._reply_filter.set_client_id(self.client_id)
         self._reply_readers: dict[str, Any] = {}  # by request topic
         self._match_counts = dict.fromkeys(self._writers, 0)
         for request in self._writers:
@@ -168,7 +173,9 @@ class ParameterClient:
             reader = DataReader(participant, self._own_replies(name), self._qos.reader(name))
             self._reply_readers[request] = reader
             self._dispatcher.add(reader, self._on_replies)
-        presence = Topic(participant, "ParameterEvents", wire.ParameterEvent)
+        self._presence_filter = NativeFilter("presence")
+        self._presence_filter.set_nodes(None)  # every node's presence, no parameter samples
+        presence = filtered_topic(participant, "ParameterEvents", wire.ParameterEvent, self._presence_filter)
         self._presence = DataReader(participant, presence, self._qos.reader("ParameterEvents"))
         self._discovery = DiscoveryWatch(
             participant,
@@ -179,8 +186,8 @@ class ParameterClient:
         self._dispatcher.start()
 
     def _own_replies(self, name: str) -> Any:
-        # every client's replies arrive here; _on_replies keeps only this client's
-        return Topic(self._dp, name, wire.TOPICS[name])
+        # without the native filter every client's replies arrive; _on_replies keeps ours
+        return filtered_topic(self._dp, name, wire.TOPICS[name], self._reply_filter)
 
     def close(self) -> None:
         self._closing.set()

@@ -2,10 +2,14 @@
 
 How it works:
 
-* Each request topic is read by one reader; requests for node ids this server
-  does not host are ignored. No Python topic filter is used: it runs on Cyclone's
-  receive thread while it holds the reader's lock and waits for the GIL, and
-  ``take`` holds the GIL while it waits for that lock, so the two deadlock.
+* Each request topic is read by one content-filtered reader (:mod:`.filters`): a
+  native C filter on the node ids hosted here, updated by ``add_node`` and
+  ``remove_node``, so Cyclone drops other nodes' requests before Python sees
+  them. (A *Python* filter would deadlock: it runs on Cyclone's receive thread
+  under the reader's lock and waits for the GIL, which ``take`` holds while it
+  waits for that lock.) The handlers still ignore requests for node ids not
+  hosted here: that is the whole filter where the extension is not built. The
+  assignment reader is not filtered: it keeps assignments for nodes added later.
 * **One dispatch thread** takes the samples and hands each request to its node's
   worker. It runs no user code, so nothing a node does can stall it; it asserts
   the state writer's MANUAL_BY_TOPIC liveliness on every tick, so if the loop
@@ -64,6 +68,7 @@ from ._binding import assert_liveliness, take_serialized, write_serialized
 from .cdr import MalformedSample, encode
 from .convert import descriptor_to_wire, parameter_from_wire, state_descriptor_to_wire, value_to_wire
 from .dispatch import SERIALIZED, Dispatcher
+from .filters import NativeFilter, filtered_topic
 from .node_worker import NodeWorker
 from .participant import poll_peers
 from .qos import QosProfiles
@@ -106,6 +111,8 @@ class ParameterServer:
         self.persisters: list[Persister] = []
         self._started = False
         self._closed = False
+        self._filter = NativeFilter("nodes")  # the request readers' filter: the nodes hosted here
+        self.foreign_requests = 0  # requests that reached a handler for a node not hosted here
         self._check: threading.Thread | None = None
         self._last_tick = time.monotonic()
 
@@ -130,8 +137,12 @@ class ParameterServer:
             self._dispatcher.add(reader, handler)
 
     def _request_topic(self, name: str) -> Any:
-        # no set_topic_filter: see the module docstring (GIL / reader-lock deadlock)
-        return Topic(self._dp, name, wire.TOPICS[name])
+        return filtered_topic(self._dp, name, wire.TOPICS[name], self._filter)
+
+    @property
+    def filter(self) -> NativeFilter:
+        """The request readers' filter (``filter.native`` is False where the extension is missing)."""
+        return self._filter
 
     # -- hosting -----------------------------------------------------------------
 
@@ -147,6 +158,7 @@ class ParameterServer:
         with self._hosting:  # against _on_assignment: no assignment falls between the two
             self._workers[node_id] = worker
             self._tables[node_id] = table
+            self._filter.set_nodes(self._tables)
             retained = self._retained.pop(node_id, [])
         for request in retained:  # assignments that arrived before this node was hosted
             worker.submit(partial(self._handle_set, worker, request, reply=False))
@@ -156,6 +168,7 @@ class ParameterServer:
         with self._hosting:
             table = self._tables.pop(node_id)
             worker = self._workers.pop(node_id)
+            self._filter.set_nodes(self._tables)
         worker.close(timeout=2.0)
         for name in [*table.names(), ""]:
             self._state_writer.unregister_instance(wire.ParameterEvent(node_id=node_id, name=name))
@@ -166,9 +179,9 @@ class ParameterServer:
 
     def start(self) -> ParameterServer:
         """Serve. Retained assignments are applied from here on, also to nodes added later."""
-        reader = DataReader(
-            self._dp, self._request_topic("SetParametersRequest"), self._qos.assignment_reader()
-        )
+        # not filtered: assignments for nodes not hosted yet are kept for when they are added
+        topic = Topic(self._dp, "SetParametersRequest", wire.SetParametersRequest)
+        reader = DataReader(self._dp, topic, self._qos.assignment_reader())
         self._dispatcher.add(reader, self._on_assignment)
         self._last_tick = time.monotonic()
         self._dispatcher.start()
@@ -357,7 +370,9 @@ class ParameterServer:
             # assignments (retained) are taken by the assignment reader
             if request.sample_info.valid_data and not request.retained:
                 worker = self._worker_for(request.node_id)
-                if worker is not None:
+                if worker is None:
+                    self.foreign_requests += 1
+                else:
                     worker.submit(partial(self._handle_set, worker, request, reply=True))
 
     def _on_assignment(self, samples: Sequence[Any]) -> None:
@@ -495,6 +510,7 @@ class ParameterServer:
                 continue
             worker = self._worker_for(request.node_id)
             if worker is None:
+                self.foreign_requests += 1
                 continue
             if worker.idle():  # nothing of this node's in flight: answer now, skipping a thread hop
                 with worker.table.try_locked() as free:  # never wait on a callback's lock

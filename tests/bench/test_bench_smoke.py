@@ -119,6 +119,18 @@ def test_bad_arguments_are_usage_errors(argv: list[str]) -> None:
     assert done.returncode == 2, done.stderr
 
 
+def test_fleet(domain_id: int) -> None:
+    data = bench("fleet", domain_id, "--servers", "2", "--nodes", "20", "--params", "4", "--rounds", "1")
+    positive(data, "synced_ms", "get_fleet_ms", "get_empty_ms", "get_ratio", "foreign_rate")
+    assert data["lo_bytes_per_request"] >= 0  # 0 where other traffic on lo swamps ours (shared host)
+    assert (data["servers"], data["nodes"], data["params_per_node"]) == (2, 40, 4)
+    assert data["synced_params"] == 40 * 4  # the monitor held every parameter of every node
+    assert data["request_readers"] == 4  # the fleet's two servers and the two measured ones
+    assert data["cpu_native_ms_per_s"] >= 0 and data["cpu_handler_ms_per_s"] >= 0
+    assert data["partition_client"]["1"]["writers"] == 1  # 100 and 1,000 need a fleet that large
+    assert data["partition_client"]["1"]["matched_ms"] is not None
+
+
 def test_persist(domain_id: int) -> None:
     data = bench("persist", domain_id, "--seconds", "0.3", "--params", "10", "--requests", "2000")
     positive(data, "sets_per_s_10", "sets_per_s_10_no_persist", "restart_ms", "restart_empty_journal_ms")

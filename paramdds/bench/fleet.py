@@ -1,0 +1,279 @@
+"""``paramdds bench fleet``: a fleet of server processes, and what one process pays for it.
+
+``--servers`` processes (default 10) each host ``--nodes`` node ids (default 1,000)
+with ``--params`` parameters (default 20, in the proportions of real files, see
+:func:`~paramdds.bench.worker.descriptor_for`). Measured in one run:
+
+* ``synced``: a monitor process's time from its participant to holding the full
+  state of every node;
+* ``get``: whole-process time of ``paramdds get NODE NAME`` in the fleet, against
+  the same command in an otherwise empty system (one server, one node, another
+  domain), alternated in rounds, medians;
+* ``foreign CPU``: two more server processes host one node each, one with the
+  native filter, one filtering in its handlers (``--no-native-filter``). This
+  process sends ``--rate`` gets per second (default 1,000) to fleet nodes for
+  ``--seconds``; the CPU time (utime + stime) each of the two spends in that
+  window is read from /proc, minus what it spent in an idle window as long;
+* ``network``: what each request costs on loopback. Every request goes to every
+  matched request reader (one per server process); the bytes counted on ``lo``
+  during the traffic window minus an idle window, per request, are shared with
+  whatever else runs in the network namespace: run the bench in one of its own
+  (``unshare -n sh -c 'ip link set lo up && paramdds bench fleet …'``) for a clean
+  count. The per-reader figure (divided by the matched server processes) is what
+  extrapolates to 1, 10 or 50 of them.
+* ``partition``: the alternative that keeps foreign traffic off the process and
+  the network (measured, not adopted): a process reads requests through a
+  subscriber whose partitions are its node ids, and a client needs a publisher
+  and writer per target node. The same traffic, written into the targets'
+  partitions, is sent while a partition reader hosting one other node runs (its
+  CPU) and one with the wildcard partition receives it (bytes); then the client's
+  cost: writers created and the time until they all matched, for 1, 100 and
+  1,000 target nodes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from typing import Any
+
+from ._common import Workers, emit, median, node_names, note, render, run_timed, worker_env
+from .startup import _compile_bytecode, cli_command
+from .worker import param_name
+
+_TICK = os.sysconf("SC_CLK_TCK")
+
+
+def cpu_seconds(pid: int) -> float:
+    """utime + stime of ``pid`` so far, from /proc/<pid>/stat."""
+    with open(f"/proc/{pid}/stat", encoding="ascii") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / _TICK
+
+
+def lo_tx_bytes() -> int:
+    """Bytes sent on ``lo`` of this process's network namespace (/proc/self/net/dev), 0 if unknown."""
+    try:
+        with open("/proc/self/net/dev", encoding="ascii") as f:
+            for line in f:
+                name, _, counters = line.partition(":")
+                if name.strip() == "lo":
+                    return int(counters.split()[8])
+    except (OSError, IndexError, ValueError):
+        pass
+    return 0
+
+
+def _send_paced(writers: list[Any], samples: list[bytes], rate: int, seconds: float) -> int:
+    """Write ``samples[i]`` with ``writers[i]`` round-robin at ``rate`` per second for ``seconds``."""
+    from ..dds._binding import write_serialized
+
+    batch = max(1, rate // 100)  # 100 batches a second
+    sent = 0
+    start = time.monotonic()
+    while True:
+        elapsed = time.monotonic() - start
+        if elapsed >= seconds:
+            return sent
+        due = int(elapsed * rate) + batch
+        while sent < due:
+            i = sent % len(samples)
+            write_serialized(writers[i], samples[i])
+            sent += 1
+        time.sleep(0.01)
+
+
+def run(args: argparse.Namespace) -> int:
+    quick = args.quick
+    servers = args.servers or (2 if quick else 10)
+    per = args.nodes[0] if args.nodes else (50 if quick else 1000)
+    params = args.params or (5 if quick else 20)
+    seconds = args.seconds or (1.0 if quick else 5.0)
+    rounds = args.rounds or (2 if quick else 5)
+    rate = args.requests or (200 if quick else 1000)
+    total = servers * per
+    empty_domain = args.domain + 1 if args.domain < 232 else args.domain - 1
+
+    from cyclonedds.pub import DataWriter
+    from cyclonedds.topic import Topic
+
+    from ..dds import types as wire
+    from ..dds.participant import make_participant
+    from ..dds.qos import QosProfiles
+
+    _compile_bytecode()
+    env = worker_env(args.localhost)
+    with Workers(localhost=args.localhost, domain=args.domain) as workers:
+        note(f"fleet: {servers} server processes x {per} nodes x {params} params = {total} nodes")
+        fleet = [
+            workers.start("server", "--nodes", str(per), "--offset", str(k * per), "--params", str(params))
+            for k in range(servers)
+        ]
+        empty = workers.start("server", "--nodes", "1", "--params", str(params), domain=empty_domain)
+        victims = {
+            kind: workers.start(
+                "server", "--nodes", "1", "--offset", str(total + i), "--params", str(params), *flag
+            )
+            for i, (kind, flag) in enumerate((("native", ()), ("handler", ("--no-native-filter",))))
+        }
+        victims["partition"] = workers.start("partition", "--nodes", "1", "--offset", str(total + 2))
+        everyone = workers.start("partition", "--wildcard")  # every fleet node's partition
+        for w in [*fleet, empty, *victims.values(), everyone]:
+            w.read("READY", 120 + total / 50)
+
+        monitor = workers.start("monitor", "--nodes", str(total), "--timeout", str(60 + total / 100))
+        synced = monitor.read("RESULT", 120 + total / 50)
+
+        note(f"fleet: {rounds} rounds of `paramdds get` in the fleet and in an empty system")
+        get_cmd = cli_command(args.domain, args.localhost)
+        empty_cmd = cli_command(empty_domain, args.localhost)
+        run_timed(get_cmd, env=env)
+        run_timed(empty_cmd, env=env)
+        times: dict[str, list[float]] = {"fleet": [], "empty": []}
+        for r in range(rounds):
+            order = [("fleet", get_cmd), ("empty", empty_cmd)]
+            for key, cmd in order if r % 2 == 0 else order[::-1]:
+                times[key].append(run_timed(cmd, env=env)[0])
+
+        note(f"fleet: {rate} gets/s to fleet nodes for {seconds:g} s; CPU of the two extra servers")
+        qos = QosProfiles.load()
+        dp = make_participant(args.domain, localhost=args.localhost, app_name="bench-fleet")
+        topic = Topic(dp, "GetParametersRequest", wire.GetParametersRequest)
+        writer: Any = DataWriter(dp, topic, qos.writer("GetParametersRequest"))  # status getters: untyped
+        targets = node_names(min(total, 10))  # a few nodes hammered
+        samples = [
+            wire.GetParametersRequest(
+                node_id=n, client_id=0xF1EE7, request_id=i + 1, names=[param_name(0)]
+            ).serialize()
+            for i, n in enumerate(targets)
+        ]
+        deadline = time.monotonic() + 20
+        while writer.get_publication_matched_status().current_count < servers + 2:
+            if time.monotonic() > deadline:
+                raise RuntimeError("fleet: the request writer did not match every server")
+            time.sleep(0.01)
+        readers = writer.get_publication_matched_status().current_count
+        pids = {kind: w.pid for kind, w in victims.items()}
+
+        partitioned = [_partition_writer(dp, qos, [n]) for n in targets]
+
+        def window(via: list[Any] | None) -> tuple[dict[str, float], int, int]:
+            cpu0 = {k: cpu_seconds(p) for k, p in pids.items()}
+            lo0 = lo_tx_bytes()
+            if via:
+                sent = _send_paced(via, samples, rate, seconds)
+            else:
+                time.sleep(seconds)
+                sent = 0
+            time.sleep(0.2)  # let the last requests be handled
+            return {k: cpu_seconds(p) - cpu0[k] for k, p in pids.items()}, lo_tx_bytes() - lo0, sent
+
+        idle_cpu, idle_lo, _ = window(None)
+        busy_cpu, busy_lo, sent = window([writer] * len(samples))
+        _, part_lo, part_sent = window(partitioned)
+        partition_cost = _client_partition_cost(dp, qos, node_names(total), (1, 100, 1000))
+    per_second = {k: max(0.0, busy_cpu[k] - idle_cpu[k]) / seconds for k in pids}
+    bytes_per_request = max(0, busy_lo - idle_lo) / sent if sent else 0.0
+    part_bytes = max(0, part_lo - idle_lo) / part_sent if part_sent else 0.0
+    fleet_ms, empty_ms = median(times["fleet"]), median(times["empty"])
+    data = {
+        "servers": servers,
+        "nodes": total,
+        "params_per_node": params,
+        "synced_ms": round(synced["full_state_ms"], 1),
+        "synced_params": synced["params"],
+        "get_fleet_ms": round(fleet_ms, 1),
+        "get_empty_ms": round(empty_ms, 1),
+        "get_ratio": round(fleet_ms / empty_ms, 2),
+        "foreign_rate": round(sent / seconds),
+        "cpu_native_ms_per_s": round(per_second["native"] * 1000, 1),
+        "cpu_handler_ms_per_s": round(per_second["handler"] * 1000, 1),
+        "cpu_ratio": round(per_second["native"] / per_second["handler"], 2)
+        if per_second["handler"]
+        else None,
+        "request_readers": readers,
+        "lo_bytes_per_request": round(bytes_per_request),
+        "lo_bytes_per_request_per_reader": round(bytes_per_request / readers) if readers else 0,
+        "partition_cpu_ms_per_s": round(per_second["partition"] * 1000, 1),
+        "partition_lo_bytes_per_request": round(part_bytes),
+        "partition_client": partition_cost,
+        "rounds": rounds,
+    }
+    per_reader = data["lo_bytes_per_request_per_reader"]
+    rows = [
+        (
+            f"monitor synced: {total} nodes x {params} params",
+            f"{data['synced_ms']:,} ms",
+            "target <= 3,000 ms",
+        ),
+        (
+            "`paramdds get`: fleet / empty system",
+            f"{fleet_ms:,.0f} / {empty_ms:,.0f} ms",
+            f"{data['get_ratio']}x (target <= 1.2x)",
+        ),
+        (
+            f"one server's CPU under {data['foreign_rate']} foreign gets/s",
+            f"native {data['cpu_native_ms_per_s']} ms/s, handler {data['cpu_handler_ms_per_s']} ms/s",
+            f"{data['cpu_ratio']}x (target <= 0.6x)",
+        ),
+        (
+            f"loopback bytes per request ({readers} request readers)",
+            f"{data['lo_bytes_per_request']:,} B",
+            f"~{per_reader} B per reader: 1 / 10 / 50 servers "
+            f"~ {per_reader:,} / {10 * per_reader:,} / {50 * per_reader:,} B",
+        ),
+    ]
+    rows.append(
+        (
+            "partition per node (not adopted): CPU, bytes",
+            f"{data['partition_cpu_ms_per_s']} ms/s, {data['partition_lo_bytes_per_request']:,} B/request",
+            "foreign requests never reach the process",
+        )
+    )
+    for n, cost in partition_cost.items():
+        rows.append(
+            (
+                f"partition client talking to {n} nodes",
+                f"{cost['writers']} writers, matched in {cost['matched_ms']:,} ms",
+                f"created in {cost['create_ms']:,} ms (paramdds: 3 writers for any number)",
+            )
+        )
+    emit(args, data, render(["measure", "value", "compared"], rows))
+    return 0
+
+
+def _partition_writer(dp: Any, qos: Any, partitions: list[str]) -> Any:
+    from cyclonedds.pub import DataWriter, Publisher
+    from cyclonedds.qos import Policy, Qos
+    from cyclonedds.topic import Topic
+
+    from ..dds import types as wire
+
+    publisher = Publisher(dp, qos=Qos(Policy.Partition(partitions=partitions)))
+    topic = Topic(dp, "GetParametersRequest", wire.GetParametersRequest)
+    return DataWriter(publisher, topic, qos.writer("GetParametersRequest"))
+
+
+def _client_partition_cost(dp: Any, qos: Any, nodes: list[str], counts: tuple[int, ...]) -> dict[str, Any]:
+    """Writers a partition-per-node client needs to talk to ``n`` nodes; time to create and match them."""
+    out: dict[str, Any] = {}
+    for n in counts:
+        if n > len(nodes):
+            continue
+        t0 = time.perf_counter()
+        writers = [_partition_writer(dp, qos, [node]) for node in nodes[:n]]
+        t1 = time.perf_counter()
+        deadline = time.monotonic() + 60
+        pending = list(writers)
+        while pending and time.monotonic() < deadline:
+            pending = [w for w in pending if w.get_publication_matched_status().current_count == 0]
+            time.sleep(0.002)
+        t2 = time.perf_counter()
+        out[str(n)] = {
+            "writers": n,
+            "create_ms": round((t1 - t0) * 1000, 1),
+            "matched_ms": round((t2 - t0) * 1000, 1) if not pending else None,
+        }
+        del writers, pending
+    return out

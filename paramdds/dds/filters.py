@@ -1,0 +1,130 @@
+"""Content-filtered readers: Cyclone drops foreign samples before Python sees them.
+
+A reader gets a Topic entity of its own with a native filter (the optional C
+extension :mod:`paramdds.dds._nodefilter`) installed before the reader is created.
+The filter reads the serialized key from the CDR bytes (XCDR1 or XCDR2) and
+compares it with a table in C memory that :meth:`NativeFilter.set_nodes` replaces
+whole, under a lock no Cyclone call is ever made under, so it can change while
+Cyclone filters. Three kinds:
+
+* ``nodes``: requests whose ``node_id`` is hosted here (servers), in both the
+  canonical and the ``/``-prefixed form;
+* ``client``: replies whose ``client_id`` is this client's;
+* ``presence``: state samples that are a node's presence instance (name ``""``).
+
+Filters only ever *drop* what the handler would drop anyway: what the C code does
+not understand it accepts, and every handler keeps its own check. Where the
+extension is missing (no C compiler at install time) :func:`filtered_topic`
+returns a plain Topic, and :data:`STATUS` says so (logged once, see :func:`status`).
+
+Filtering saves the receiving process's CPU, not the network: a writer still
+sends every request to every matched reader.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterable
+from typing import Any
+
+from cyclonedds.topic import Topic
+
+from ._binding import install_native_filter
+
+try:
+    from . import _nodefilter  # type: ignore[attr-defined]
+except ImportError as exc:  # pragma: no cover - depends on how paramdds was installed
+    _nodefilter = None
+    _MISSING = f"the native filter extension is not built ({exc})"
+else:
+    _MISSING = ""
+
+__all__ = ["NATIVE", "NativeFilter", "disable_native", "filtered_topic", "status"]
+
+log = logging.getLogger(__name__)
+
+NATIVE = _nodefilter is not None
+_warned = False
+
+_MODES = {"nodes": 0, "client": 1, "presence": 2}
+
+
+def status() -> dict[str, object]:
+    """How this process filters: ``{"filter": "native"}`` or ``"handler"`` with the reason."""
+    if NATIVE:
+        return {"filter": "native"}
+    return {"filter": "handler", "reason": _MISSING}
+
+
+def disable_native() -> None:
+    """Filter in the handlers only, from now on, as without the extension (for benchmarks)."""
+    global _nodefilter, _MISSING, NATIVE
+    _nodefilter, NATIVE = None, False
+    _MISSING = "the native filter is disabled"
+
+
+def _warn_once() -> None:
+    global _warned
+    if not _warned:
+        _warned = True
+        log.warning(
+            "%s: every request and reply is decoded and checked in Python "
+            "(reinstall paramdds with a C compiler present to filter in DDS)",
+            _MISSING,
+        )
+
+
+class NativeFilter:
+    """One filter table; install it on any number of topics with :func:`filtered_topic`."""
+
+    def __init__(self, kind: str) -> None:
+        self.kind = kind
+        self._c: Any = _nodefilter.Filter(_MODES[kind]) if _nodefilter is not None else None
+        self._nodes: frozenset[str] = frozenset()
+        if kind == "nodes":
+            self.set_nodes(())
+
+    @property
+    def native(self) -> bool:
+        return self._c is not None
+
+    def set_nodes(self, nodes: Iterable[str] | None) -> None:
+        """Accept exactly these (canonical) node ids; ``None`` accepts every node."""
+        if nodes is None:
+            self._nodes = frozenset()
+            if self._c is not None:
+                self._c.set_ids(None)
+            return
+        self._nodes = frozenset(nodes)
+        if self._c is not None:
+            ids = [form.encode() for node in self._nodes for form in (node, "/" + node)]
+            self._c.set_ids(ids)
+
+    def set_client_id(self, client_id: int) -> None:
+        if self._c is not None:
+            self._c.set_client_id(client_id)
+
+    def check(self, data: bytes) -> bool:
+        """What the filter decides for one serialized sample (header included)."""
+        return True if self._c is None else bool(self._c.check(data))
+
+    def counts(self) -> tuple[int, int, int]:
+        """Samples (accepted, rejected, not understood and so accepted) so far."""
+        if self._c is None:
+            return (0, 0, 0)
+        accepted, rejected, unparsed = self._c.counts()
+        return int(accepted), int(rejected), int(unparsed)
+
+
+def filtered_topic(participant: Any, name: str, data_type: type, flt: NativeFilter) -> Any:
+    """A Topic entity of its own for one reader, with ``flt`` installed when native.
+
+    Create the reader on it right away; the topic keeps ``flt`` alive.
+    """
+    topic: Any = Topic(participant, name, data_type)
+    if flt._c is None:
+        _warn_once()
+        return topic
+    install_native_filter(topic, flt._c.function(), flt._c.argument())
+    topic._paramdds_filter = flt  # the C filter reads flt's memory while the topic has readers
+    return topic
