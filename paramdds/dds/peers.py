@@ -38,7 +38,7 @@ from typing import Any
 
 from cyclonedds.sub import DataReader
 
-from ._binding import live_endpoints
+from ._binding import entity_handle, live_endpoints
 
 __all__ = ["POLICY_NAMES", "PeerMismatch", "PeerWatch"]
 
@@ -97,6 +97,14 @@ class PeerMismatch:
         )
 
 
+def _durability(qos: Any) -> Any:
+    from cyclonedds.qos import Policy
+
+    if Policy.Durability in qos:  # the binding's Qos has no get()
+        return qos[Policy.Durability]
+    return Policy.Durability.Volatile
+
+
 def _by_design(ours: Any, endpoint: Any) -> bool:
     """A volatile request writer and a transient-local assignment reader, which do not match.
 
@@ -107,16 +115,27 @@ def _by_design(ours: Any, endpoint: Any) -> bool:
     """
     from cyclonedds.qos import Policy
 
-    def durability(qos: Any) -> Any:  # the binding's Qos has no get()
-        if Policy.Durability in qos:
-            return qos[Policy.Durability]
-        return Policy.Durability.Volatile
-
-    mine, theirs = durability(ours.get_qos()), durability(endpoint.qos)
+    mine, theirs = _durability(ours.get_qos()), _durability(endpoint.qos)
     return bool(
         ours.topic.name == "SetParametersRequest"
         and {mine, theirs} == {Policy.Durability.Volatile, Policy.Durability.TransientLocal}
     )
+
+
+def _meets_by_design(ours: Any) -> bool:
+    """Whether ``ours`` is one side of the by-design mismatch (see :func:`_by_design`).
+
+    Its statuses count every client (or server) it meets, so they are not polled: a
+    server would look into each new client. A peer of another type on that topic still
+    shows on the endpoints beside it (a server's interactive request reader, a client's
+    get and list writers).
+    """
+    from cyclonedds.qos import Policy
+
+    if ours.topic.name != "SetParametersRequest":
+        return False
+    wanted = Policy.Durability.TransientLocal if isinstance(ours, DataReader) else Policy.Durability.Volatile
+    return bool(_durability(ours.get_qos()) == wanted)
 
 
 class PeerWatch:
@@ -133,6 +152,7 @@ class PeerWatch:
         self._seen: set[str] = set()
         self._found: list[PeerMismatch] = []
         self._counted = 0  # the incompatible-QoS counts already looked into
+        self._polled: dict[int, bool] = {}  # endpoint handle -> whether its statuses are polled
         self._closed = False
 
     def mismatches(self) -> list[PeerMismatch]:
@@ -168,6 +188,11 @@ class PeerWatch:
         try:
             for entity in live_endpoints(self._dp):
                 ep: Any = entity  # the binding's entities are untyped
+                handle = entity_handle(ep)
+                if handle not in self._polled:
+                    self._polled[handle] = not _meets_by_design(ep)
+                if not self._polled[handle]:
+                    continue
                 if isinstance(entity, DataReader):
                     total += ep.get_requested_incompatible_qos_status().total_count
                 else:
