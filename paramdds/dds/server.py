@@ -112,6 +112,9 @@ class ParameterServer:
         self._started = False
         self._closed = False
         self._filter = NativeFilter("nodes")  # the request readers' filter: the nodes hosted here
+        self._twins = NativeFilter("presence")  # other processes' presence of the nodes hosted here
+        self._twins.set_nodes(())
+        self._twins_seen: set[tuple[str, str, int]] = set()
         self.foreign_requests = 0  # requests that reached a handler for a node not hosted here
         self._check: threading.Thread | None = None
         self._last_tick = time.monotonic()
@@ -159,6 +162,7 @@ class ParameterServer:
             self._workers[node_id] = worker
             self._tables[node_id] = table
             self._filter.set_nodes(self._tables)
+            self._twins.set_nodes(self._tables)
             retained = self._retained.pop(node_id, [])
         for request in retained:  # assignments that arrived before this node was hosted
             worker.submit(partial(self._handle_set, worker, request, reply=False))
@@ -169,6 +173,7 @@ class ParameterServer:
             table = self._tables.pop(node_id)
             worker = self._workers.pop(node_id)
             self._filter.set_nodes(self._tables)
+            self._twins.set_nodes(self._tables)
         worker.close(timeout=2.0)
         for name in [*table.names(), ""]:
             self._state_writer.unregister_instance(wire.ParameterEvent(node_id=node_id, name=name))
@@ -183,33 +188,60 @@ class ParameterServer:
         topic = Topic(self._dp, "SetParametersRequest", wire.SetParametersRequest)
         reader = DataReader(self._dp, topic, self._qos.assignment_reader())
         self._dispatcher.add(reader, self._on_assignment)
+        if self._twins.native:  # other processes' presence of our nodes, and nothing else
+            twins = filtered_topic(self._dp, "ParameterEvents", wire.ParameterEvent, self._twins)
+            reader = DataReader(self._dp, twins, self._twin_qos())
+            self._dispatcher.add_raw(reader, _decode_presence, self._on_twins)
         self._last_tick = time.monotonic()
         self._dispatcher.start()
         self._started = True
-        nodes = set(self._tables)
-        self._check = threading.Thread(
-            target=self._warn_if_hosted_elsewhere, args=(nodes,), name="paramdds-twin-check", daemon=True
-        )
-        self._check.start()
+        if not self._twins.native:  # without the filter, following presence would cost every change
+            nodes = set(self._tables)
+            self._check = threading.Thread(
+                target=self._warn_if_hosted_elsewhere, args=(nodes,), name="paramdds-twin-check", daemon=True
+            )
+            self._check.start()
         return self
 
+    def _twin_qos(self) -> Qos:
+        # every writer's presence (a twin's among them), not our own process's samples:
+        # they are many (hosting) and never a twin
+        qos: Qos = self._qos.reader("ParameterEvents") + Qos(
+            Policy.History.KeepLast(4), Policy.IgnoreLocal.Process
+        )
+        return qos
+
+    def _on_twins(self, samples: Sequence[tuple[Any, Any]]) -> None:
+        """Presence of one of our nodes written by another process: warn, once per process."""
+        for sample, _ in samples:
+            if sample is not None and sample.node_id in self._tables:
+                self._warn_twin(sample.node_id, sample.host, sample.pid)
+
+    def _warn_twin(self, node: str, host: str, pid: int) -> None:
+        if (host, pid) == (self._host, self._pid) or (node, host, pid) in self._twins_seen:
+            return
+        self._twins_seen.add((node, host, pid))
+        log.warning(
+            "node %r is also hosted by pid %d on %s: two processes serve one node id and "
+            "requests reach both; stop one of them",
+            node,
+            pid,
+            host,
+        )
+
     def _warn_if_hosted_elsewhere(self, nodes: set[str], seconds: float = DUPLICATE_CHECK) -> None:
-        """Once, at start: warn loudly when another process already hosts one of ``nodes``.
+        """Without the native filter, once, at start: warn when another process hosts one of ``nodes``.
 
         Reads the retained presence samples for a short while with a reader of its own,
-        then drops it (a server does not follow other servers' state for good: that would
-        cost every server every change in the system). Monitors and ``paramdds nodes``
-        detect the same thing at any time.
+        then drops it (without the filter, following other servers' state for good would
+        cost every server every change in the system). With the filter a server follows
+        only other processes' presence of its own nodes, for good (:meth:`_on_twins`).
+        Monitors and ``paramdds nodes`` detect the same thing at any time.
         """
         try:
             reader = DataReader(
-                self._dp,
-                Topic(self._dp, "ParameterEvents", wire.ParameterEvent),
-                # not our own process's samples: they are many (hosting) and never a twin
-                self._qos.reader("ParameterEvents")
-                + Qos(Policy.History.KeepLast(4), Policy.IgnoreLocal.Process),
+                self._dp, Topic(self._dp, "ParameterEvents", wire.ParameterEvent), self._twin_qos()
             )
-            seen: set[tuple[str, str, int]] = set()
             deadline = time.monotonic() + seconds
             while time.monotonic() < deadline and not self._closed:
                 for data, info in take_serialized(
@@ -221,18 +253,8 @@ class ParameterServer:
                         sample = decode_state(data)
                     except MalformedSample:
                         continue
-                    other = (sample.node_id, sample.host, sample.pid)
-                    if sample.name or sample.node_id not in nodes or other in seen:
-                        continue
-                    if (sample.host, sample.pid) != (self._host, self._pid):
-                        seen.add(other)
-                        log.warning(
-                            "node %r is also hosted by pid %d on %s: two processes serve one node id and "
-                            "requests reach both; stop one of them",
-                            sample.node_id,
-                            sample.pid,
-                            sample.host,
-                        )
+                    if not sample.name and sample.node_id in nodes:
+                        self._warn_twin(sample.node_id, sample.host, sample.pid)
                 time.sleep(0.05)
         except Exception as exc:  # the participant closed under us, or DDS failed: only a check
             log.debug("the duplicate-host check ended: %s", exc)
@@ -602,3 +624,11 @@ def _summary(response: Any) -> str:
     if response.code:
         return f"{response.code}: {response.reason}"
     return "; ".join(f"{r.name}: {r.reason}" for r in response.results if not r.successful)
+
+
+def _decode_presence(data: bytes, info: Any) -> Any:
+    """A presence sample's (node_id, host, pid), or None for anything else (key-only samples)."""
+    if not info.valid_data:
+        return None
+    sample = decode_state(data)
+    return None if sample.name else sample
