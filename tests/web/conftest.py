@@ -13,6 +13,8 @@ import httpx
 import pytest
 from playwright.sync_api import expect
 
+from paramdds.bench.web import CHROMIUM_FLAGS
+
 from ..cli._support import Proc, next_domain, start_server
 from ._support import CONSOLE_PARAMS, Console
 
@@ -60,16 +62,6 @@ def wait_for_nodes(url: str, nodes: set[str], params: int = 9, timeout: float = 
 
 expect.set_options(timeout=15_000)  # a loaded 2-core CI machine; a passing check returns at once
 
-CHROMIUM_FLAGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-]
 
 
 def chromium_path() -> str:
