@@ -17,6 +17,8 @@ measured reason:
 * :func:`read_new_infos` reads the sample infos of samples not read before
   (``ddspy_read``) without decoding them: how the client's discovery watch sees
   which state writers have delivered, at no decoding cost;
+* :func:`matched_publications` and :func:`matched_subscriptions` work around a race
+  in the binding's matched-endpoint lists (a match while it asks raises IndexError);
 * :func:`entity_handle` is the C handle of an entity (``_ref``), for calls into
   Cyclone's C API;
 * :func:`live_endpoints` lists the readers and writers of a participant that exist
@@ -59,6 +61,8 @@ __all__ = [
     "install_type_data",
     "installed_version",
     "live_endpoints",
+    "matched_publications",
+    "matched_subscriptions",
     "read_new_infos",
     "take_serialized",
     "unregister_serialized",
@@ -67,6 +71,7 @@ __all__ = [
     "write_serialized",
 ]
 
+_MATCH_RETRIES = 8  # attempts at a matched-endpoint list while endpoints keep matching
 SUPPORTED_VERSION = "11.0"  # major.minor of cyclonedds-python these calls were written against
 
 
@@ -125,6 +130,31 @@ def live_endpoints(participant: Any) -> list[Any]:
             except DDSException:  # deleted meanwhile
                 continue
     return found
+
+
+def matched_publications(reader: Any) -> list[int]:
+    """``reader.get_matched_publications()``, safe against a writer matching meanwhile.
+
+    The binding asks Cyclone for the count, allocates an array of that size and asks
+    again; a match in between makes the second answer larger than the array, and the
+    binding raises ``IndexError("invalid index")``. Asked again, the count is current.
+    """
+    for _ in range(_MATCH_RETRIES):
+        try:
+            return list(reader.get_matched_publications())
+        except IndexError:
+            continue
+    return list(reader.get_matched_publications())
+
+
+def matched_subscriptions(writer: Any) -> list[int]:
+    """``writer.get_matched_subscriptions()``, safe like :func:`matched_publications`."""
+    for _ in range(_MATCH_RETRIES):
+        try:
+            return list(writer.get_matched_subscriptions())
+        except IndexError:
+            continue
+    return list(writer.get_matched_subscriptions())
 
 
 def take_serialized(reader: Any, mask: int, count: int) -> list[tuple[bytes, Any]]:

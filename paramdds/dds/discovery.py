@@ -62,7 +62,7 @@ from typing import Any
 from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsParticipant
 from cyclonedds.core import DDSException, Entity, InstanceState, ReadCondition, SampleState, ViewState
 
-from ._binding import read_new_infos
+from ._binding import matched_publications, read_new_infos
 
 log = logging.getLogger(__name__)
 
@@ -192,7 +192,7 @@ class DiscoveryWatch:
         self._read_deliveries()
         try:
             # the binding gives these handles signed, sample infos unsigned
-            matched = {h & _U64 for h in self._reader.get_matched_publications()}
+            matched = {h & _U64 for h in matched_publications(self._reader)}
         except DDSException:
             matched = set()
         matches = [len(matched)]

@@ -38,7 +38,7 @@ from typing import Any
 
 from cyclonedds.sub import DataReader
 
-from ._binding import entity_handle, live_endpoints
+from ._binding import entity_handle, live_endpoints, matched_publications, matched_subscriptions
 
 __all__ = ["POLICY_NAMES", "PeerMismatch", "PeerWatch"]
 
@@ -258,13 +258,13 @@ class PeerWatch:
             if isinstance(entity, DataReader):
                 status = ep.get_requested_incompatible_qos_status()
                 if status.total_count:
-                    pubs = ep.get_matched_publications()
+                    pubs = matched_publications(ep)
                     matched = {str(ep.get_matched_publication_data(h).key) for h in pubs}
                     self._report(ep, "writer", matched, status.last_policy_id)
             else:
                 status = ep.get_offered_incompatible_qos_status()
                 if status.total_count:
-                    subs = ep.get_matched_subscriptions()
+                    subs = matched_subscriptions(ep)
                     matched = {str(ep.get_matched_subscription_data(h).key) for h in subs}
                     self._report(ep, "reader", matched, status.last_policy_id)
 

@@ -35,3 +35,22 @@ def test_another_version_fails_at_import_naming_both(monkeypatch: pytest.MonkeyP
         _binding._check_version()
     monkeypatch.setattr(_binding, "installed_version", lambda: "11.0.7")
     _binding._check_version()  # a patch release of the supported version is fine
+
+
+class _Racing:
+    """A reader whose matched list grows while the binding reads it, ``fails`` times."""
+
+    def __init__(self, fails: int) -> None:
+        self.fails = fails
+
+    def get_matched_publications(self) -> list[int]:
+        if self.fails:
+            self.fails -= 1
+            raise IndexError("invalid index")  # what the binding raises then
+        return [7, 8]
+
+
+def test_a_match_while_the_binding_lists_matches_is_asked_again() -> None:
+    assert _binding.matched_publications(_Racing(fails=3)) == [7, 8]
+    with pytest.raises(IndexError):  # a list that never settles is not hidden
+        _binding.matched_publications(_Racing(fails=100))
