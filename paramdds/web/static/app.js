@@ -445,7 +445,9 @@ function openStream() {
   const es = new EventSource("/api/events" + (S.selected ? "?node=" + encodeURIComponent(S.selected) : ""));
   S.es = es;
   const state = $("#stream-state");
-  es.onopen = () => { state.textContent = "live"; state.classList.add("live"); };
+  // read the list again once subscribed: a node that appeared between the last read and
+  // the subscription would otherwise stay missing until it changes
+  es.onopen = () => { state.textContent = "live"; state.classList.add("live"); scheduleNodes(0); };
   es.onerror = () => { state.textContent = "reconnecting…"; state.classList.remove("live"); };
   es.addEventListener("node", (m) => {
     const d = JSON.parse(m.data);
