@@ -283,7 +283,9 @@ class ParameterServer:
         assert_liveliness(self._state_writer)
         now = time.monotonic()
         late, self._last_tick = now - self._last_tick, now
-        if late > LEASE:
+        # a gap near the lease may already have let a monitor's lease run out (it starts on
+        # receipt, its check runs on its own clock): write presence again with a margin
+        if late > 0.75 * LEASE:
             self._present_again(late)
         poll_peers(self._dp)
         for worker in list(self._workers.values()):
@@ -298,7 +300,7 @@ class ParameterServer:
                 self._state_writer.unregister_instance(wire.ParameterEvent(node_id=node, name=""))
 
     def _present_again(self, late: float) -> None:
-        """After the whole loop stalled past the lease: write every node's presence again.
+        """After the whole loop stalled near or past the lease: write every node's presence again.
 
         The process was stopped (SIGSTOP, a debugger) or starved, so its liveliness
         lapsed and every monitor marked its nodes offline. Asserting liveliness again
