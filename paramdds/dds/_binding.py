@@ -139,22 +139,21 @@ def matched_publications(reader: Any) -> list[int]:
     again; a match in between makes the second answer larger than the array, and the
     binding raises ``IndexError("invalid index")``. Asked again, the count is current.
     """
-    for _ in range(_MATCH_RETRIES):
-        try:
-            return list(reader.get_matched_publications())
-        except IndexError:
-            continue
-    return list(reader.get_matched_publications())
+    return _settled(reader.get_matched_publications)
 
 
 def matched_subscriptions(writer: Any) -> list[int]:
     """``writer.get_matched_subscriptions()``, safe like :func:`matched_publications`."""
+    return _settled(writer.get_matched_subscriptions)
+
+
+def _settled(listing: Any) -> list[int]:
     for _ in range(_MATCH_RETRIES):
         try:
-            return list(writer.get_matched_subscriptions())
+            return list(listing())
         except IndexError:
             continue
-    return list(writer.get_matched_subscriptions())
+    return list(listing())
 
 
 def take_serialized(reader: Any, mask: int, count: int) -> list[tuple[bytes, Any]]:
