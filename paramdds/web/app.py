@@ -46,7 +46,7 @@ from ..errors import ErrorCode, FileFormatError, ParamddsError
 from .guard import LOOPBACK_NAMES, Guard, error_response
 from .hub import Hub, sse
 from .inputs import bool_field, file_entries, int_arg, node_arg, read_body, revision_field
-from .model import Row, checked, parameter_row, result_row, typed_values
+from .model import Row, checked, parameter_row, result_row, summary_json, typed_values
 from .status import WebCode, WebError, code_of, error_body, status_of
 from .view import NodeDetail, StateView
 
@@ -140,7 +140,7 @@ class Console:
         limit = int_arg(request, "limit", 50, 1, PAGE_LIMIT)
         page = self.view.page(query, offset, limit)
         return JSONResponse(
-            {"total": page.total, "offset": page.offset, "nodes": [s.to_json() for s in page.nodes]}
+            {"total": page.total, "offset": page.offset, "nodes": [summary_json(s) for s in page.nodes]}
         )
 
     async def node(self, request: Request) -> Response:
@@ -154,7 +154,7 @@ class Console:
           404: {description: NOT_FOUND (unknown node)}
         """
         detail = self._detail(node_arg(request.query_params.get("node")))
-        return JSONResponse({"summary": detail.summary.to_json(), "rows": self._rows(detail)})
+        return JSONResponse({"summary": summary_json(detail.summary), "rows": self._rows(detail)})
 
     async def dump(self, request: Request) -> Response:
         """A node as a parameter file.
@@ -205,7 +205,7 @@ class Console:
                         "node",
                         {
                             "node": node,
-                            "summary": detail.summary.to_json() if detail else None,
+                            "summary": summary_json(detail.summary) if detail else None,
                             "rows": self._rows(detail) if detail else [],
                         },
                     )
@@ -353,7 +353,7 @@ class Console:
         if code == ErrorCode.CONFLICT.value:
             detail = self.view.detail(node)  # the newer values the page shows instead of overwriting
             if detail is not None:
-                body["summary"] = detail.summary.to_json()
+                body["summary"] = summary_json(detail.summary)
                 body["rows"] = self._rows(detail)
         return JSONResponse(body, status_code=status_of(code))
 

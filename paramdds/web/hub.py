@@ -26,7 +26,7 @@ import time
 from dataclasses import dataclass, field
 
 from ..dds.monitor import EventKind, MonitorEvent
-from .model import Row, parameter_row
+from .model import Row, parameter_row, summary_json
 from .view import StateView
 
 FLUSH_DELAY = 0.015  # seconds a burst may gather before it is sent
@@ -123,7 +123,7 @@ class Hub:
         if len(changed) > MAX_NODE_UPDATES:
             nodes_message = sse("nodes", {"refresh": True})
         else:
-            nodes_message = sse("nodes", {"nodes": [s.to_json() for s in self._view.summaries(changed)]})
+            nodes_message = sse("nodes", {"nodes": [summary_json(s) for s in self._view.summaries(changed)]})
         shown = [e for e in events if e.event is not EventKind.SYNCED][-LOG_LIMIT:]
         log_message = sse(
             "log", {"events": [log_entry(e) for e in shown], "skipped": len(events) - len(shown)}
@@ -154,7 +154,7 @@ class Hub:
             "params",
             {
                 "node": node,
-                "summary": summaries[0].to_json() if summaries else None,
+                "summary": summary_json(summaries[0]) if summaries else None,
                 "rows": list(rows.values()),
                 "deleted": list(deleted),
             },

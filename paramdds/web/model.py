@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import asdict
 
 from ..cli._output import json_descriptor, json_value
 from ..core.descriptors import ParameterDescriptor
@@ -29,6 +29,7 @@ from ..core.names import validate_name
 from ..core.results import SetResult
 from ..core.validation import validate
 from ..core.values import ParameterType, ParameterValue
+from ..dds.client import NodeInfo
 from ..errors import InvalidValueError, TypeMismatchError
 
 Row = dict[str, object]
@@ -36,24 +37,9 @@ _HEX = re.compile(r"^(?:0x)?((?:[0-9a-fA-F]{2})*)$")
 _NON_FINITE = {"nan": math.nan, "inf": math.inf, "-inf": -math.inf}
 
 
-@dataclass(frozen=True)
-class NodeSummary:
-    node: str
-    online: bool
-    host: str
-    pid: int
-    revision: int
-    parameters: int
-
-    def to_json(self) -> Row:
-        return {
-            "node": self.node,
-            "online": self.online,
-            "host": self.host,
-            "pid": self.pid,
-            "revision": self.revision,
-            "parameters": self.parameters,
-        }
+def summary_json(info: NodeInfo) -> Row:
+    """A node's line in the node list: the client's :class:`NodeInfo` as JSON."""
+    return asdict(info)
 
 
 def parameter_row(name: str, value: ParameterValue, descriptor: ParameterDescriptor | None) -> Row:

@@ -21,7 +21,8 @@ from typing import TYPE_CHECKING, TypeVar
 
 from ..core.descriptors import ParameterDescriptor
 from ..core.values import ParameterValue
-from .model import NodeSummary, matches
+from ..dds.client import NodeInfo
+from .model import matches
 
 if TYPE_CHECKING:
     from ..dds.monitor import NodeState, ParameterMonitor
@@ -34,12 +35,12 @@ Table = dict[str, tuple[ParameterValue, ParameterDescriptor]]
 class NodePage:
     total: int  # nodes matching the query
     offset: int
-    nodes: list[NodeSummary]
+    nodes: list[NodeInfo]
 
 
 @dataclass(frozen=True)
 class NodeDetail:
-    summary: NodeSummary
+    summary: NodeInfo
     parameters: Table
 
 
@@ -70,10 +71,10 @@ class StateView:
         self._monitor.wait_until(take, 0.0)
         return out[0]
 
-    def _summary(self, st: NodeState) -> NodeSummary:
+    def _summary(self, st: NodeState) -> NodeInfo:
         with self._lock:
             revision = max(st.revision, self._revisions.get(st.node, -1))
-        return NodeSummary(st.node, st.online, st.host, st.pid, revision, len(st.parameters))
+        return NodeInfo(st.node, st.online, st.host, st.pid, revision, len(st.parameters))
 
     def page(self, query: str, offset: int, limit: int) -> NodePage:
         def build(states: dict[str, NodeState]) -> NodePage:
@@ -83,8 +84,8 @@ class StateView:
 
         return self._peek(build)
 
-    def summaries(self, nodes: list[str]) -> list[NodeSummary]:
-        def build(states: dict[str, NodeState]) -> list[NodeSummary]:
+    def summaries(self, nodes: list[str]) -> list[NodeInfo]:
+        def build(states: dict[str, NodeState]) -> list[NodeInfo]:
             return [self._summary(states[n]) for n in nodes if n in states]
 
         return self._peek(build)
