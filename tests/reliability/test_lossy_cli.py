@@ -25,7 +25,6 @@ from __future__ import annotations
 import json
 import statistics
 import subprocess
-import sys
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -86,9 +85,7 @@ def test_fresh_cli_pairs_on_a_lossy_link_never_report_a_present_node_absent(
     params = tmp_path / "lanes.yaml"
     params.write_text(_params(LANES))
     hosts.drop_in_client(DROP_PERCENT)
-    server = Proc(hosts.exec(0, PARAMDDS, "server", "-n", NODE, "-p", str(params)), hosts.env(0, domain_id))
-    procs.append(server)
-    server.wait_for("[SERVER] Serving node", timeout=20)
+    hosts.serve(domain_id, NODE, params, procs)
 
     failures: list[str] = []
     times: list[float] = []
@@ -140,19 +137,9 @@ def test_fresh_api_clients_on_a_lossy_link_never_report_a_present_node_absent(
     """The API's presence rule and ``wait_for_node``: a new participant and client per round."""
     hosts = lossy_hosts
     hosts.drop_in_client(DROP_PERCENT)
-    argv = hosts.exec(0, PARAMDDS, "server", "-n", NODE, "-p", str(params_file))
-    server = Proc(argv, hosts.env(0, domain_id))
-    procs.append(server)
-    server.wait_for("[SERVER] Serving node", timeout=20)
-    run = subprocess.run(
-        hosts.exec(1, sys.executable, FRESH_CLIENTS, NODE, "robot.wheel_count", "4", str(API_ROUNDS)),
-        env=hosts.env(1, domain_id),
-        capture_output=True,
-        text=True,
-        timeout=280,
-    )
-    assert run.returncode == 0, run.stderr[-2000:]
-    seen = json.loads(run.stdout.strip().splitlines()[-1])
+    hosts.serve(domain_id, NODE, params_file, procs)
+    args = (NODE, "robot.wheel_count", "4", str(API_ROUNDS))
+    seen = hosts.run_script(domain_id, FRESH_CLIENTS, *args, timeout=280)
     assert hosts.dropped() > 50, "the loss rule dropped (almost) nothing: the test proved nothing"
     assert seen["errors"] == [], seen["errors"][:5]
     assert len(seen["seconds"]) == API_ROUNDS

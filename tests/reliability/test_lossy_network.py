@@ -21,6 +21,7 @@ import subprocess
 import sys
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -102,6 +103,26 @@ class Hosts:
     def exec(self, side: int, *argv: str) -> list[str]:
         return ["ip", "netns", "exec", self.ns[side], *argv]
 
+    def serve(self, domain: int, node: str, params: Path, procs: list[Proc]) -> Proc:
+        """A ``paramdds server`` for ``node`` on the server side, serving when this returns."""
+        server = Proc(self.exec(0, PARAMDDS, "server", "-n", node, "-p", str(params)), self.env(0, domain))
+        procs.append(server)
+        server.wait_for("[SERVER] Serving node", timeout=20)
+        return server
+
+    def run_script(self, domain: int, script: str, *args: str, timeout: float) -> dict[str, Any]:
+        """Run a Python script on the client side; the JSON object its last line prints."""
+        run = subprocess.run(
+            self.exec(1, sys.executable, script, *args),
+            env=self.env(1, domain),
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+        )
+        assert run.returncode == 0, run.stderr[-2000:]
+        seen: dict[str, Any] = json.loads(run.stdout.strip().splitlines()[-1])
+        return seen
+
 
 def _why_not() -> str | None:
     if os.geteuid() != 0:
@@ -135,21 +156,8 @@ def test_lossy_network_requests_complete_and_late_monitor_gets_full_state(
     hosts: Hosts, domain_id: int, params_file: Path, procs: list[Proc]
 ) -> None:
     hosts.drop_in_client(DROP_PERCENT)
-    server = Proc(
-        hosts.exec(0, PARAMDDS, "server", "-n", NODE, "-p", str(params_file)), hosts.env(0, domain_id)
-    )
-    procs.append(server)
-    server.wait_for("[SERVER] Serving node", timeout=20)
-
-    run = subprocess.run(
-        hosts.exec(1, sys.executable, PEER, NODE, str(REQUESTS)),
-        env=hosts.env(1, domain_id),
-        capture_output=True,
-        text=True,
-        timeout=100,
-    )
-    assert run.returncode == 0, run.stderr[-2000:]
-    seen = json.loads(run.stdout.strip().splitlines()[-1])
+    hosts.serve(domain_id, NODE, params_file, procs)
+    seen = hosts.run_script(domain_id, PEER, NODE, str(REQUESTS), timeout=100)
     assert seen["errors"] == [], seen["errors"][:5]
     assert seen["slowest"] <= 5.0
     assert seen["monitor_complete"], seen
