@@ -59,7 +59,7 @@ def run_nodes(args: argparse.Namespace) -> int:
         if not settle(monitor, started, min(args.timeout, NODES_SETTLE), lambda: last[0]):
             log.warning("the node list may be incomplete: discovery did not settle in time")
         states = monitor.snapshot()
-    rows = [
+    rows: list[dict[str, object]] = [
         {
             "node": st.node,
             "online": st.online,
@@ -68,6 +68,7 @@ def run_nodes(args: argparse.Namespace) -> int:
             "pid": st.pid,
             "revision": st.revision,
             "also_hosted_by": list(st.duplicates),  # other processes hosting the same node id
+            "request_filter": st.request_filter,  # "native", "handler", or None: the server does not say
         }
         for st in sorted(states.values(), key=lambda st: st.node)
         if st.online

@@ -58,7 +58,7 @@ from .cdr import is_malformed
 from .convert import descriptor_from_wire, parameter_to_wire, value_from_wire
 from .discovery import MIN_QUIET, DiscoveryState, DiscoveryWatch, Presence
 from .dispatch import Dispatcher
-from .filters import NativeFilter, filtered_topic
+from .filters import NativeFilter, filtered_topic, request_filter_of
 from .participant import peer_mismatches
 from .qos import QosProfiles
 
@@ -82,6 +82,7 @@ class NodeInfo:
     pid: int
     revision: int
     parameters: int
+    request_filter: str | None = None  # how the server filters requests: "native", "handler", or unsaid
 
 
 @dataclass(frozen=True)
@@ -554,4 +555,13 @@ def _node_info(sample: Any) -> NodeInfo | None:
     if not info.valid_data or is_malformed(sample) or sample.kind != wire.EVENT_PRESENCE:
         return None
     online = info.instance_state == InstanceState.Alive
-    return NodeInfo(sample.node_id, online, sample.host, sample.pid, sample.revision, sample.parameter_count)
+    tags = sample.value.string_array_value  # the server's tags, if it writes any
+    return NodeInfo(
+        sample.node_id,
+        online,
+        sample.host,
+        sample.pid,
+        sample.revision,
+        sample.parameter_count,
+        request_filter_of(tags),
+    )

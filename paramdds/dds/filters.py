@@ -39,7 +39,15 @@ except ImportError as exc:  # pragma: no cover - depends on how paramdds was ins
 else:
     _MISSING = ""
 
-__all__ = ["NATIVE", "NativeFilter", "disable_native", "filtered_topic", "status"]
+__all__ = [
+    "NATIVE",
+    "NativeFilter",
+    "disable_native",
+    "filter_tag",
+    "filtered_topic",
+    "request_filter_of",
+    "status",
+]
 
 log = logging.getLogger(__name__)
 
@@ -54,6 +62,23 @@ def status() -> dict[str, object]:
     if NATIVE:
         return {"filter": "native"}
     return {"filter": "handler", "reason": _MISSING}
+
+
+_TAG = "request_filter="
+
+
+def filter_tag(native: bool) -> str:
+    """How a server's presence says it filters requests: one item of its presence value."""
+    return _TAG + ("native" if native else "handler")
+
+
+def request_filter_of(tags: Iterable[object]) -> str | None:
+    """``"native"`` or ``"handler"`` from a presence value's tags; None if the node does not say
+    (a foreign or older server: its presence carries no value)."""
+    for tag in tags:
+        if isinstance(tag, str) and tag.startswith(_TAG):
+            return tag[len(_TAG) :]
+    return None
 
 
 def disable_native() -> None:

@@ -61,14 +61,14 @@ from ..core.limits import MAX_PARAMETERS_PER_REQUEST
 from ..core.names import canonical_node_id
 from ..core.results import ChangeKind, ChangeSet, SetResult
 from ..core.table import ParameterTable
-from ..core.values import Parameter
+from ..core.values import Parameter, ParameterType
 from ..errors import ErrorCode, ParamddsError
 from . import types as wire
 from ._binding import assert_liveliness, take_serialized, write_serialized
 from .cdr import MalformedSample, encode
 from .convert import descriptor_to_wire, parameter_from_wire, state_descriptor_to_wire, value_to_wire
 from .dispatch import SERIALIZED, Dispatcher
-from .filters import NativeFilter, filtered_topic
+from .filters import NativeFilter, filter_tag, filtered_topic
 from .node_worker import NodeWorker
 from .participant import poll_peers
 from .qos import QosProfiles
@@ -113,6 +113,11 @@ class ParameterServer:
         self._closed = False
         self._filter = NativeFilter("nodes")  # the request readers' filter: the nodes hosted here
         self._twins = NativeFilter("presence")  # other processes' presence of the nodes hosted here
+        # what the presence value says about this server (a string array of name=value tags)
+        tags = [filter_tag(self._filter.native)]
+        self._presence_tags = wire.ParameterValue(
+            type=int(ParameterType.STRING_ARRAY), string_array_value=tags
+        )
         self._twins.set_nodes(())
         self._twins_seen: set[tuple[str, str, int]] = set()
         self.foreign_requests = 0  # requests that reached a handler for a node not hosted here
@@ -349,6 +354,7 @@ class ParameterServer:
                 host=self._host,
                 pid=self._pid,
                 parameter_count=len(table),
+                value=self._presence_tags,
             )
         )
 

@@ -23,6 +23,8 @@ MAX_KEY_LEN = 255  # bytes of UTF-8, for node ids and parameter names (written a
 # ParameterEvent.kind
 EVENT_PARAMETER = 0  # one parameter's current value and descriptor
 EVENT_PRESENCE = 1  # the node itself: host, pid, revision, parameter count; name is ""
+# a presence sample's value: NOT_SET, or a string array of "name=value" tags about the server
+# ("request_filter=native" or "=handler", see filters.filter_tag); readers ignore tags they do not know
 
 
 @fast_cdr

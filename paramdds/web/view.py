@@ -74,7 +74,7 @@ class StateView:
     def _summary(self, st: NodeState) -> NodeInfo:
         with self._lock:
             revision = max(st.revision, self._revisions.get(st.node, -1))
-        return NodeInfo(st.node, st.online, st.host, st.pid, revision, len(st.parameters))
+        return NodeInfo(st.node, st.online, st.host, st.pid, revision, len(st.parameters), st.request_filter)
 
     def page(self, query: str, offset: int, limit: int) -> NodePage:
         def build(states: dict[str, NodeState]) -> NodePage:

@@ -21,6 +21,8 @@ from pathlib import Path
 
 import pytest
 
+from paramdds.dds import filters
+
 from ._support import SEED_PARAMS, Proc, next_domain, run_cli
 
 ROS_PARAMS = """\
@@ -188,8 +190,10 @@ def test_nodes_json_lists_every_live_node(c: Cluster) -> None:
         "pid",
         "revision",
         "also_hosted_by",
+        "request_filter",
     }
     assert by_name["robot1"]["also_hosted_by"] == []
+    assert by_name["robot1"]["request_filter"] == ("native" if filters.NATIVE else "handler")
     assert by_name["robot1"]["online"] is True and by_name["robot1"]["parameters"] == 18
     assert by_name["robot1"]["pid"] == by_name["robot2"]["pid"] == c.procs[0].popen.pid
 

@@ -71,6 +71,8 @@ def test_foreign_requests_never_reach_the_handler(dds: DdsSession) -> None:
     client = dds.client(timeout=5.0)
     writer = raw_get_writer(client._dp)
     assert client.get_value("a", "x") == ParameterValue.from_python(1)  # matched and served
+    info = client.node_info("a")
+    assert info is not None and info.request_filter == "native"  # what `paramdds nodes -o json` shows
 
     send_foreign(writer, FOREIGN)
     assert client.get_value("a", "x") == ParameterValue.from_python(1)  # sent after them: all delivered
@@ -170,3 +172,8 @@ def test_without_the_extension_the_handler_filters_and_says_so_once(
     send_foreign(raw_get_writer(client._dp), 50)
     assert client.get_value("a", "x") == ParameterValue.from_python(1)
     assert wait_until(lambda: server.foreign_requests == 50, timeout=5.0)  # seen, and dropped
+    info = client.node_info("a")
+    assert info is not None and info.request_filter == "handler"
+    monitor = dds.monitor()
+    assert monitor.wait_complete(["a"], 5.0)
+    assert monitor.snapshot()["a"].request_filter == "handler"  # the row of `paramdds nodes -o json`

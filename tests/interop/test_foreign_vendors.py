@@ -181,12 +181,12 @@ def test_a_foreign_node_is_served_by_the_paramdds_tools(
         rows: list[Any] = []
         for _ in range(5):
             rows = [
-                (n["node"], n["online"], n["parameters"], n["pid"])
+                (n["node"], n["online"], n["parameters"], n["pid"], n["request_filter"])
                 for n in json.loads(_run([PARAMDDS, "nodes", "-o", "json"], cli_env).stdout)
             ]
             if rows:
                 break
-        assert rows == [("fnode", True, 4, node.proc.pid)]
+        assert rows == [("fnode", True, 4, node.proc.pid, None)]  # its presence says nothing of filtering
         got = _run([PARAMDDS, "get", "fnode", f"{p}speed", f"{p}count", "-o", "json"], cli_env)
         assert (got.returncode, json.loads(got.stdout)) == (0, {f"{p}speed": 1.5, f"{p}count": 3}), got.stderr
         listed = _run([PARAMDDS, "list", "fnode", "-o", "json"], cli_env)
