@@ -21,6 +21,10 @@ with ``--params`` parameters (default 20, in the proportions of real files, see
   (``unshare -n sh -c 'ip link set lo up && paramdds bench fleet …'``) for a clean
   count. The per-reader figure (divided by the matched server processes) is what
   extrapolates to 1, 10 or 50 of them.
+* ``network by servers``: the same count measured, not extrapolated, as the number of
+  processes reading requests grows: in a domain of its own, 1, then 10, then 50
+  server processes (1 node each; 1 and 2 with ``--quick``), and gets sent to the
+  first one's node at ``--rate``. Each count gets its own idle and traffic window.
 * ``partition``: the alternative that keeps foreign traffic off the process and
   the network (measured, not adopted): a process reads requests through a
   subscriber whose partitions are its node ids, and a client needs a publisher
@@ -173,6 +177,9 @@ def run(args: argparse.Namespace) -> int:
         busy_cpu, busy_lo, sent = window([writer] * len(samples))
         _, part_lo, part_sent = window(partitioned)
         partition_cost = _client_partition_cost(dp, qos, node_names(total), (1, 100, 1000))
+        net_domain = args.domain + 2 if args.domain < 231 else args.domain - 2
+        counts = (1, 2) if quick else (1, 10, 50)
+        by_servers = _bytes_by_servers(workers, net_domain, args.localhost, counts, rate)
     per_second = {k: max(0.0, busy_cpu[k] - idle_cpu[k]) / seconds for k in pids}
     bytes_per_request = max(0, busy_lo - idle_lo) / sent if sent else 0.0
     part_bytes = max(0, part_lo - idle_lo) / part_sent if part_sent else 0.0
@@ -198,6 +205,7 @@ def run(args: argparse.Namespace) -> int:
         "partition_cpu_ms_per_s": round(per_second["partition"] * 1000, 1),
         "partition_lo_bytes_per_request": round(part_bytes),
         "partition_client": partition_cost,
+        "lo_bytes_per_request_by_servers": by_servers,
         "rounds": rounds,
     }
     per_reader = data["lo_bytes_per_request_per_reader"]
@@ -224,6 +232,13 @@ def run(args: argparse.Namespace) -> int:
             f"~ {per_reader:,} / {10 * per_reader:,} / {50 * per_reader:,} B",
         ),
     ]
+    rows.append(
+        (
+            "loopback bytes per request, measured by server processes",
+            " / ".join(f"{n}: {b:,} B" for n, b in by_servers.items()),
+            "every request reader gets its own copy",
+        )
+    )
     rows.append(
         (
             "partition per node (not adopted): CPU, bytes",
@@ -276,4 +291,52 @@ def _client_partition_cost(dp: Any, qos: Any, nodes: list[str], counts: tuple[in
             "matched_ms": round((t2 - t0) * 1000, 1) if not pending else None,
         }
         del writers, pending
+    return out
+
+
+def _bytes_by_servers(
+    workers: Workers, domain: int, localhost: bool, counts: tuple[int, ...], rate: int
+) -> dict[str, int]:
+    """Loopback bytes per get request with ``counts`` server processes reading requests:
+    started one group after another in ``domain``; gets go to the first server's node."""
+    from cyclonedds.pub import DataWriter
+    from cyclonedds.topic import Topic
+
+    from ..dds import types as wire
+    from ..dds.participant import make_participant
+    from ..dds.qos import QosProfiles
+
+    note(f"fleet: loopback bytes per request with {', '.join(map(str, counts))} server processes")
+    qos = QosProfiles.load()
+    dp = make_participant(domain, localhost=localhost, app_name="bench-fleet-net")
+    topic = Topic(dp, "GetParametersRequest", wire.GetParametersRequest)
+    writer: Any = DataWriter(dp, topic, qos.writer("GetParametersRequest"))
+    (target,) = node_names(1)
+    sample = wire.GetParametersRequest(node_id=target, client_id=0xB17E5, request_id=1, names=[param_name(0)])
+    data = sample.serialize()
+    started: list[Any] = []
+    out: dict[str, int] = {}
+    for count in counts:
+        group = [
+            workers.start("server", "--nodes", "1", "--offset", str(i), "--params", "5", domain=domain)
+            for i in range(len(started), count)
+        ]
+        for w in group:
+            w.read("READY", 120)
+        started += group
+        deadline = time.monotonic() + 30
+        while writer.get_publication_matched_status().current_count < count:
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"fleet: the request writer did not match {count} servers")
+            time.sleep(0.01)
+        time.sleep(0.5)  # let discovery traffic die down before the idle window
+        seconds = 1.0
+        lo0 = lo_tx_bytes()
+        time.sleep(seconds)
+        idle = lo_tx_bytes() - lo0
+        lo0 = lo_tx_bytes()
+        sent = _send_paced([writer], [data], rate, seconds)
+        time.sleep(0.2)
+        busy = lo_tx_bytes() - lo0
+        out[str(count)] = round(max(0, busy - idle * (seconds + 0.2) / seconds) / sent) if sent else 0
     return out

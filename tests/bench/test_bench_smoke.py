@@ -129,6 +129,7 @@ def test_fleet(domain_id: int) -> None:
     assert data["cpu_native_ms_per_s"] >= 0 and data["cpu_handler_ms_per_s"] >= 0
     assert data["partition_client"]["1"]["writers"] == 1  # 100 and 1,000 need a fleet that large
     assert data["partition_client"]["1"]["matched_ms"] is not None
+    assert set(data["lo_bytes_per_request_by_servers"]) == {"1", "2"}  # measured with 1, then 2 readers
 
 
 def test_persist(domain_id: int) -> None:
