@@ -135,10 +135,17 @@ def run(args: argparse.Namespace) -> int:
         run_timed(get_cmd, env=env)
         run_timed(empty_cmd, env=env)
         times: dict[str, list[float]] = {"fleet": [], "empty": []}
+        # what one `paramdds get` costs the fleet: a fleet server's CPU and the loopback
+        # bytes while it runs (the empty system's runs are the idle control)
+        server_cpu = dict.fromkeys(times, 0.0)
+        lo_bytes = dict.fromkeys(times, 0)
         for r in range(rounds):
             order = [("fleet", get_cmd), ("empty", empty_cmd)]
             for key, cmd in order if r % 2 == 0 else order[::-1]:
+                cpu0, lo0 = cpu_seconds(fleet[0].pid), lo_tx_bytes()
                 times[key].append(run_timed(cmd, env=env)[0])
+                server_cpu[key] += cpu_seconds(fleet[0].pid) - cpu0
+                lo_bytes[key] += lo_tx_bytes() - lo0
 
         note(f"fleet: {rate} gets/s to fleet nodes for {seconds:g} s; CPU of the two extra servers")
         qos = QosProfiles.load()
@@ -193,6 +200,9 @@ def run(args: argparse.Namespace) -> int:
         "get_fleet_ms": round(fleet_ms, 1),
         "get_empty_ms": round(empty_ms, 1),
         "get_ratio": round(fleet_ms / empty_ms, 2),
+        "get_server_cpu_ms": round(max(0.0, server_cpu["fleet"] - server_cpu["empty"]) * 1000 / rounds, 1),
+        "get_lo_bytes_fleet": round(lo_bytes["fleet"] / rounds),
+        "get_lo_bytes_empty": round(lo_bytes["empty"] / rounds),
         "foreign_rate": round(sent / seconds),
         "cpu_native_ms_per_s": round(per_second["native"] * 1000, 1),
         "cpu_handler_ms_per_s": round(per_second["handler"] * 1000, 1),
@@ -219,6 +229,12 @@ def run(args: argparse.Namespace) -> int:
             "`paramdds get`: fleet / empty system",
             f"{fleet_ms:,.0f} / {empty_ms:,.0f} ms",
             f"{data['get_ratio']}x (target <= 1.2x)",
+        ),
+        (
+            "what one `paramdds get` costs: a fleet server's CPU; loopback bytes, fleet / empty",
+            f"{data['get_server_cpu_ms']} ms; "
+            f"{data['get_lo_bytes_fleet']:,} / {data['get_lo_bytes_empty']:,} B",
+            "a new reader gets every server's retained state; the filter drops it after the network",
         ),
         (
             f"one server's CPU under {data['foreign_rate']} foreign gets/s",

@@ -123,6 +123,7 @@ def test_fleet(domain_id: int) -> None:
     data = bench("fleet", domain_id, "--servers", "2", "--nodes", "20", "--params", "4", "--rounds", "1")
     positive(data, "synced_ms", "get_fleet_ms", "get_empty_ms", "get_ratio", "foreign_rate")
     assert data["lo_bytes_per_request"] >= 0  # 0 where other traffic on lo swamps ours (shared host)
+    assert data["get_server_cpu_ms"] >= 0 and data["get_lo_bytes_fleet"] > 0
     assert (data["servers"], data["nodes"], data["params_per_node"]) == (2, 40, 4)
     assert data["synced_params"] == 40 * 4  # the monitor held every parameter of every node
     assert data["request_readers"] == 4  # the fleet's two servers and the two measured ones
