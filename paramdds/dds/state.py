@@ -97,8 +97,11 @@ _EMPTY = bytes(4)  # a sequence's length, 0: no descriptor
 _PLAIN_TAIL = bytes(24)  # after a scalar's string: five empty sequences, no descriptor
 _NO_HOST_PID_COUNT = bytes.fromhex("01000000000000000000000000000000")  # "", 0, 0
 _PAD = tuple(bytes(n) for n in range(8))  # _PAD[(4 - n) & 7]: aligns offset n to 8 after the header
-_CACHE_MAX = 16_384  # entries of each cache
-_CACHED_BYTES_MAX = 4_096  # a longer descriptor is decoded every time (the cache stays small)
+# The descriptor caches: entries each, and the longest descriptor kept (real ones take
+# ~150 bytes, the longest of four generate_parameter_library specs ~900): at most ~8 MB.
+_CACHE_MAX = 8_192
+_CACHED_BYTES_MAX = 1_024
+_PLAIN_MAX = 65_536  # (name, type) pairs: small entries
 
 
 def decode_state(data: bytes) -> StateSample:
@@ -212,13 +215,13 @@ def _described(buf: bytes, pos: int, end: int) -> _Described:
     descriptor, pos = read_descriptor(buf, pos + 4, end)
     hit = (descriptor, *_tail(buf, pos, end))
     if len(key[1]) <= _CACHED_BYTES_MAX:
-        _bounded(_decoded)[key] = hit
+        _bounded(_decoded, _CACHE_MAX)[key] = hit
     return hit
 
 
-def _bounded(cache: dict[Any, Any]) -> dict[Any, Any]:
+def _bounded(cache: dict[Any, Any], limit: int) -> dict[Any, Any]:
     """``cache``, emptied first when full: a bound, not a policy (any entry is as good as a new one)."""
-    if len(cache) >= _CACHE_MAX:
+    if len(cache) >= limit:
         cache.clear()
     return cache
 
@@ -232,7 +235,7 @@ def _plain(name: str, ptype: ParameterType) -> ParameterDescriptor:
     key = (name, ptype)
     d = _plain_descriptors.get(key)
     if d is None:
-        d = _bounded(_plain_descriptors)[key] = ParameterDescriptor(name, ptype)
+        d = _bounded(_plain_descriptors, _PLAIN_MAX)[key] = ParameterDescriptor(name, ptype)
     return d
 
 
@@ -304,8 +307,8 @@ def _descriptor_bytes(d: ParameterDescriptor, phase: int) -> bytes:
         out += b"\1\0\0\0"
         write_descriptor(out, d)
         data = bytes(out[phase:])
-        if cacheable:
-            _bounded(_encoded)[key] = data
+        if cacheable and len(data) <= _CACHED_BYTES_MAX:
+            _bounded(_encoded, _CACHE_MAX)[key] = data
     return data
 
 

@@ -22,6 +22,7 @@ from paramdds.core.descriptors import FloatingPointRange, IntegerRange, Paramete
 from paramdds.core.values import NOT_SET, ParameterType, ParameterValue
 from paramdds.core.yaml_ros import load_ros_params
 from paramdds.core.yaml_spec import load_spec
+from paramdds.dds import state
 from paramdds.dds import types as wire
 from paramdds.dds._binding import Endianness
 from paramdds.dds.cdr import MalformedSample, encode
@@ -274,6 +275,19 @@ def test_descriptors_equal_but_for_the_sign_of_zero_are_encoded_apart() -> None:
             ParameterDescriptor("p", double, validators=(Validator("one_of", (v([1.0, zero]),)),)),
         ):
             _check_encoding(StateArgs("n", "p", 1, 0, 0, v(zero), d))
+
+
+def test_the_descriptor_caches_stay_bounded_and_right(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(state, "_CACHE_MAX", 3)
+    v = ParameterValue.from_python(1.5)
+    descriptors = [ParameterDescriptor("p", ParameterType.DOUBLE, f"described {i}") for i in range(7)]
+    descriptors.append(ParameterDescriptor("p", ParameterType.DOUBLE, "long " * 300))  # over 1 KB: never kept
+    for _ in range(2):
+        for d in descriptors:
+            got = _check_encoding(StateArgs("n", "p", 1, 0, 0, v, d))
+            assert canonical(decode_state(got)) == canonical(decode_state_slowly(got))
+            assert len(state._decoded) <= 3 and len(state._encoded) <= 3
+    assert all(len(data) <= 1024 for _, data in state._decoded)
 
 
 def test_what_the_state_encoder_leaves_to_the_generated_one() -> None:
