@@ -51,6 +51,7 @@ from .state_cdr import (
     INTEGER,
     REFUSED,
     STRING,
+    UNWRITTEN,
     NotFast,
     finish_value,
     read_descriptor,
@@ -251,16 +252,17 @@ def encode_state(
     """A parameter's state sample, ready to write: the generated encoder's bytes for the wire
     sample of these arguments; None where that encoder would fail (a key over its bound, a
     number out of range), so the caller builds the wire sample and gets its error."""
-    if len(node_id.encode()) > 255 or len(name.encode()) > 255:
-        return None
     t, x = int(value.type), value.value
-    s = x.encode() if isinstance(x, str) else b""
-    out = bytearray(HEADER)
-    encode_str(out, node_id)
-    encode_str(out, name)
-    out.append(wire.EVENT_PARAMETER)
-    out += _PAD[(4 - len(out)) & 7]
     try:
+        key = node_id.encode(), name.encode()
+        if len(key[0]) > 255 or len(key[1]) > 255:
+            return None  # over the bound: the generated encoder raises the error
+        s = x.encode() if isinstance(x, str) else b""
+        out = bytearray(HEADER)
+        encode_str(out, node_id)
+        encode_str(out, name)
+        out.append(wire.EVENT_PARAMETER)
+        out += _PAD[(4 - len(out)) & 7]
         out += _MIDDLE.pack(
             revision,
             sec,
@@ -276,8 +278,8 @@ def encode_state(
         write_arrays(out, t, x)
         out += _PAD[-len(out) & 3]
         out += _EMPTY if _is_plain(d, value) else _descriptor_bytes(d, len(out) & 7)
-    except (struct.error, UnicodeEncodeError, TypeError):
-        return None  # out of range, not text, not hashable: the generated encoder decides
+    except UNWRITTEN:
+        return None  # out of range, not text, no core value: the generated encoder decides
     out += _PAD[-len(out) & 3]  # a descriptor may end unaligned (on a string array)
     out += _NO_HOST_PID_COUNT
     return bytes(out)

@@ -14,7 +14,9 @@ same bytes (same types: ``bytes`` for byte arrays, tuples of ``bool`` for bool a
 or raises :data:`REFUSED` for anything it does not read in full: another writer's
 non-empty sequence beside the value's own, an unknown type byte, a sequence over its
 bound, truncated or damaged bytes. The caller then hands the sample to the slow path,
-which decides what it is. A writer appends exactly the generated encoder's bytes.
+which decides what it is. A writer appends exactly the generated encoder's bytes, or
+raises :data:`UNWRITTEN` where that encoder might fail (a number out of range, text that
+is no Unicode, an object that is no core value): the caller then lets it decide.
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ __all__ = [
     "INTEGER",
     "REFUSED",
     "STRING",
+    "UNWRITTEN",
     "NotFast",
     "finish_value",
     "read_descriptor",
@@ -48,6 +51,8 @@ class NotFast(Exception):
 
 # what a reader raises on bytes it does not read in full
 REFUSED = (NotFast, struct.error, IndexError, UnicodeDecodeError)
+# what a writer raises on values it does not write
+UNWRITTEN = (struct.error, UnicodeEncodeError, TypeError, AttributeError, ValueError)
 
 _TYPES = tuple(ParameterType)  # index == type byte
 # type bytes as plain ints: looking up an IntEnum member costs ~70 ns, a tenth of the hot path
@@ -98,7 +103,7 @@ def finish_value(
     if buf[pos : pos + 20] == _NO_ARRAYS:
         if 0 < t <= STRING:
             return ParameterValue(_TYPES[t], (b, i, d, s)[t - 1]), pos + 20
-        return _EMPTY_VALUES[t], pos + 20  # type: ignore[return-value]
+        return _EMPTY_VALUES[t], pos + 20
     k = t - BYTE_ARRAY  # which of the five sequences is the value's own
     if k < 0 or buf[pos : pos + 4 * k] != _NO_ARRAYS[: 4 * k]:
         raise NotFast("a sequence beside the value's own holds elements")
@@ -111,12 +116,12 @@ def finish_value(
     return ParameterValue(_TYPES[t], items), pos + rest
 
 
-# the value of each type byte when its five sequences are empty and it is no scalar
-_EMPTY_VALUES = (
-    NOT_SET,
-    *(None,) * 4,  # (scalars: built from their member)
-    ParameterValue(ParameterType.BYTE_ARRAY, b""),
-    *(ParameterValue(t, ()) for t in _TYPES[ParameterType.BOOL_ARRAY :]),
+# the value of each type byte whose five sequences are empty, where it is no scalar
+# (indices 1 to 4, the scalars, are built from their member and never read here)
+_EMPTY_VALUES: tuple[ParameterValue, ...] = (
+    (NOT_SET,) * 5
+    + (ParameterValue(ParameterType.BYTE_ARRAY, b""),)
+    + tuple(ParameterValue(t, ()) for t in _TYPES[ParameterType.BOOL_ARRAY :])
 )
 
 
@@ -244,12 +249,13 @@ def write_arrays(out: bytearray, t: int, x: PyValue) -> None:
     if t < BYTE_ARRAY or not x:
         out += _NO_ARRAYS
         return
-    assert isinstance(x, (bytes, tuple))
+    if not isinstance(x, (bytes, tuple)):  # a core value is never else: the generated encoder decides
+        raise TypeError(f"an array value of {type(x).__name__}")
     k = t - BYTE_ARRAY
     out += _NO_ARRAYS[: 4 * k]
     out += _pack_u32(len(x))
-    if isinstance(x, bytes):
-        out += x
+    if k == 0:
+        out += bytes(x)  # type: ignore[arg-type]
     elif k == 1:
         out += bytes(map(bool, x))
     elif k == 4:

@@ -296,6 +296,12 @@ def test_what_the_state_encoder_leaves_to_the_generated_one() -> None:
     assert encode_state("n", "a", 2**63 - 1, 0, 0, one, plain) is not None  # positive control
     assert encode_state("x" * 256, "a", 1, 0, 0, one, plain) is None  # over the key's bound
     assert encode_state("n", "a", 2**63, 0, 0, one, plain) is None  # over int64
+    assert encode_state("n", "\ud800", 1, 0, 0, one, plain) is None  # no UTF-8 for it
+    listed = ParameterValue(ParameterType.DOUBLE_ARRAY, [1.0])  # type: ignore[arg-type]
+    assert encode_state("n", "a", 1, 0, 0, listed, plain) is None  # not a core value (a list)
+    assert decode_state(encode(_wire(StateArgs("n", "a", 1, 0, 0, listed, plain)))).value == (
+        ParameterValue.from_python([1.0])  # the generated encoder takes it
+    )
     with pytest.raises(struct.error):  # what the generated encoder does with it
         encode(wire.ParameterEvent(node_id="n", name="a", revision=2**63))
 
