@@ -87,6 +87,8 @@ class StateKey(NamedTuple):
 
 
 _TYPES = tuple(ParameterType)  # index == type byte
+_CDR_LE = HEADER[:2]  # the encapsulation kind: plain XCDR1, little endian
+_new_tuple = tuple.__new__
 _PRESENCE = wire.EVENT_PRESENCE
 _U32 = struct.Struct("<I")
 _unpack_u32 = _U32.unpack_from
@@ -141,7 +143,7 @@ def _decode_fast(buf: bytes) -> StateSample | None:
     """Any well-formed little-endian XCDR1 sample, or None (then the slow path decides,
     also whether it is malformed)."""
     try:
-        if not buf.startswith(HEADER[:2]):
+        if not buf.startswith(_CDR_LE):
             return None
         end = len(buf)
         node_id, pos = _key_string(buf, 4, end)
@@ -172,7 +174,8 @@ def _decode_fast(buf: bytes) -> StateSample | None:
     except REFUSED:
         return None
     stamp = sec + nanosec / 1e9
-    return StateSample(node_id, name, kind, revision, stamp, value, descriptor, host, pid, count)
+    fields = (node_id, name, kind, revision, stamp, value, descriptor, host, pid, count)
+    return _new_tuple(StateSample, fields)  # StateSample(*fields) without its Python __new__
 
 
 _Described = tuple[ParameterDescriptor, str, int, int]  # descriptor, host, pid, parameter_count
