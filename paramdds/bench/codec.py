@@ -15,7 +15,7 @@ import argparse
 import time
 from collections.abc import Callable
 from functools import partial
-from typing import Any
+from typing import Any, NamedTuple
 
 from ._common import emit, note, render
 
@@ -27,8 +27,15 @@ def _per_call_us(fn: Callable[[], object], calls: int) -> float:
     return (time.thread_time() - t0) / calls * 1e6
 
 
-def _cases() -> list[tuple[str, Callable[[], object], Callable[[], object], int]]:
-    """(name, ours, the binding's, calls per round)."""
+class _Case(NamedTuple):
+    name: str
+    ours: Callable[[], object]
+    theirs: Callable[[], object]  # the binding's
+    calls: int  # per round
+    per_call: int = 1  # samples each call handles (times are reported per sample)
+
+
+def _cases() -> list[_Case]:
     from ..core.descriptors import ParameterDescriptor
     from ..core.values import ParameterType, ParameterValue
     from ..dds import types as wire
@@ -71,8 +78,9 @@ def _cases() -> list[tuple[str, Callable[[], object], Callable[[], object], int]
         request_id=5,
         parameters=[wire.Parameter(name=f"p{i}", value=value(float(i))) for i in range(10)],
     )
-    core_value, core_descriptor = ParameterValue.from_python(1.5), ParameterDescriptor(
-        "robot.max_velocity", ParameterType.DOUBLE
+    core_value, core_descriptor = (
+        ParameterValue.from_python(1.5),
+        ParameterDescriptor("robot.max_velocity", ParameterType.DOUBLE),
     )
 
     def binding(sample: Any) -> tuple[Callable[[], object], Callable[[], object], bytes]:
@@ -80,7 +88,7 @@ def _cases() -> list[tuple[str, Callable[[], object], Callable[[], object], int]
         data = encode(sample)
         return (lambda: idl.serialize(sample)), (lambda: idl.deserialize(data)), data
 
-    cases: list[tuple[str, Callable[[], object], Callable[[], object], int]] = []
+    cases: list[_Case] = []
     for label, sample, calls in (
         ("state sample", scalar, 4000),
         ("state, array + descriptor", rich, 2000),
@@ -88,20 +96,82 @@ def _cases() -> list[tuple[str, Callable[[], object], Callable[[], object], int]
         ("set request of 10", request, 500),
     ):
         enc, dec, data = binding(sample)
-        cases.append((f"encode {label}", partial(encode, sample), enc, calls))
-        cases.append((f"decode {label}", partial(decode, type(sample), data), dec, calls))
+        cases.append(_Case(f"encode {label}", partial(encode, sample), enc, calls))
+        cases.append(_Case(f"decode {label}", partial(decode, type(sample), data), dec, calls))
     scalar_bytes = encode(scalar)
     enc, dec, _ = binding(scalar)
     cases.append(
-        (
+        _Case(
             "encode state, server fast path",
             lambda: encode_state("robot_042", "robot.max_velocity", 17, 1, 2, core_value, core_descriptor),
             enc,
             4000,
         )
     )
-    cases.append(("decode state, monitor fast path", lambda: decode_state(scalar_bytes), dec, 4000))
-    return cases
+    cases.append(_Case("decode state, monitor fast path", lambda: decode_state(scalar_bytes), dec, 4000))
+    rich_state = decode_state(encode(rich))
+    gains, gains_descriptor = rich_state.value, rich_state.descriptor
+    enc, dec, rich_bytes = binding(rich)
+    cases.append(
+        _Case(
+            "encode state, array + descriptor, server",
+            lambda: encode_state("robot_042", "robot.gains", 17, 1, 2, gains, gains_descriptor),
+            enc,
+            2000,
+        )
+    )
+    cases.append(
+        _Case("decode state, array + descriptor, monitor", lambda: decode_state(rich_bytes), dec, 2000)
+    )
+    return cases + _bench_set_cases()
+
+
+def _bench_set_cases() -> list[_Case]:
+    """The server and monitor paths over the 20 parameters of a bench node (descriptions,
+    ranges, validators, arrays in real files' proportions: see ``worker.descriptor_for``)."""
+    from ..dds import types as wire
+    from ..dds.cdr import encode
+    from ..dds.convert import state_descriptor_to_wire, value_to_wire
+    from ..dds.state import decode_state, encode_state
+    from .worker import make_table
+
+    table = make_table("robot_042", 20)
+    args = [("robot_042", n, 17, 1, 2, table.get(n), table.describe_one(n)) for n in table.names()]
+    samples = [
+        wire.ParameterEvent(
+            node_id=node,
+            name=name,
+            revision=revision,
+            stamp=wire.Time(sec, nanosec),
+            value=value_to_wire(value),
+            descriptor=state_descriptor_to_wire(descriptor, value),
+        )
+        for node, name, revision, sec, nanosec, value, descriptor in args
+    ]
+    datas = [encode(s) for s in samples]
+    idl = wire.ParameterEvent.__idl__
+
+    def ours_encode() -> None:
+        for a, sample in zip(args, samples, strict=True):
+            if encode_state(*a) is None:  # as the server does: the generated encoder then
+                encode(sample)
+
+    def ours_decode() -> None:
+        for data in datas:
+            decode_state(data)
+
+    def theirs_encode() -> None:
+        for sample in samples:
+            idl.serialize(sample)
+
+    def theirs_decode() -> None:
+        for data in datas:
+            idl.deserialize(data)
+
+    return [
+        _Case("encode state, bench node's 20 params, server", ours_encode, theirs_encode, 200, len(args)),
+        _Case("decode state, bench node's 20 params, monitor", ours_decode, theirs_decode, 200, len(args)),
+    ]
 
 
 def run(args: argparse.Namespace) -> int:
@@ -109,11 +179,12 @@ def run(args: argparse.Namespace) -> int:
     scale = 10 if args.quick else 1
     cases = _cases()
     note(f"codec: {len(cases)} cases, {rounds} alternating rounds, fastest round per side")
-    best: dict[str, list[float]] = {name: [float("inf"), float("inf")] for name, *_ in cases}
+    best: dict[str, list[float]] = {case.name: [float("inf"), float("inf")] for case in cases}
     for _ in range(rounds):
-        for name, ours, theirs, calls in cases:
-            for side, fn in enumerate((ours, theirs)):
-                best[name][side] = min(best[name][side], _per_call_us(fn, max(1, calls // scale)))
+        for case in cases:
+            for side, fn in enumerate((case.ours, case.theirs)):
+                us = _per_call_us(fn, max(1, case.calls // scale)) / case.per_call
+                best[case.name][side] = min(best[case.name][side], us)
     rows = [(name, round(o, 2), round(t, 2), round(t / o, 1)) for name, (o, t) in best.items()]
     data = {
         "cases": [{"case": n, "paramdds_us": o, "binding_us": t, "speedup": x} for n, o, t, x in rows],

@@ -106,7 +106,8 @@ def test_startup(domain_id: int) -> None:
 
 def test_codec(domain_id: int) -> None:
     data = bench("codec", domain_id)
-    assert len(data["cases"]) == 10
+    assert len(data["cases"]) == 14
+    assert "decode state, bench node's 20 params, monitor" in {case["case"] for case in data["cases"]}
     for case in data["cases"]:
         positive(case, "paramdds_us", "binding_us", "speedup")
 

@@ -1,28 +1,35 @@
 """The state decoder and encoder against the generated codec: same result, or both refuse.
 
-``decode_state`` reads the common state sample in one pass and hands everything
-else to ``decode_state_slowly`` (the generated codec and the wire→core
-conversions). Whatever the bytes, the fast path may only return what the slow
-one returns; it must actually be taken for the common shape; and bytes that are
-no sample raise ``MalformedSample`` instead of reaching a monitor's table.
-``encode_state`` must write exactly the generated encoder's bytes, or decline.
+``decode_state`` reads any well-formed state sample in one pass and hands everything
+else to ``decode_state_slowly`` (the generated codec and the wire→core conversions).
+Whatever the bytes, the fast path may only return what the slow one returns (same
+types and float bits: compared through ``canonical``); it must actually be taken for
+every shape a server writes, generated and real-world; and bytes that are no sample
+raise ``MalformedSample`` instead of reaching a monitor's table. ``encode_state`` must
+write exactly the generated encoder's bytes, or decline.
 """
 
 import math
+import struct
+from pathlib import Path
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from paramdds.core.descriptors import FloatingPointRange, ParameterDescriptor
+from paramdds.bench.worker import make_table
+from paramdds.core.descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
 from paramdds.core.values import NOT_SET, ParameterType, ParameterValue
+from paramdds.core.yaml_ros import load_ros_params
+from paramdds.core.yaml_spec import load_spec
+from paramdds.dds import state
 from paramdds.dds import types as wire
 from paramdds.dds._binding import Endianness
 from paramdds.dds.cdr import MalformedSample, encode
-from paramdds.dds.convert import state_descriptor_to_wire, value_to_wire
+from paramdds.dds.convert import is_plain, state_descriptor_to_wire, value_to_wire
 from paramdds.dds.state import _decode_fast, decode_state, decode_state_slowly, encode_state
 
-from .strategies import samples
+from .strategies import StateArgs, canonical, samples, state_args
 
 _KEY = st.text(st.characters(exclude_categories=("Cs",)), min_size=0, max_size=40).filter(
     lambda s: len(s.encode()) <= 255
@@ -65,7 +72,29 @@ def _same(data: bytes) -> None:
         with pytest.raises(MalformedSample):
             decode_state(data)
         return
-    assert decode_state(data) == expected
+    assert canonical(decode_state(data)) == canonical(expected)
+
+
+def _wire(a: StateArgs, **tail: object) -> wire.ParameterEvent:
+    """The wire sample a server writes for ``a`` (what the generated encoder is given)."""
+    return wire.ParameterEvent(
+        node_id=a.node_id,
+        name=a.name,
+        revision=a.revision,
+        stamp=wire.Time(a.sec, a.nanosec),
+        value=value_to_wire(a.value),
+        descriptor=state_descriptor_to_wire(a.descriptor, a.value),
+        **tail,
+    )
+
+
+def _sent(a: StateArgs) -> ParameterDescriptor:
+    """The descriptor a reader gets: a plain one is left out and rebuilt from the sample's name."""
+    return ParameterDescriptor(a.name, a.value.type) if is_plain(a.descriptor, a.value) else a.descriptor
+
+
+def _first_difference(a: bytes, b: bytes) -> int:
+    return next(i for i, (x, y) in enumerate(zip(a, b, strict=False)) if x != y)
 
 
 @settings(max_examples=300, deadline=None)
@@ -74,7 +103,7 @@ def test_the_common_shapes_take_the_fast_path_and_agree(sample: wire.ParameterEv
     data = encode(sample)
     fast = _decode_fast(data)
     assert fast is not None
-    assert fast == decode_state_slowly(data)
+    assert canonical(fast) == canonical(decode_state_slowly(data))
     ptype = ParameterType(sample.value.type)
     expected = None if ptype is ParameterType.NOT_SET else getattr(sample.value, f"{ptype.label}_value")
     assert (fast.node_id, fast.name, fast.kind, fast.value.value) == (
@@ -87,17 +116,39 @@ def test_the_common_shapes_take_the_fast_path_and_agree(sample: wire.ParameterEv
     assert fast.descriptor == ParameterDescriptor(sample.name, ptype)
 
 
+@settings(max_examples=400, deadline=None)
+@given(
+    args=state_args(),
+    kind=st.sampled_from([wire.EVENT_PARAMETER, wire.EVENT_PRESENCE]),
+    host=_KEY,
+    pid=st.integers(-(2**31), 2**31 - 1),
+)
+def test_every_well_formed_sample_takes_the_fast_path_and_agrees(
+    args: StateArgs, kind: int, host: str, pid: int
+) -> None:
+    data = encode(_wire(args, kind=kind, host=host, pid=pid, parameter_count=len(host)))
+    slow = decode_state_slowly(data)
+    for _ in range(2):  # the second time, the descriptor comes from the cache
+        fast = _decode_fast(data)
+        assert fast is not None
+        assert canonical(fast) == canonical(slow)
+    assert canonical((fast.value, fast.descriptor)) == canonical((args.value, _sent(args)))
+    assert (fast.node_id, fast.name, fast.kind) == (args.node_id, args.name, kind)
+    assert fast.revision == args.revision
+    assert (fast.host, fast.pid, fast.parameter_count) == (host, pid, len(host))
+
+
 @settings(max_examples=200, deadline=None)
 @given(samples(wire.ParameterEvent))
 def test_any_sample_decodes_as_the_generated_codec_does(sample: wire.ParameterEvent) -> None:
     _same(encode(sample))
 
 
-@settings(max_examples=400, deadline=None)
+@settings(max_examples=500, deadline=None)
 @given(
-    sample=common_samples(),
-    cut=st.integers(0, 160),
-    flips=st.lists(st.tuples(st.integers(0, 200), st.integers(1, 255)), max_size=4),
+    sample=st.one_of(common_samples(), state_args().map(_wire)),
+    cut=st.integers(0, 400),
+    flips=st.lists(st.tuples(st.integers(0, 400), st.integers(1, 255)), max_size=4),
 )
 def test_damaged_bytes_never_decode_differently(
     sample: wire.ParameterEvent, cut: int, flips: list[tuple[int, int]]
@@ -109,16 +160,52 @@ def test_damaged_bytes_never_decode_differently(
     _same(bytes(data[: max(0, len(data) - cut)]))
 
 
-def test_other_shapes_take_the_slow_path_with_the_same_result() -> None:
-    ranged = ParameterDescriptor("speed", ParameterType.DOUBLE, floating_point_range=FloatingPointRange(0, 5))
-    with_range = _event("speed", 1.5)
-    with_range.descriptor = state_descriptor_to_wire(ranged, ParameterValue.from_python(1.5))
-    for what, sample in {"array": _event("a", [1.0, 2.0]), "descriptor": with_range}.items():
-        data = encode(sample)
+def _described(descriptor: ParameterDescriptor, value: object = 1.5) -> wire.ParameterEvent:
+    v = ParameterValue.from_python(value)
+    return _wire(StateArgs("n", descriptor.name, 1, 0, 0, v, descriptor))
+
+
+def test_what_the_fast_path_leaves_to_the_slow_one() -> None:
+    ranged = ParameterDescriptor(
+        "speed", ParameterType.DOUBLE, "m/s", floating_point_range=FloatingPointRange(0.0, 5.0)
+    )
+    sample = _described(ranged)
+    assert _decode_fast(encode(sample)) is not None  # positive control: this shape is read fast
+    big = bytes(wire.ParameterEvent.__idl__.serialize(sample, endianness=Endianness.Big))
+    xcdr2 = bytes(wire.ParameterEvent.__idl__.serialize(sample, use_version_2=True))
+    beside = _event("a", 1)  # a foreign writer's non-empty sequence beside the value's own
+    beside.value.string_array_value = ["x"]
+    for what, data in {"big endian": big, "XCDR2": xcdr2, "beside": encode(beside)}.items():
         assert _decode_fast(data) is None, what
-        assert decode_state(data) == decode_state_slowly(data), what
-    assert decode_state(encode(with_range)).descriptor == ranged
-    assert decode_state(encode(_event("a", [1.0, 2.0]))).value == ParameterValue.from_python([1.0, 2.0])
+        assert canonical(decode_state(data)) == canonical(decode_state_slowly(data)), what
+    assert decode_state(big).descriptor == ranged
+    assert decode_state(encode(beside)).value == ParameterValue.from_python(1)
+
+
+def test_bounds_and_unknown_type_bytes_are_malformed() -> None:
+    """Each damage is placed where two valid samples first differ: a descriptor or a range
+    sequence of two (bound 1), a type byte of 42 in the descriptor and in a validator's argument."""
+    v, integer = ParameterValue.from_python, ParameterType.INTEGER
+    one, true = v(1), v(True)
+
+    def described(**fields: object) -> wire.ParameterEvent:
+        return _described(ParameterDescriptor("p", **fields), 1)  # type: ignore[arg-type]
+
+    base = described(type=integer, validators=(Validator("gt", (one,)),))
+    cases = {
+        "descriptors": (described(type=integer), base, 2),
+        "range": (base, described(type=integer, integer_range=IntegerRange(0, 9)), 2),
+        "descriptor type": (base, described(type=ParameterType.BOOL), 42),
+        "argument type": (base, described(type=integer, validators=(Validator("gt", (true,)),)), 42),
+    }
+    for what, (a, b, byte) in cases.items():
+        data_a, data_b = encode(a), encode(b)
+        assert _decode_fast(data_a) is not None and _decode_fast(data_b) is not None, what
+        damaged = bytearray(data_a)
+        damaged[_first_difference(data_a, data_b)] = byte
+        assert _decode_fast(bytes(damaged)) is None, what
+        with pytest.raises(MalformedSample):
+            decode_state(bytes(damaged))
 
 
 def test_presence_and_a_parameter_without_value() -> None:
@@ -159,36 +246,96 @@ def test_what_is_refused() -> None:
             decode_state(bad)
 
 
-@settings(max_examples=300, deadline=None)
-@given(sample=common_samples(), description=st.sampled_from(["", "m/s"]))
-def test_a_servers_state_sample_is_encoded_as_the_generated_encoder_does(
-    sample: wire.ParameterEvent, description: str
-) -> None:
-    value = decode_state_slowly(encode(sample)).value
-    descriptor = ParameterDescriptor(sample.name, value.type, description=description)
-    wire_sample = wire.ParameterEvent(
-        node_id=sample.node_id,
-        name=sample.name,
-        revision=sample.revision,
-        stamp=sample.stamp,
-        value=value_to_wire(value),
-        descriptor=state_descriptor_to_wire(descriptor, value),
-    )
-    args = (sample.node_id, sample.name, sample.revision, sample.stamp.sec, sample.stamp.nanosec, value)
-    got = encode_state(*args, descriptor)
-    if value is NOT_SET or description:  # not the common shape: the caller builds the wire sample
-        assert got is None
-        return
-    expected = encode(wire_sample)
-    assert got == expected + bytes(-len(expected) % 4)  # padded as DataWriter.write pads
-    assert decode_state(got).value == value
+def _check_encoding(a: StateArgs) -> bytes:
+    """encode_state(a) is the generated encoder's bytes (also from its cache), and reads back."""
+    expected = encode(_wire(a))
+    for _ in range(2):  # the second time, the descriptor's bytes come from the cache
+        got = encode_state(*a)
+        assert got is not None
+        assert got == expected + bytes(-len(expected) % 4)  # padded as DataWriter.write pads
+    fast = _decode_fast(got)
+    assert fast is not None
+    assert canonical((fast.value, fast.descriptor)) == canonical((a.value, _sent(a)))
+    return got
+
+
+@settings(max_examples=400, deadline=None)
+@given(state_args())
+def test_a_servers_state_sample_is_encoded_as_the_generated_encoder_does(args: StateArgs) -> None:
+    _check_encoding(args)
+
+
+def test_descriptors_equal_but_for_the_sign_of_zero_are_encoded_apart() -> None:
+    """0.0 == -0.0, so an encoded-descriptor cache keyed on equality could mix them up."""
+    v, double = ParameterValue.from_python, ParameterType.DOUBLE
+    for zero in (0.0, -0.0, 0.0):
+        for d in (
+            ParameterDescriptor("p", double, floating_point_range=FloatingPointRange(zero, 1.0)),
+            ParameterDescriptor("p", double, validators=(Validator("gt", (v(zero),)),)),
+            ParameterDescriptor("p", double, validators=(Validator("one_of", (v([1.0, zero]),)),)),
+        ):
+            _check_encoding(StateArgs("n", "p", 1, 0, 0, v(zero), d))
+
+
+def test_the_descriptor_caches_stay_bounded_and_right(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(state, "_CACHE_MAX", 3)
+    v = ParameterValue.from_python(1.5)
+    descriptors = [ParameterDescriptor("p", ParameterType.DOUBLE, f"described {i}") for i in range(7)]
+    descriptors.append(ParameterDescriptor("p", ParameterType.DOUBLE, "long " * 300))  # over 1 KB: never kept
+    for _ in range(2):
+        for d in descriptors:
+            got = _check_encoding(StateArgs("n", "p", 1, 0, 0, v, d))
+            assert canonical(decode_state(got)) == canonical(decode_state_slowly(got))
+            assert len(state._decoded) <= 3 and len(state._encoded) <= 3
+    assert all(len(data) <= 1024 for _, data in state._decoded)
 
 
 def test_what_the_state_encoder_leaves_to_the_generated_one() -> None:
-    plain = ParameterDescriptor("a", ParameterType.DOUBLE_ARRAY)
-    array = ParameterValue.from_python([1.0])
-    assert encode_state("n", "a", 1, 0, 0, array, plain) is None
-    long = "x" * 256
     one = ParameterValue.from_python(1)
-    assert encode_state(long, "a", 1, 0, 0, one, ParameterDescriptor("a", ParameterType.INTEGER)) is None
-    assert encode_state("n", "a", 2**63, 0, 0, one, ParameterDescriptor("a", ParameterType.INTEGER)) is None
+    plain = ParameterDescriptor("a", ParameterType.INTEGER)
+    assert encode_state("n", "a", 2**63 - 1, 0, 0, one, plain) is not None  # positive control
+    assert encode_state("x" * 256, "a", 1, 0, 0, one, plain) is None  # over the key's bound
+    assert encode_state("n", "a", 2**63, 0, 0, one, plain) is None  # over int64
+    assert encode_state("n", "\ud800", 1, 0, 0, one, plain) is None  # no UTF-8 for it
+    listed = ParameterValue(ParameterType.DOUBLE_ARRAY, [1.0])  # type: ignore[arg-type]
+    assert encode_state("n", "a", 1, 0, 0, listed, plain) is None  # not a core value (a list)
+    assert decode_state(encode(_wire(StateArgs("n", "a", 1, 0, 0, listed, plain)))).value == (
+        ParameterValue.from_python([1.0])  # the generated encoder takes it
+    )
+    with pytest.raises(struct.error):  # what the generated encoder does with it
+        encode(wire.ParameterEvent(node_id="n", name="a", revision=2**63))
+
+
+# ---- realistic parameter sets take the fast path ------------------------------------------------
+
+_REPO = Path(__file__).resolve().parents[2]
+_PLACES = (_REPO.parent / "shared" / "realworld", _REPO.parent.parent / "shared" / "realworld")
+REALWORLD = next((p for p in _PLACES if p.is_dir()), _PLACES[0])
+
+
+def test_the_benchmark_parameter_set_takes_both_fast_paths() -> None:
+    """The bench's 20 parameters (descriptions, ranges, validators, arrays, read-only)."""
+    table = make_table("robot_7", 20)
+    kinds = set()
+    for j, name in enumerate(table.names()):
+        value, descriptor = table.get(name), table.describe_one(name)
+        kinds.add(value.type)
+        _check_encoding(StateArgs("robot_7", name, j, 1_700_000_000, j, value, descriptor))
+    assert {ParameterType.STRING_ARRAY, ParameterType.DOUBLE_ARRAY, ParameterType.BOOL} <= kinds
+
+
+@pytest.mark.skipif(not REALWORLD.is_dir(), reason=f"{REALWORLD} is absent (CI has it)")
+def test_real_world_parameters_take_both_fast_paths() -> None:
+    """Every parameter of two generate_parameter_library specs (their descriptors with
+    validators, and defaults including NaN and infinities) and of robot_localization's
+    ekf.yaml (15-element bool arrays, 225-element double matrices)."""
+    args = [
+        StateArgs("ctrl", e.name, 1, 0, 0, e.default, e.descriptor)
+        for spec in ("joint_trajectory_controller_parameters.yaml", "diff_drive_controller_parameter.yaml")
+        for e in load_spec(REALWORLD / spec)
+    ]
+    for name, value in load_ros_params(REALWORLD / "ekf.yaml", "ekf_filter_node").items():
+        args.append(StateArgs("ekf_filter_node", name, 1, 0, 0, value, ParameterDescriptor(name, value.type)))
+    assert len(args) > 100
+    for a in args:
+        _check_encoding(a)
