@@ -64,7 +64,7 @@ from ..core.table import ParameterTable
 from ..core.values import Parameter, ParameterType
 from ..errors import ErrorCode, ParamddsError
 from . import types as wire
-from ._binding import assert_liveliness, take_serialized, write_serialized
+from ._binding import assert_liveliness, take_serialized, unregister_serialized, write_serialized
 from .cdr import MalformedSample, encode
 from .convert import descriptor_to_wire, parameter_from_wire, state_descriptor_to_wire, value_to_wire
 from .dispatch import SERIALIZED, Dispatcher
@@ -72,7 +72,7 @@ from .filters import NativeFilter, filter_tag, filtered_topic
 from .node_worker import NodeWorker
 from .participant import poll_peers
 from .qos import QosProfiles
-from .state import decode_state, encode_state
+from .state import decode_state, encode_key, encode_state
 
 log = logging.getLogger(__name__)
 
@@ -119,6 +119,7 @@ class ParameterServer:
             type=int(ParameterType.STRING_ARRAY), string_array_value=tags
         )
         self._twins.set_nodes(())
+        self._filtering = False  # see _refilter
         self._twins_seen: set[tuple[str, str, int]] = set()
         self.foreign_requests = 0  # requests that reached a handler for a node not hosted here
         self._check: threading.Thread | None = None
@@ -166,8 +167,7 @@ class ParameterServer:
         with self._hosting:  # against _on_assignment: no assignment falls between the two
             self._workers[node_id] = worker
             self._tables[node_id] = table
-            self._filter.set_nodes(self._tables)
-            self._twins.set_nodes(self._tables)
+            self._refilter()
             retained = self._retained.pop(node_id, [])
         for request in retained:  # assignments that arrived before this node was hosted
             worker.submit(partial(self._handle_set, worker, request, reply=False))
@@ -177,18 +177,28 @@ class ParameterServer:
         with self._hosting:
             table = self._tables.pop(node_id)
             worker = self._workers.pop(node_id)
-            self._filter.set_nodes(self._tables)
-            self._twins.set_nodes(self._tables)
+            self._refilter()
         worker.close(timeout=2.0)
         for name in [*table.names(), ""]:
-            self._state_writer.unregister_instance(wire.ParameterEvent(node_id=node_id, name=name))
+            unregister_serialized(self._state_writer, encode_key(node_id, name))
 
     @property
     def nodes(self) -> dict[str, ParameterTable]:
         return dict(self._tables)
 
+    def _refilter(self) -> None:
+        """The filters accept the nodes hosted now; before :meth:`start` nothing is served,
+        and the node ids go in once there (each update copies every id: hosting 10,000
+        nodes one ``add_node`` at a time would be quadratic). Call under ``_hosting``."""
+        if self._filtering:
+            self._filter.set_nodes(self._tables)
+            self._twins.set_nodes(self._tables)
+
     def start(self) -> ParameterServer:
         """Serve. Retained assignments are applied from here on, also to nodes added later."""
+        with self._hosting:
+            self._filtering = True
+            self._refilter()
         # not filtered: assignments for nodes not hosted yet are kept for when they are added
         topic = Topic(self._dp, "SetParametersRequest", wire.SetParametersRequest)
         reader = DataReader(self._dp, topic, self._qos.assignment_reader())

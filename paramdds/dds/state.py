@@ -61,7 +61,15 @@ from .state_cdr import (
     write_descriptor,
 )
 
-__all__ = ["StateKey", "StateSample", "decode_key", "decode_state", "decode_state_slowly", "encode_state"]
+__all__ = [
+    "StateKey",
+    "StateSample",
+    "decode_key",
+    "decode_state",
+    "decode_state_slowly",
+    "encode_key",
+    "encode_state",
+]
 
 
 class StateSample(NamedTuple):
@@ -128,6 +136,17 @@ def decode_state_slowly(data: bytes) -> StateSample:
     return StateSample(
         s.node_id, s.name, s.kind, s.revision, stamp, value, descriptor, s.host, s.pid, s.parameter_count
     )
+
+
+def encode_key(node_id: str, name: str) -> bytes:
+    """The key of an instance as the binding's ``serialize_key`` writes it (padded to 4), for
+    an unregister or dispose without building a wire sample (a server closing 1,000 nodes
+    unregisters 21,000 instances)."""
+    out = bytearray(HEADER)
+    encode_str(out, node_id)
+    encode_str(out, name)
+    out += bytes(-len(out) & 3)
+    return bytes(out)
 
 
 def decode_key(data: bytes) -> StateKey:

@@ -339,3 +339,11 @@ def test_real_world_parameters_take_both_fast_paths() -> None:
     assert len(args) > 100
     for a in args:
         _check_encoding(a)
+
+
+@given(st.text(st.characters(exclude_categories=("Cs",)), max_size=60), st.text(max_size=60))
+def test_an_instance_key_is_encoded_as_the_binding_does(node_id: str, name: str) -> None:
+    sample = wire.ParameterEvent(node_id=node_id, name=name)
+    expected = sample.serialize_key()
+    expected = expected.ljust(-(-len(expected) // 4) * 4, b"\0")  # the binding pads keys to 4
+    assert state.encode_key(node_id, name) == expected
