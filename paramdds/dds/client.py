@@ -8,7 +8,9 @@ process or two) never take each other's replies; replies are matched to calls by
 request id. Many calls may be outstanding at once (pipelining).
 
 Presence: the state reader is content-filtered on presence instances (name
-``""``), so the parameters' state samples never reach Python here.
+``""``), so the parameters' state samples never reach Python here. They still reach
+the process: a new reader is sent every server's retained state, so a one-shot
+client (``lazy_presence``) creates that reader only when a call needs presence.
 
 No call ever hangs: each has a timeout (default :data:`DEFAULT_TIMEOUT`). A node
 that has no presence instance is reported UNAVAILABLE ("not present") only once
@@ -141,6 +143,8 @@ class ParameterClient:
 
     ``presence_grace`` is the least time discovery must stay quiet before a node never
     seen counts as absent (:mod:`.discovery`); it is no longer a fixed deadline.
+    ``lazy_presence`` creates the presence reader only once a call needs it (see
+    :meth:`_watch`): for one-shot processes such as the CLI's verbs.
     """
 
     def __init__(
@@ -151,6 +155,7 @@ class ParameterClient:
         timeout: float = DEFAULT_TIMEOUT,
         presence_grace: float = PRESENCE_GRACE,
         client_id: int | None = None,
+        lazy_presence: bool = False,
     ) -> None:
         self._dp = participant
         self._qos = qos or QosProfiles.load()
@@ -174,17 +179,36 @@ class ParameterClient:
             reader = DataReader(participant, self._own_replies(name), self._qos.reader(name))
             self._reply_readers[request] = reader
             self._dispatcher.add(reader, self._on_replies)
-        self._presence_filter = NativeFilter("presence")
-        self._presence_filter.set_nodes(None)  # every node's presence, no parameter samples
-        presence = filtered_topic(participant, "ParameterEvents", wire.ParameterEvent, self._presence_filter)
-        self._presence = DataReader(participant, presence, self._qos.reader("ParameterEvents"))
-        self._discovery = DiscoveryWatch(
-            participant,
-            self._presence,
-            [*self._writers.values(), *self._reply_readers.values()],
-            min_quiet=presence_grace,
-        )
+        self._presence_args = (participant, presence_grace)
+        self._presence: Any = None  # the presence reader and its discovery watch: see _watch
+        self._discovery: DiscoveryWatch | None = None
+        self._watch_lock = threading.Lock()
+        if not lazy_presence:
+            self._watch()
         self._dispatcher.start()
+
+    def _watch(self) -> DiscoveryWatch:
+        """The presence reader's discovery watch, creating both on first use.
+
+        A new ``ParameterEvents`` reader is sent every server's retained state (all of
+        its parameters: the filter drops them only on arrival), so a one-shot process
+        (``lazy_presence``) creates it only when a call needs presence: a reply late by
+        :data:`RESEND_AFTER`, :meth:`wait_for_node`, :meth:`nodes`, :meth:`presence`.
+        """
+        with self._watch_lock:
+            if self._discovery is None:
+                participant, grace = self._presence_args
+                presence_filter = NativeFilter("presence")
+                presence_filter.set_nodes(None)  # every node's presence, no parameter samples
+                topic = filtered_topic(participant, "ParameterEvents", wire.ParameterEvent, presence_filter)
+                self._presence = DataReader(participant, topic, self._qos.reader("ParameterEvents"))
+                self._discovery = DiscoveryWatch(
+                    participant,
+                    self._presence,
+                    [*self._writers.values(), *self._reply_readers.values()],
+                    min_quiet=grace,
+                )
+            return self._discovery
 
     def _own_replies(self, name: str) -> Any:
         # without the native filter every client's replies arrive; _on_replies keeps ours
@@ -193,7 +217,9 @@ class ParameterClient:
     def close(self) -> None:
         self._closing.set()
         self._dispatcher.close()
-        self._discovery.close()
+        with self._watch_lock:
+            if self._discovery is not None:
+                self._discovery.close()
         for pending in list(self._pending.values()):
             if not pending.future.done():
                 pending.future.set_exception(UnavailableError("the client was closed"))
@@ -213,6 +239,7 @@ class ParameterClient:
     # sample instead would make each client decode the whole system's state.
 
     def _presence_of(self, node: str) -> NodeInfo | None:
+        watch = self._watch()
         handle = self._presence.lookup_instance(wire.ParameterEvent(node_id=node, name=""))
         if handle is None:
             return None
@@ -222,13 +249,14 @@ class ParameterClient:
             # the handle is process-wide: another entity here may know the key while
             # this reader holds no such instance (PRECONDITION_NOT_MET)
             return None
-        self._discovery.note_read(s.sample_info for s in samples)
+        watch.note_read(s.sample_info for s in samples)
         return _node_info(samples[0]) if samples else None
 
     def nodes(self) -> list[NodeInfo]:
         """Every node whose presence this client holds (alive or not), sorted by name."""
+        watch = self._watch()
         samples: list[Any] = self._presence.read(N=_READ_ALL)
-        self._discovery.note_read(s.sample_info for s in samples)
+        watch.note_read(s.sample_info for s in samples)
         found = [_node_info(s) for s in samples]
         return sorted((n for n in found if n is not None), key=lambda n: n.node)
 
@@ -237,7 +265,7 @@ class ParameterClient:
 
     def discovery(self) -> DiscoveryState:
         """How far this client's discovery of the system has got (see :mod:`.discovery`)."""
-        return self._discovery.state()
+        return self._watch().state()
 
     def presence(self, node: str) -> Presence:
         """ONLINE, OFFLINE, ABSENT (discovery settled without it) or UNKNOWN (it may yet appear).
@@ -248,7 +276,7 @@ class ParameterClient:
         info = self._presence_of(canonical_node_id(node))
         if info is not None:
             return Presence.ONLINE if info.online else Presence.OFFLINE
-        return Presence.ABSENT if self._discovery.settled() else Presence.UNKNOWN
+        return Presence.ABSENT if self._watch().settled() else Presence.UNKNOWN
 
     def wait_for_node(self, node: str, timeout: float | None = None) -> NodeInfo:
         """Block until ``node`` is online, for up to ``timeout`` seconds.
@@ -382,7 +410,7 @@ class ParameterClient:
         state = self.presence(node)
         if state is Presence.OFFLINE:
             return UnavailableError(f"node {node!r} is offline (waited {waited:.2g} s)")
-        why = self._discovery.state().describe()
+        why = self._watch().state().describe()
         also = self._mismatched()
         if state is Presence.ABSENT:
             return UnavailableError(f"node {node!r} is not present ({why}; waited {waited:.2g} s){also}")
@@ -422,7 +450,8 @@ class ParameterClient:
                 raise TimeoutError_(f"no answer from node {pending.node!r} within {limit:g} s{why}")
             yield max(0.0, min(deadline, next_resend, now + MATCH_POLL) - now)
             now = time.monotonic()
-            self._discovery.state()  # keeps the time of the last discovery change precise
+            if self._discovery is not None:
+                self._discovery.state()  # keeps the time of the last discovery change precise
             if now >= next_resend:
                 step = min(2 * step, 1.0)  # a big request that is merely slow is not resent often
                 next_resend = now + step

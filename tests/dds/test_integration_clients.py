@@ -30,9 +30,11 @@ from cyclonedds.topic import Topic
 from paramdds.core.descriptors import ParameterDescriptor
 from paramdds.core.table import ParameterTable
 from paramdds.dds import client as client_module
+from paramdds.dds._binding import matched_subscriptions
 from paramdds.dds import types as wire
 from paramdds.dds.client import AsyncParameterClient, ParameterClient
 from paramdds.dds.qos import QosProfiles
+from paramdds.errors import UnavailableError
 
 from .helpers import DdsSession, wait_until
 
@@ -347,3 +349,21 @@ def test_a_request_sent_before_its_server_exists_is_resent_when_the_server_match
     dds.server(table)
     call.join(timeout=20.0)
     assert [r.values()["x"].value for r in replies] == [7]
+
+
+def test_a_lazy_client_is_sent_no_state_until_a_call_needs_presence(dds: DdsSession) -> None:
+    """A new ParameterEvents reader is sent every server's retained state: the CLI's
+    one-shot client creates it only when a call needs presence, not for a prompt reply."""
+    table = ParameterTable("lazy")
+    for j in range(50):
+        table.declare(f"p{j}", j)
+    server = dds.server(table)
+    state_readers = lambda: len(matched_subscriptions(server._state_writer))  # noqa: E731
+    lazy = dds.client(timeout=5.0, lazy_presence=True)
+    assert lazy.get_value("lazy", "p7").value == 7
+    assert state_readers() == 0  # answered without any state sent to this client
+    with pytest.raises(UnavailableError, match="not present"):  # a call that needs presence
+        lazy.get("ghost", ["x"], timeout=5.0)
+    assert state_readers() == 1  # ... created the reader
+    dds.client(timeout=5.0)  # positive control: an eager client's reader matches at once
+    assert wait_until(lambda: state_readers() == 2, timeout=5.0)
