@@ -30,8 +30,8 @@ from cyclonedds.topic import Topic
 from paramdds.core.descriptors import ParameterDescriptor
 from paramdds.core.table import ParameterTable
 from paramdds.dds import client as client_module
-from paramdds.dds._binding import matched_subscriptions
 from paramdds.dds import types as wire
+from paramdds.dds._binding import matched_subscriptions
 from paramdds.dds.client import AsyncParameterClient, ParameterClient
 from paramdds.dds.qos import QosProfiles
 from paramdds.errors import UnavailableError
