@@ -23,6 +23,12 @@ Configuration layers, later ones overriding earlier ones:
    gives newcomers) and costs the network one small packet per peer address per
    second, for a process that lives a few seconds. Long-lived processes (servers,
    monitors) keep the default, so a large system is not flooded.
+   Its writers also do not linger (``WriterLingerDuration`` 0 instead of 1 s):
+   deleting a reliable writer otherwise waits until every matched reader has
+   acknowledged everything, and a one-shot verb exits only once its reply is in,
+   so the readers left are the other servers' request readers, which drop the
+   request anyway. With ten busy server processes that wait was 100 to 190 ms of a
+   ``paramdds get``.
 
 When none of 2, 3 and 4 applies no ``Domain`` is created and Cyclone's normal
 configuration is used untouched. Otherwise a :class:`cyclonedds.domain.Domain`
@@ -83,7 +89,10 @@ _LOCALHOST_XML = (
     "</Discovery>"
 )
 SHORT_LIVED_SPDP_INTERVAL = "1s"
-_SHORT_LIVED_XML = f"<Discovery><SPDPInterval>{SHORT_LIVED_SPDP_INTERVAL}</SPDPInterval></Discovery>"
+_SHORT_LIVED_XML = (
+    f"<Discovery><SPDPInterval>{SHORT_LIVED_SPDP_INTERVAL}</SPDPInterval></Discovery>"
+    "<Internal><WriterLingerDuration>0s</WriterLingerDuration></Internal>"
+)
 _TOPIC_DISCOVERY_XML = (
     "<Discovery><EnableTopicDiscoveryEndpoints>true</EnableTopicDiscoveryEndpoints></Discovery>"
 )
