@@ -234,6 +234,19 @@ def test_big_endian_and_special_doubles() -> None:
     assert math.isnan(decode_state(encode(_event("d", math.nan))).value.value)  # type: ignore[arg-type]
 
 
+def test_shared_scalar_values_keep_their_exact_type_and_sign() -> None:
+    """Scalar values are shared by their bytes: values equal in Python but not on the wire
+    (0.0 and -0.0, 1 and 1.0 and True) must each come back as they were sent, however often."""
+    values = [0.0, -0.0, 1, 1.0, True, "1", 0, False, -0.0, 0.0]
+    for _ in range(2):  # the second round reads them from the cache
+        for v in values:
+            got = decode_state(encode(_event("x", v))).value
+            assert type(got.value) is type(v) and got.value == v, (v, got)
+            if isinstance(v, float):
+                assert math.copysign(1, got.value) == math.copysign(1, v)  # type: ignore[arg-type]
+    assert state._values  # positive control: the cache is in use
+
+
 def test_what_is_refused() -> None:
     good = encode(_event("p", 1))
     # header, "n", "p" (each length + text + padding), kind + padding to 8 after the header,
