@@ -179,6 +179,8 @@ class ParameterClient:
             reader = DataReader(participant, self._own_replies(name), self._qos.reader(name))
             self._reply_readers[request] = reader
             self._dispatcher.add(reader, self._on_replies)
+        self._presence_filter = NativeFilter("presence")
+        self._presence_filter.set_nodes(None)  # every node's presence, no parameter samples
         self._presence_args = (participant, presence_grace)
         self._presence: Any = None  # the presence reader and its discovery watch: see _watch
         self._discovery: DiscoveryWatch | None = None
@@ -198,9 +200,9 @@ class ParameterClient:
         with self._watch_lock:
             if self._discovery is None:
                 participant, grace = self._presence_args
-                presence_filter = NativeFilter("presence")
-                presence_filter.set_nodes(None)  # every node's presence, no parameter samples
-                topic = filtered_topic(participant, "ParameterEvents", wire.ParameterEvent, presence_filter)
+                topic = filtered_topic(
+                    participant, "ParameterEvents", wire.ParameterEvent, self._presence_filter
+                )
                 self._presence = DataReader(participant, topic, self._qos.reader("ParameterEvents"))
                 self._discovery = DiscoveryWatch(
                     participant,
