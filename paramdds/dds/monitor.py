@@ -165,7 +165,20 @@ class ParameterMonitor:
     def wait_complete(self, nodes: Iterable[str], timeout: float) -> bool:
         """Wait until the full state of every node in ``nodes`` is here."""
         wanted = [canonical_node_id(n) for n in nodes]
-        return self.wait_until(lambda s: all(n in s and s[n].complete for n in wanted), timeout)
+        pending = wanted[::-1]
+
+        def complete(states: dict[str, NodeState]) -> bool:
+            # checked on every batch of samples, with the dispatch thread waiting for the lock:
+            # skip the nodes already seen complete (a fleet's 10,000 scanned ~800 times took
+            # seconds), then check them all once, since a node may have gained a parameter
+            while pending and pending[-1] in states and states[pending[-1]].complete:
+                pending.pop()
+            if pending:
+                return False
+            pending[:] = [n for n in reversed(wanted) if not (n in states and states[n].complete)]
+            return not pending
+
+        return self.wait_until(complete, timeout)
 
     def wait_synced(self, timeout: float) -> bool:
         return self.wait_until(lambda _s: self._synced, timeout)
