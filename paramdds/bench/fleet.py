@@ -22,9 +22,10 @@ with ``--params`` parameters (default 20, in the proportions of real files, see
   count. The per-reader figure (divided by the matched server processes) is what
   extrapolates to 1, 10 or 50 of them.
 * ``network by servers``: the same count measured, not extrapolated, as the number of
-  processes reading requests grows: in a domain of its own, 1, then 10, then 50
-  server processes (1 node each; 1 and 2 with ``--quick``), and gets sent to the
-  first one's node at ``--rate``. Each count gets its own idle and traffic window.
+  processes reading requests grows: first of all (before the fleet adds its own
+  traffic), in a domain of its own, 1, then 10, then 50 server processes (1 node
+  each; 1 and 2 with ``--quick``), and gets sent to the first one's node at
+  ``--rate``. Each count gets its own idle and traffic window.
 * ``partition``: the alternative that keeps foreign traffic off the process and
   the network (measured, not adopted): a process reads requests through a
   subscriber whose partitions are its node ids, and a client needs a publisher
@@ -109,6 +110,10 @@ def run(args: argparse.Namespace) -> int:
     _compile_bytecode()
     env = worker_env(args.localhost)
     with Workers(localhost=args.localhost, domain=args.domain) as workers:
+        # first, before the fleet's traffic is on the loopback interface too
+        net_domain = args.domain + 2 if args.domain < 231 else args.domain - 2
+        counts = (1, 2) if quick else (1, 10, 50)
+        by_servers = _bytes_by_servers(workers, net_domain, args.localhost, counts, rate)
         note(f"fleet: {servers} server processes x {per} nodes x {params} params = {total} nodes")
         fleet = [
             workers.start("server", "--nodes", str(per), "--offset", str(k * per), "--params", str(params))
@@ -184,9 +189,6 @@ def run(args: argparse.Namespace) -> int:
         busy_cpu, busy_lo, sent = window([writer] * len(samples))
         _, part_lo, part_sent = window(partitioned)
         partition_cost = _client_partition_cost(dp, qos, node_names(total), (1, 100, 1000))
-        net_domain = args.domain + 2 if args.domain < 231 else args.domain - 2
-        counts = (1, 2) if quick else (1, 10, 50)
-        by_servers = _bytes_by_servers(workers, net_domain, args.localhost, counts, rate)
     per_second = {k: max(0.0, busy_cpu[k] - idle_cpu[k]) / seconds for k in pids}
     bytes_per_request = max(0, busy_lo - idle_lo) / sent if sent else 0.0
     part_bytes = max(0, part_lo - idle_lo) / part_sent if part_sent else 0.0
@@ -345,14 +347,16 @@ def _bytes_by_servers(
             if time.monotonic() > deadline:
                 raise RuntimeError(f"fleet: the request writer did not match {count} servers")
             time.sleep(0.01)
-        time.sleep(0.5)  # let discovery traffic die down before the idle window
-        seconds = 1.0
+        time.sleep(1.0)  # let discovery traffic die down before the idle window
+        seconds = 2.0
         lo0 = lo_tx_bytes()
         time.sleep(seconds)
-        idle = lo_tx_bytes() - lo0
+        idle = lo_tx_bytes() - lo0  # heartbeats and announcements of the servers and this process
         lo0 = lo_tx_bytes()
         sent = _send_paced([writer], [data], rate, seconds)
         time.sleep(0.2)
         busy = lo_tx_bytes() - lo0
         out[str(count)] = round(max(0, busy - idle * (seconds + 0.2) / seconds) / sent) if sent else 0
+    for w in started:
+        workers.stop(w)
     return out
