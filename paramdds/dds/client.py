@@ -298,6 +298,7 @@ class ParameterClient:
             remaining = deadline - time.monotonic()
             if remaining <= 0:
                 raise self._not_seen(node, limit)
+            self._watch().state()  # moves discovery on: asks again (a probe) when nobody answered
             self._closing.wait(min(remaining, PRESENCE_POLL))
             if self._closing.is_set():
                 raise UnavailableError("the client was closed")

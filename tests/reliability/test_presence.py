@@ -19,7 +19,7 @@ from cyclonedds.topic import Topic
 
 from paramdds.core.table import ParameterTable
 from paramdds.dds import types as wire
-from paramdds.dds.discovery import Presence, is_settled
+from paramdds.dds.discovery import PROBE_AFTER, Presence, is_settled
 from paramdds.dds.qos import QosProfiles
 from paramdds.errors import TimeoutError_, UnavailableError
 
@@ -80,6 +80,30 @@ def test_with_no_parameter_server_anywhere_a_ghost_is_a_timeout_not_absent(dds: 
     assert client.wait_for_node("late", timeout=5.0).online
     assert client.list("late").names == ()
     assert wait(lambda: client.presence("ghost") is Presence.ABSENT, timeout=5.0)
+
+
+def test_waiting_for_a_node_asks_again_when_nobody_answered(dds: DDS, domain_id: int) -> None:
+    """``wait_for_node`` keeps the discovery watch going, so it creates probes as calls do
+    (a CI run at 30 % loss saw a fresh client wait 10 s for a node knowing nobody)."""
+    client = dds.client(domain_id)
+    failed: list[BaseException] = []
+
+    def waiting() -> None:
+        try:
+            client.wait_for_node("nobody", timeout=PROBE_AFTER + 2.0)
+        except TimeoutError_ as exc:
+            failed.append(exc)
+
+    waiter = threading.Thread(target=waiting)
+    waiter.start()
+    try:
+        time.sleep(PROBE_AFTER + 1.0)
+        watch = client._discovery
+        probes = 0 if watch is None else watch.probes  # read while the wait still runs (no poll)
+    finally:
+        waiter.join()
+    assert probes == 1
+    assert len(failed) == 1 and "no parameter server discovered" in str(failed[0])
 
 
 def test_a_node_that_went_away_is_offline_at_once(dds: DDS, domain_id: int) -> None:
