@@ -109,7 +109,6 @@ _unpack_middle = _MIDDLE.unpack_from
 _TAIL = struct.Struct("<iI")  # pid, parameter_count
 _EMPTY = bytes(4)  # a sequence's length, 0: no descriptor
 _NO_ARRAYS = bytes(20)  # a value's five sequences, all empty
-_PLAIN_TAIL = bytes(24)  # after a scalar's string: five empty sequences, no descriptor
 _NO_HOST_PID_COUNT = bytes.fromhex("01000000000000000000000000000000")  # "", 0, 0
 _PAD = tuple(bytes(n) for n in range(8))  # _PAD[(4 - n) & 7]: aligns offset n to 8 after the header
 # The descriptor caches: entries each, and the longest descriptor kept (real ones take
@@ -199,15 +198,14 @@ def _decode_fast(buf: bytes) -> StateSample | None:
                 if len(key) <= _VALUE_KEY_MAX:
                     _bounded(_values, _VALUES_MAX)[key] = value
             pos = after + 20
-            if buf[pos : pos + 4] == _EMPTY:
-                descriptor = _plain(name, value.type)
-                host, pos = read_str(buf, pos + 4, end)
-                pid, count = _TAIL.unpack_from(buf, pos + (-pos & 3))
-            else:
-                descriptor, host, pid, count = _described(buf, pos, end)
         else:
             value, pos = finish_value(buf, pos, end, t, b, i, d, n)
-            descriptor, host, pid, count = _descriptor_and_tail(buf, pos + (-pos & 3), end, name, value)
+            pos += -pos & 3
+        if buf[pos : pos + 4] == _EMPTY:  # only the name and the value's type: see convert.is_plain
+            descriptor = _plain(name, value.type)
+            host, pid, count = _tail(buf, pos + 4, end)
+        else:
+            descriptor, host, pid, count = _described(buf, pos, end)
     except REFUSED:
         return None
     stamp = sec + nanosec / 1e9
@@ -225,13 +223,6 @@ def _key_string(buf: bytes, pos: int, end: int) -> tuple[str, int]:
     if n == 0 or n > 256 or e > end or buf[e - 1] != 0:
         raise NotFast("not a key string")
     return buf[pos + 4 : e - 1].decode(), e
-
-
-def _descriptor_and_tail(buf: bytes, pos: int, end: int, name: str, value: ParameterValue) -> _Described:
-    """The descriptor sequence at ``pos`` (4-aligned), host, pid and parameter_count."""
-    if buf[pos : pos + 4] == _EMPTY:  # only the name and the value's type: see convert.is_plain
-        return (_plain(name, value.type), *_tail(buf, pos + 4, end))
-    return _described(buf, pos, end)
 
 
 def _tail(buf: bytes, pos: int, end: int) -> tuple[str, int, int]:
