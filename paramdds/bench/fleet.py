@@ -19,9 +19,8 @@ with ``--params`` parameters (default 20, in the proportions of real files, see
   during the traffic window minus an idle window, per request, are shared with
   whatever else runs in the network namespace: run the bench in one of its own
   (``unshare -n sh -c 'ip link set lo up && paramdds bench fleet …'``) for a clean
-  count. The per-reader figure (divided by the matched server processes) is what
-  extrapolates to 1, 10 or 50 of them.
-* ``network by servers``: the same count measured, not extrapolated, as the number of
+  count.
+* ``network by servers``: the same count as the number of
   processes reading requests grows: first of all (before the fleet adds its own
   traffic), in a domain of its own, 1, then 10, then 50 server processes (1 node
   each; 1 and 2 with ``--quick``), and gets sent to the first one's node at
@@ -100,8 +99,6 @@ def run(args: argparse.Namespace) -> int:
     total = servers * per
     empty_domain = args.domain + 1 if args.domain < 232 else args.domain - 1
 
-    from cyclonedds.pub import DataWriter
-    from cyclonedds.topic import Topic
 
     from ..dds import types as wire
     from ..dds.participant import make_participant
@@ -155,8 +152,7 @@ def run(args: argparse.Namespace) -> int:
         note(f"fleet: {rate} gets/s to fleet nodes for {seconds:g} s; CPU of the two extra servers")
         qos = QosProfiles.load()
         dp = make_participant(args.domain, localhost=args.localhost, app_name="bench-fleet")
-        topic = Topic(dp, "GetParametersRequest", wire.GetParametersRequest)
-        writer: Any = DataWriter(dp, topic, qos.writer("GetParametersRequest"))  # status getters: untyped
+        writer = _request_writer(dp, qos)
         targets = node_names(min(total, 10))  # a few nodes hammered
         samples = [
             wire.GetParametersRequest(
@@ -164,15 +160,10 @@ def run(args: argparse.Namespace) -> int:
             ).serialize()
             for i, n in enumerate(targets)
         ]
-        deadline = time.monotonic() + 20
-        while writer.get_publication_matched_status().current_count < servers + 2:
-            if time.monotonic() > deadline:
-                raise RuntimeError("fleet: the request writer did not match every server")
-            time.sleep(0.01)
-        readers = writer.get_publication_matched_status().current_count
+        readers = _wait_readers(writer, servers + 2, 20)
         pids = {kind: w.pid for kind, w in victims.items()}
 
-        partitioned = [_partition_writer(dp, qos, [n]) for n in targets]
+        partitioned = [_request_writer(dp, qos, [n]) for n in targets]
 
         def window(via: list[Any] | None) -> tuple[dict[str, float], int, int]:
             cpu0 = {k: cpu_seconds(p) for k, p in pids.items()}
@@ -220,7 +211,6 @@ def run(args: argparse.Namespace) -> int:
         "lo_bytes_per_request_by_servers": by_servers,
         "rounds": rounds,
     }
-    per_reader = data["lo_bytes_per_request_per_reader"]
     rows = [
         (
             f"monitor synced: {total} nodes x {params} params",
@@ -246,8 +236,7 @@ def run(args: argparse.Namespace) -> int:
         (
             f"loopback bytes per request ({readers} request readers)",
             f"{data['lo_bytes_per_request']:,} B",
-            f"~{per_reader} B per reader: 1 / 10 / 50 servers "
-            f"~ {per_reader:,} / {10 * per_reader:,} / {50 * per_reader:,} B",
+            f"~{data['lo_bytes_per_request_per_reader']} B per reader",
         ),
     ]
     rows.append(
@@ -276,16 +265,27 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _partition_writer(dp: Any, qos: Any, partitions: list[str]) -> Any:
+def _request_writer(dp: Any, qos: Any, partitions: list[str] | None = None) -> Any:
+    """A GetParametersRequest writer with our QoS, in ``partitions`` if given (its own publisher)."""
     from cyclonedds.pub import DataWriter, Publisher
     from cyclonedds.qos import Policy, Qos
     from cyclonedds.topic import Topic
 
     from ..dds import types as wire
 
-    publisher = Publisher(dp, qos=Qos(Policy.Partition(partitions=partitions)))
+    owner = dp if partitions is None else Publisher(dp, qos=Qos(Policy.Partition(partitions=partitions)))
     topic = Topic(dp, "GetParametersRequest", wire.GetParametersRequest)
-    return DataWriter(publisher, topic, qos.writer("GetParametersRequest"))
+    return DataWriter(owner, topic, qos.writer("GetParametersRequest"))
+
+
+def _wait_readers(writer: Any, count: int, timeout: float) -> int:
+    """Wait until ``writer`` has matched ``count`` readers; how many it has then."""
+    deadline = time.monotonic() + timeout
+    while (matched := writer.get_publication_matched_status().current_count) < count:
+        if time.monotonic() > deadline:
+            raise RuntimeError(f"fleet: the request writer matched {matched} of {count} servers")
+        time.sleep(0.01)
+    return int(matched)
 
 
 def _client_partition_cost(dp: Any, qos: Any, nodes: list[str], counts: tuple[int, ...]) -> dict[str, Any]:
@@ -295,7 +295,7 @@ def _client_partition_cost(dp: Any, qos: Any, nodes: list[str], counts: tuple[in
         if n > len(nodes):
             continue
         t0 = time.perf_counter()
-        writers = [_partition_writer(dp, qos, [node]) for node in nodes[:n]]
+        writers = [_request_writer(dp, qos, [node]) for node in nodes[:n]]
         t1 = time.perf_counter()
         deadline = time.monotonic() + 60
         pending = list(writers)
@@ -317,9 +317,6 @@ def _bytes_by_servers(
 ) -> dict[str, int]:
     """Loopback bytes per get request with ``counts`` server processes reading requests:
     started one group after another in ``domain``; gets go to the first server's node."""
-    from cyclonedds.pub import DataWriter
-    from cyclonedds.topic import Topic
-
     from ..dds import types as wire
     from ..dds.participant import make_participant
     from ..dds.qos import QosProfiles
@@ -327,8 +324,7 @@ def _bytes_by_servers(
     note(f"fleet: loopback bytes per request with {', '.join(map(str, counts))} server processes")
     qos = QosProfiles.load()
     dp = make_participant(domain, localhost=localhost, app_name="bench-fleet-net")
-    topic = Topic(dp, "GetParametersRequest", wire.GetParametersRequest)
-    writer: Any = DataWriter(dp, topic, qos.writer("GetParametersRequest"))
+    writer = _request_writer(dp, qos)
     (target,) = node_names(1)
     sample = wire.GetParametersRequest(node_id=target, client_id=0xB17E5, request_id=1, names=[param_name(0)])
     data = sample.serialize()
@@ -342,11 +338,7 @@ def _bytes_by_servers(
         for w in group:
             w.read("READY", 120)
         started += group
-        deadline = time.monotonic() + 30
-        while writer.get_publication_matched_status().current_count < count:
-            if time.monotonic() > deadline:
-                raise RuntimeError(f"fleet: the request writer did not match {count} servers")
-            time.sleep(0.01)
+        _wait_readers(writer, count, 30)
         time.sleep(1.0)  # let discovery traffic die down before the idle window
         seconds = 2.0
         lo0 = lo_tx_bytes()
