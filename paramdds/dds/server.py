@@ -119,7 +119,6 @@ class ParameterServer:
             type=int(ParameterType.STRING_ARRAY), string_array_value=tags
         )
         self._twins.set_nodes(())
-        self._filtering = False  # see _refilter
         self._twins_seen: set[tuple[str, str, int]] = set()
         self.foreign_requests = 0  # requests that reached a handler for a node not hosted here
         self._check: threading.Thread | None = None
@@ -190,14 +189,14 @@ class ParameterServer:
         """The filters accept the nodes hosted now; before :meth:`start` nothing is served,
         and the node ids go in once there (each update copies every id: hosting 10,000
         nodes one ``add_node`` at a time would be quadratic). Call under ``_hosting``."""
-        if self._filtering:
+        if self._started:
             self._filter.set_nodes(self._tables)
             self._twins.set_nodes(self._tables)
 
     def start(self) -> ParameterServer:
         """Serve. Retained assignments are applied from here on, also to nodes added later."""
         with self._hosting:
-            self._filtering = True
+            self._started = True
             self._refilter()
         # not filtered: assignments for nodes not hosted yet are kept for when they are added
         topic = Topic(self._dp, "SetParametersRequest", wire.SetParametersRequest)
@@ -209,7 +208,6 @@ class ParameterServer:
             self._dispatcher.add_raw(reader, _decode_presence, self._on_twins)
         self._last_tick = time.monotonic()
         self._dispatcher.start()
-        self._started = True
         if not self._twins.native:  # without the filter, following presence would cost every change
             nodes = set(self._tables)
             self._check = threading.Thread(
