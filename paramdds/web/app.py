@@ -243,6 +243,12 @@ class Console:
             if scheme.lower() != "bearer" or not hmac.compare_digest(value.strip().encode(), token.encode()):
                 raise WebError(WebCode.UNAUTHORIZED, "this console needs the bearer token for writes")
 
+    async def _write_request(self, request: Request) -> tuple[dict[str, Any], str]:
+        """A write's JSON body and its node, once the write is allowed (checked before reading)."""
+        self._check_write(request)
+        body = await read_body(request)
+        return body, node_arg(body.get("node"))
+
     async def set(self, request: Request) -> Response:
         """Set parameters (plain or atomic, optionally compare-and-set).
         ---
@@ -261,9 +267,7 @@ class Console:
           503: {description: UNAVAILABLE}
           504: {description: TIMEOUT}
         """
-        self._check_write(request)
-        body = await read_body(request)
-        node = node_arg(body.get("node"))
+        body, node = await self._write_request(request)
         values = body.get("values")
         if not isinstance(values, dict) or not values:
             raise WebError(WebCode.BAD_REQUEST, "'values' must be a non-empty object of name: value")
@@ -288,9 +292,7 @@ class Console:
         responses:
           200: {description: '{"node", "revision", "results"}'}
         """
-        self._check_write(request)
-        body = await read_body(request)
-        node = node_arg(body.get("node"))
+        body, node = await self._write_request(request)
         names = body.get("names")
         if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
             raise WebError(WebCode.BAD_REQUEST, "'names' must be a non-empty list of strings")
@@ -309,9 +311,7 @@ class Console:
           200: {description: '{"node", "revision", "results"}, one result per parameter'}
           422: {description: FILE_FORMAT (with file and line) or a refused value}
         """
-        self._check_write(request)
-        body = await read_body(request)
-        node = node_arg(body.get("node"))
+        body, node = await self._write_request(request)
         text = body.get("text")
         if not isinstance(text, str) or not text.strip():
             raise WebError(WebCode.BAD_REQUEST, "'text' must be the non-empty text of a parameter file")
