@@ -358,7 +358,10 @@ def test_a_lazy_client_is_sent_no_state_until_a_call_needs_presence(dds: DdsSess
     for j in range(50):
         table.declare(f"p{j}", j)
     server = dds.server(table)
-    state_readers = lambda: len(matched_subscriptions(server._state_writer))  # noqa: E731
+
+    def state_readers() -> int:
+        return len(matched_subscriptions(server._state_writer))
+
     lazy = dds.client(timeout=5.0, lazy_presence=True)
     assert lazy.get_value("lazy", "p7").value == 7
     assert state_readers() == 0  # answered without any state sent to this client
