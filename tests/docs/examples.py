@@ -275,6 +275,7 @@ class Terminal:
         self._reader = threading.Thread(target=self._read, daemon=True, name=f"docs-{name}")
         self._reader.start()
         self.busy: Step | None = None  # a step whose command keeps running
+        self.busy_vary: tuple[str, ...] = ()  # and what varies in its output
 
     def _read(self) -> None:
         assert self._proc.stdout is not None
@@ -380,11 +381,12 @@ def run_page(examples: list[Example], cwd: Path, env: dict[str, str], timeout: f
                         script = f"python {file.name}"
                     term.send(script)
                     term.wait(step, ex.vary, timeout, ex.where)
+                    term.busy_vary = ex.vary
                 else:  # more output of the command still running there
                     if term.busy is None:
                         raise ExampleError(f"{ex.where}: nothing runs in terminal {ex.terminal!r}")
                     combined = Step("", term.busy.expected + "\n" + step.expected, running=True)
-                    term.wait(combined, ex.vary, timeout, ex.where)
+                    term.wait(combined, tuple(dict.fromkeys(term.busy_vary + ex.vary)), timeout, ex.where)
             ran += 1
     finally:
         for term in terminals.values():
