@@ -160,7 +160,8 @@ def parse(path: Path, text: str | None = None) -> list[Example]:
     while i < len(lines):
         m = MARK.match(lines[i].strip())
         if not m:
-            i += 1
+            block = _fence_at(lines, i)  # a mark inside a fenced block is text (as in development.md)
+            i = block[2] if block is not None else i + 1
             continue
         opts = _options(m["opts"] or "", path, i + 1)
         ex = Example(

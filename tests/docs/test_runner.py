@@ -79,6 +79,12 @@ def test_only_unmarked_sessions_are_reported(tmp_path: Path) -> None:
     assert [lines[n - 1] for n in unmarked_sessions(path)] == ["```console", "```python"]
 
 
+def test_a_mark_inside_a_fenced_block_is_text(tmp_path: Path) -> None:
+    text = "````markdown\n<!-- example -->\n```console\n$ false\n```\n````\n"
+    assert parse(_page(tmp_path, text)) == []
+    assert list(unmarked_sessions(_page(tmp_path, text))) == []
+
+
 def test_unknown_options_and_dangling_marks_are_errors(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="unknown example option"):
         parse(_page(tmp_path, "<!-- example: termnal=x -->\n```console\n$ true\n```\n"))
