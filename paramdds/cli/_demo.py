@@ -1,4 +1,4 @@
-"""``paramdds client``: the seed's demo client, printing what the seed's README shows.
+"""``paramdds client``: the seed's demo client, printing what the seed example's README shows.
 
 1. wait (bounded) until the target is present; exit 3 naming it if it never is;
 2. print the events of the target as they arrive, grouped per revision::

@@ -1,6 +1,6 @@
 """What the CLI prints: the JSON shapes and their table and YAML renderings.
 
-JSON shapes (pinned by tests and documented in the README):
+JSON shapes (pinned by tests and documented in docs/cli.md, whose examples the tests run):
 
 * a value: bool, int, float (a double always has a ``.`` or an exponent: ``2.0``),
   string, arrays as lists, byte arrays as lists of ints, non-finite doubles as the

@@ -1,9 +1,10 @@
 """The wire types, kept by hand to match ``idl/paramdds.idl`` exactly.
 
-``tests/test_idl_identity.py`` compiles the IDL and compares XTypes type
+``tests/dds/test_idl_identity.py`` compiles the IDL and compares XTypes type
 identifiers with these classes, so the two cannot drift apart. Every struct is
-``@final``: members may be added at the end without breaking deployed
-nodes (see the README's wire-compatibility section).
+``@final`` (plain XCDR1, which every vendor reads), so a type cannot grow: a
+breaking change gets a new IDL module on new topic names (docs/wire.md, "How
+the types evolve").
 
 Values follow rcl_interfaces: a ``type`` byte and one member per type.
 """

@@ -1,6 +1,6 @@
 """What the console shows and accepts, as JSON: pure functions, no DDS, no HTTP.
 
-Shapes (documented in the README):
+Shapes (documented in docs/web.md):
 
 * a node summary: ``{"node", "online", "host", "pid", "revision", "parameters"}``;
 * a parameter row: ``{"name", "value", "type", "descriptor"}`` with the value and

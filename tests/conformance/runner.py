@@ -4,7 +4,7 @@ A :class:`Case` is data written by us from an upstream test: where it comes from
 (``source``: repository, file, test), what it feeds the core (``kind`` and ``input``)
 and what upstream asserts (``expect``). :func:`run` returns ``None`` when the core
 agrees, or one line saying what differed. A case marked ``deliberate`` is one where
-we differ on purpose: it names the sentence of the README's "Fixed" list that says
+we differ on purpose: it names the sentence of the "Fixed" list in docs/semantics.md that says
 why, and ``ours`` is what we do instead (checked the same way, so a deliberate
 difference is still pinned, never skipped).
 
@@ -56,7 +56,7 @@ class Case:
     kind: str
     input: Any
     expect: Any
-    deliberate: str = ""  # a sentence of the README "Fixed" list when we differ on purpose
+    deliberate: str = ""  # a sentence of docs/semantics.md's "Fixed" list when we differ on purpose
     ours: Any = None  # what we do instead, for a deliberate difference
     note: str = ""  # e.g. "rclcpp and rclpy differ; we follow rclcpp"
 

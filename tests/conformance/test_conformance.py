@@ -34,19 +34,19 @@ def test_case_ids_are_unique_and_the_suite_is_broad() -> None:
     assert len(ALL) >= 150
 
 
-def _readme() -> str:
+def _semantics_page() -> str:
     return _flat(SEMANTICS_PAGE.read_text(encoding="utf-8"))
 
 
-def test_the_readme_counts_match_the_suite() -> None:
-    text = _readme()
+def test_the_semantics_page_counts_match_the_suite() -> None:
+    text = _semantics_page()
     deliberate = sum(1 for c in ALL if c.deliberate)
     assert f"holds {len(ALL)} cases" in text
     assert f"{len(ALL) - deliberate} agree with upstream; {deliberate} are deliberate differences" in text
 
 
-def test_every_deliberate_difference_is_in_the_readme_fixed_list() -> None:
-    text = _readme()
+def test_every_deliberate_difference_is_in_the_semantics_page_fixed_list() -> None:
+    text = _semantics_page()
     fixed = text[text.index("**Fixed**") : text.index("**Conformance.**")]
     deliberate = [c for c in ALL if c.deliberate]
     assert deliberate, "the suite pins its deliberate differences"

@@ -113,7 +113,7 @@ def test_fresh_cli_pairs_on_a_lossy_link_never_report_a_present_node_absent(
     assert hosts.dropped() > 100, "the loss rule dropped (almost) nothing: the test proved nothing"
     absent = [f for f in failures if "not present" in f]
     assert absent == [], absent[:5]
-    # What is left to fix (README, Reliability, "What does not hold"): now and then a fresh
+    # What is left to fix (docs/reliability.md, "What does not hold"): now and then a fresh
     # process has met the server's participant but not yet its endpoints when its 10 s run
     # out (Cyclone's endpoint discovery at 30 % loss, not our presence rule). It must say so,
     # and stay rare; anything else (a wrong value, another error) fails the test.

@@ -1,0 +1,51 @@
+"""Every marked example of README.md and docs/ runs, and prints what its page shows.
+
+One test per page (a page's examples share terminals and servers, in page order);
+the runner and the marking convention are in tests/docs/examples.py and
+docs/development.md. A page whose output changes fails here with both texts.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+import pytest
+
+from ..conftest import make_dds_env
+from .examples import parse, run_page, unmarked_sessions
+
+ROOT = Path(__file__).resolve().parents[2]
+PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
+WITH_EXAMPLES = [p for p in PAGES if any(ex.skip is None for ex in parse(p))]
+
+
+def _page_env(domain_id: int) -> dict[str, str]:
+    env = make_dds_env(domain_id, PYTHONUNBUFFERED="1", COLUMNS="80", LC_ALL="C.UTF-8")
+    env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"
+    return env
+
+
+@pytest.mark.timeout(180)
+@pytest.mark.parametrize("page", WITH_EXAMPLES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_page_examples_print_what_the_page_shows(page: Path, domain_id: int, tmp_path: Path) -> None:
+    (tmp_path / "examples").symlink_to(ROOT / "examples")
+    ran = run_page(parse(page), tmp_path, _page_env(domain_id))
+    assert ran > 0
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_every_session_shown_is_marked(page: Path) -> None:
+    """A block that shows a command and its output is run, or skipped with a reason."""
+    lines = list(unmarked_sessions(page))
+    assert not lines, (
+        f"{page.relative_to(ROOT)}: blocks at lines {lines} show commands and output but are not "
+        "marked '<!-- example -->' (or '<!-- example: skip REASON -->'): see docs/development.md"
+    )
+
+
+def test_the_readme_and_the_cli_page_have_examples() -> None:
+    """The pages a newcomer reads first are run, not only parsed."""
+    assert ROOT / "README.md" in WITH_EXAMPLES
+    assert ROOT / "docs" / "cli.md" in WITH_EXAMPLES
