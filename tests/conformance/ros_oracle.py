@@ -490,44 +490,53 @@ def random_start(rng: random.Random) -> tuple[bool, dict[str, ParameterValue]]:
 
 @dataclass
 class Verdict:
-    """How one sequence ended: every op agreed, a listed difference, or an unexplained one."""
+    """How one sequence went: the listed differences it hit, or an unexplained disagreement.
 
-    ops: int
-    difference: str | None = None  # the id of the DIFFERENCES entry that explained it
+    A sequence goes on after a listed difference as long as both tables still hold the same
+    parameters (a read that differs changes nothing); it stops where they diverge.
+    """
+
+    ops: int = 0
+    differences: list[str] = field(default_factory=list)  # ids of the DIFFERENCES entries hit
     problem: str | None = None  # an unexplained disagreement, with its reproducer
+    diverged: bool = False
 
 
 def run_sequence(context: Any, index: int, seed: int, length: int) -> Verdict:
     rng = random.Random(seed)
     allow, overrides = random_start(rng)
     s = make_sides(context, index, allow, overrides)
+    verdict = Verdict()
     try:
-        for i in range(length):
-            declared = list(s.table.names())
-            op = random_op(rng, declared)
+        for _ in range(length):
+            op = random_op(rng, list(s.table.names()))
             s.before = {name: d for name, _, d in s.table.snapshot()}
             ros, ours = run_ros(s, op), run_ours(s, op)
             s.log.append(op)
-            if not op_agrees(op, ros, ours):
-                return _explain(s, op, ros, ours, i + 1, seed)
+            verdict.ops += 1
+            explained = op_agrees(op, ros, ours) or _explain(s, op, ros, ours, seed, verdict)
+            if verdict.problem is not None:
+                return verdict
             rs, os_ = state_ros(s), state_ours(s)
             if not same_payload(rs, os_):
-                return _explain(s, op, ("state", rs), ("state", os_), i + 1, seed)
-        return Verdict(length)
+                if explained is True and op_agrees(op, ros, ours):
+                    _explain(s, op, ("state", rs), ("state", os_), seed, verdict)
+                verdict.diverged = True
+                return verdict
+        return verdict
     finally:
         s.node.destroy_node()
 
 
-def _explain(s: Sides, op: Op, ros: Outcome, ours: Outcome, count: int, seed: int) -> Verdict:
+def _explain(s: Sides, op: Op, ros: Outcome, ours: Outcome, seed: int, verdict: Verdict) -> bool:
     for diff in DIFFERENCES:
         if diff.applies(s, op, ros, ours):
-            return Verdict(count, difference=diff.id)
+            verdict.differences.append(diff.id)
+            return True
     start = f"allow_undeclared={s.allow_undeclared}, overrides={s.table._overrides!r}"
     steps = "\n  ".join(repr(o) for o in s.log)
-    return Verdict(
-        count,
-        problem=f"seed {seed}: ROS 2 {ros!r}, ours {ours!r} at the last op of\n  [{start}]\n  {steps}",
-    )
+    verdict.problem = f"seed {seed}: ROS 2 {ros!r}, ours {ours!r} at the last op of\n  [{start}]\n  {steps}"
+    return False
 
 
 @dataclass(frozen=True)
