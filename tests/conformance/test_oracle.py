@@ -6,6 +6,7 @@ difference (see tests/conformance/ros_oracle.py and docs/semantics.md, "Conforma
 from __future__ import annotations
 
 import os
+import random
 import re
 import time
 from collections import Counter
@@ -15,6 +16,7 @@ from typing import Any
 
 import pytest
 
+from . import rcl_yaml as ry
 from . import ros_oracle as ro
 from .test_conformance import SEMANTICS_PAGE, _flat
 
@@ -90,3 +92,56 @@ def test_an_unlisted_disagreement_fails() -> None:
     verdict = ro.Verdict()
     assert not ro._explain(sides, op, ("ok", ("integer", 1)), ("ok", ("integer", 2)), 0, verdict)
     assert verdict.differences == [] and verdict.problem is not None and "seed 0" in verdict.problem
+
+
+FILES = 3000
+
+
+def _compare_file(path: Path, text: str, nodes: tuple[str, ...], hits: Counter[str]) -> list[str]:
+    ros, ours = ry.rcl_load(path, nodes), ry.our_load(text, nodes)
+    problems = []
+    for node in nodes:
+        if ro.same_payload(ros[node], ours[node]):
+            continue
+        why = ry.explain(text, ros[node], ours[node])
+        if why is None:
+            problems.append(f"{path.name} for {node}:\n{text}\nrcl: {ros[node]}\nours: {ours[node]}")
+        else:
+            hits[why] += 1
+    return problems
+
+
+def test_generated_parameter_files_agree_with_rcl(ros_context: Any, tmp_path: Path) -> None:
+    start = time.monotonic()
+    problems: list[str] = []
+    hits: Counter[str] = Counter()
+    for i in range(FILES):
+        text = ry.random_file(random.Random(i))
+        path = tmp_path / f"seed{i}.yaml"
+        path.write_text(text, encoding="utf-8")
+        problems += _compare_file(path, text, ry.NODES, hits)
+    print(f"\n{FILES} files x {len(ry.NODES)} nodes, listed differences: {dict(hits)}, "
+          f"{time.monotonic() - start:.1f} s")
+    assert not problems, f"{len(problems)} unexplained; first:\n" + "\n".join(problems[:3])
+    assert sum(hits.values()) < FILES * len(ry.NODES) // 2, "most files must be compared value by value"
+
+
+REAL_FILES = sorted(p for p in REALWORLD.glob("*.yaml") if "ros__parameters" in p.read_text(encoding="utf-8"))
+
+
+@pytest.mark.parametrize("path", REAL_FILES, ids=[p.name for p in REAL_FILES])
+def test_real_parameter_files_agree_with_rcl(ros_context: Any, path: Path) -> None:
+    text = path.read_text(encoding="utf-8")
+    nodes = ry.node_names(text)
+    hits: Counter[str] = Counter()
+    problems = _compare_file(path, text, nodes, hits)
+    assert not problems, "\n".join(problems[:2])
+    assert not hits, f"a real file should agree outright: {dict(hits)}"
+    loaded = ry.our_load(text, nodes)
+    assert sum(len(v[1]) for v in loaded.values() if v[0] == "ok") > 0, "the file configures its nodes"
+
+
+def test_every_file_difference_is_documented() -> None:
+    fixed = _fixed_list()
+    for sentence in ry.DIFFERENCES:
+        assert _flat(sentence) in fixed, f"docs/semantics.md's Fixed list lacks {sentence!r}"
