@@ -430,6 +430,15 @@ def random_descriptor(rng: random.Random, name: str, vtype: ParameterType) -> Pa
     if rng.random() < 0.3:
         lo_f = rng.choice((-10.0, 0.0, 0.5))
         fr = FloatingPointRange(lo_f, lo_f + rng.choice((0.0, 1.0, 10.0)), rng.choice((0.0, 0.0, 0.5, 0.1)))
+        if rng.random() < 0.15:  # open and broken ends
+            fr = rng.choice(
+                (
+                    FloatingPointRange(-math.inf, 0.0, 0.0),
+                    FloatingPointRange(0.0, math.inf, 0.0),
+                    FloatingPointRange(-math.inf, math.inf, 0.0),
+                    FloatingPointRange(math.nan, 1.0, 0.0),
+                )
+            )
     return ParameterDescriptor(
         name,
         dtype,
@@ -688,6 +697,8 @@ def _atomic_order(s: Sides, op: Op, ros: Outcome, ours: Outcome) -> bool:
         return False
     for name, _ in op.args[0]:
         if not _declared(s, name):
+            if s.allow_undeclared:
+                continue  # rclcpp declares it later; it is neither missing nor read-only
             return False
         if s.before[name].read_only:
             return True  # rclpy reports a later parameter's fault (its type, range or name)
@@ -715,7 +726,49 @@ def _tiny_on_grid(s: Sides, op: Op, ros: Outcome, ours: Outcome) -> bool:
     return any(tiny(v) and _fails(a, "INVALID_VALUE") for (_, v), a, _ in _one_param_ops(op, ros, ours))
 
 
+def _nan_bound(s: Sides, op: Op, ros: Outcome, ours: Outcome) -> bool:
+    if op.kind != "declare" or op.args[2] is None or op.args[2].floating_point_range is None:
+        return False
+    r = op.args[2].floating_point_range
+    nan = math.isnan(r.from_value) or math.isnan(r.to_value)
+    return nan and _fails(ours, ErrorCode.INVALID_VALUE) and not _fails(ros, "ALREADY_DECLARED")
+
+
+def _infinite_bound(s: Sides, op: Op, ros: Outcome, ours: Outcome) -> bool:
+    """±inf at an infinite bound of its range: rclpy (and rclcpp, without a step) accept it."""
+
+    def at_infinite_bound(v: ParameterValue, d: ParameterDescriptor | None) -> bool:
+        r = d.floating_point_range if d is not None else None
+        return (
+            r is not None
+            and v.type is T.DOUBLE
+            and isinstance(v.value, float)
+            and math.isinf(v.value)
+            and v.value in (r.from_value, r.to_value)
+        )
+
+    if op.kind == "declare":
+        name, default, desc, ignore = op.args
+        override = None if ignore else s.table.override(name)
+        chosen = override if override is not None else default
+        return ros[0] == "ok" and _fails(ours, ErrorCode.OUT_OF_RANGE) and at_infinite_bound(chosen, desc)
+    return any(
+        _fails(b, ErrorCode.OUT_OF_RANGE) and at_infinite_bound(v, s.before.get(n))
+        for (n, v), _, b in _one_param_ops(op, ros, ours)
+    )
+
+
 DIFFERENCES: list[Difference] = [
+    Difference(
+        "nan-range-bound",
+        _nan_bound,
+        fixed="a floating-point range with a NaN bound is refused when declared",
+    ),
+    Difference(
+        "infinite-bound",
+        _infinite_bound,
+        fixed="NaN and ±inf never pass a floating-point range, not even an infinite bound",
+    ),
     Difference(
         "float-grid-tolerance",
         _tiny_on_grid,
