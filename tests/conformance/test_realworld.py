@@ -193,7 +193,8 @@ def test_spec_loads_describes_and_sets(
         kinds = {v.kind for _, _, d in table.snapshot() for v in d.validators}
         assert set(spec.unenforced) <= kinds
     for entry in spec:  # additional_constraints is the spec's own text (generate_parameter_library)
-        assert table.describe_one(entry.name).additional_constraints == entry.descriptor.additional_constraints
+        shown = table.describe_one(entry.name).additional_constraints
+        assert shown == entry.descriptor.additional_constraints
 
 
 def test_joint_trajectory_controller_mapped_gains_and_its_validators(tmp_path: Path) -> None:
