@@ -19,12 +19,10 @@ import pytest
 from . import rcl_yaml as ry
 from . import ros_oracle as ro
 from .test_conformance import SEMANTICS_PAGE, _flat
+from .test_realworld import REALWORLD
 
 SEQUENCES = 3000
 LENGTH = 12
-REALWORLD = Path(__file__).resolve().parents[3] / "shared" / "realworld"
-if not REALWORLD.is_dir():
-    REALWORLD = Path("/work/shared/realworld")
 
 
 def _require_ros() -> None:
@@ -92,6 +90,10 @@ def test_an_unlisted_disagreement_fails() -> None:
     verdict = ro.Verdict()
     assert not ro._explain(sides, op, ("ok", ("integer", 1)), ("ok", ("integer", 2)), 0, verdict)
     assert verdict.differences == [] and verdict.problem is not None and "seed 0" in verdict.problem
+    text = "robot:\n  ros__parameters:\n    a: 1\n"
+    assert ry.explain(text, ("ok", {"a": ("integer", 1)}), ("ok", {"a": ("integer", 2)})) is None
+    tiny = ("ok", {"a": ("string", "1e-310")}), ("ok", {"a": ("double", 1e-310)})
+    assert ry.explain(text, *tiny) == ry.SUBNORMAL
 
 
 FILES = 3000
@@ -126,11 +128,14 @@ def test_generated_parameter_files_agree_with_rcl(ros_context: Any, tmp_path: Pa
     assert sum(hits.values()) < FILES * len(ry.NODES) // 2, "most files must be compared value by value"
 
 
-REAL_FILES = sorted(p for p in REALWORLD.glob("*.yaml") if "ros__parameters" in p.read_text(encoding="utf-8"))
+REAL_FILES = sorted(
+    p for p in REALWORLD.glob("*.yaml") if "ros__parameters" in p.read_text(encoding="utf-8")
+)
 
 
 @pytest.mark.parametrize("path", REAL_FILES, ids=[p.name for p in REAL_FILES])
 def test_real_parameter_files_agree_with_rcl(ros_context: Any, path: Path) -> None:
+    assert len(REAL_FILES) >= 6, f"the real parameter files of {REALWORLD}"
     text = path.read_text(encoding="utf-8")
     nodes = ry.node_names(text)
     hits: Counter[str] = Counter()
