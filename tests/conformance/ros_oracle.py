@@ -726,6 +726,10 @@ def _tiny_on_grid(s: Sides, op: Op, ros: Outcome, ours: Outcome) -> bool:
     return any(tiny(v) and _fails(a, "INVALID_VALUE") for (_, v), a, _ in _one_param_ops(op, ros, ours))
 
 
+# the rclcpp source read for each "rclcpp" entry below (ros2/rclcpp at commit 00bf8fb)
+_NODE_PARAMETERS_CPP = "ros2/rclcpp@00bf8fb rclcpp/src/rclcpp/node_interfaces/node_parameters.cpp"
+
+
 def _nan_bound(s: Sides, op: Op, ros: Outcome, ours: Outcome) -> bool:
     if op.kind != "declare" or op.args[2] is None or op.args[2].floating_point_range is None:
         return False
@@ -783,7 +787,7 @@ DIFFERENCES: list[Difference] = [
     Difference(
         "implicit-declare",
         _implicit_declare,
-        rclcpp="rclcpp/src/rclcpp/node_interfaces/node_parameters.cpp, set_parameters_atomically: an "
+        rclcpp=f"{_NODE_PARAMETERS_CPP}, set_parameters_atomically: an "
         "undeclared name (undeclared parameters allowed) is declared by __declare_parameter_common, "
         "which stores a NOT_SET value 'without a value' (rclpy stores nothing); and "
         "__set_parameters_atomically_common sets 'descriptor.type = parameters[i].get_type()' "
@@ -794,21 +798,21 @@ DIFFERENCES: list[Difference] = [
     Difference(
         "atomic-check-order",
         _atomic_order,
-        rclcpp="rclcpp/src/rclcpp/node_interfaces/node_parameters.cpp, set_parameters_atomically: "
+        rclcpp=f"{_NODE_PARAMETERS_CPP}, set_parameters_atomically: "
         "'Check if any of the parameters are read-only, or if any parameters are not declared', "
         "one parameter at a time in request order (rclpy: _check_undeclared_parameters first)",
     ),
     Difference(
         "untyped-declare-kind",
         _untyped_declare,
-        rclcpp="rclcpp/src/rclcpp/node_interfaces/node_parameters.cpp, declare_parameter_helper: "
+        rclcpp=f"{_NODE_PARAMETERS_CPP}, declare_parameter_helper: "
         "InvalidParameterTypeException 'cannot declare a statically typed parameter with an "
         "uninitialized value' (rclpy raises ValueError)",
     ),
     Difference(
         "undeclare-static",
         _undeclare_static,
-        rclcpp="rclcpp/src/rclcpp/node_interfaces/node_parameters.cpp, undeclare_parameter: "
+        rclcpp=f"{_NODE_PARAMETERS_CPP}, undeclare_parameter: "
         "InvalidParameterTypeException 'cannot undeclare a statically typed parameter' (rclpy "
         "undeclares it)",
     ),
