@@ -18,8 +18,9 @@ if it does, the value is refused with the exception's text. ``paramdds server
 is read.
 
 A spec naming a validator that nobody registered still loads, with a warning naming
-it; the validator is kept in the descriptor (``describe`` shows it) and the
-descriptor's ``additional_constraints`` says it is not enforced. ``load_spec(...,
+it; the validator is kept in the descriptor (``describe`` shows it among the
+validators; ``additional_constraints`` stays the spec's own text, as in
+generate_parameter_library). ``load_spec(...,
 strict=True)`` (``--strict-spec``) refuses such a spec instead.
 
 Shipped here, as ros2_controllers (``custom_validators.hpp``) and control_toolbox's

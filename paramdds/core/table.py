@@ -383,16 +383,27 @@ class ParameterTable:
         stage: _Stage,
     ) -> _Entry:
         name = validate_name(name)
-        if stage.get(name) is not None:
-            raise AlreadyDeclaredError(f"parameter {name!r} is already declared on node {self.node_id!r}")
         if descriptor is None:
             descriptor = ParameterDescriptor(name)
         if not isinstance(descriptor, ParameterDescriptor):
             raise InvalidValueError(f"Parameter {name!r}: expected a ParameterDescriptor")
+        value = default if isinstance(default, ParameterValue) else ParameterValue.from_python(default)
+        typed = value.type is ParameterType.NOT_SET and descriptor.type is not ParameterType.NOT_SET
+        if typed and descriptor.dynamic_typing:
+            # rclcpp's declare_parameter(name, type, descriptor) refuses this before anything else
+            raise InvalidValueError(
+                f"Parameter {name!r}: a declaration by type ({descriptor.type.label}) cannot also "
+                "ask for dynamic_typing"
+            )
+        if stage.get(name) is not None:
+            raise AlreadyDeclaredError(f"parameter {name!r} is already declared on node {self.node_id!r}")
         desc = replace(descriptor, name=name)
+        if not typed and not desc.dynamic_typing:
+            # rclcpp (declare_parameter_helper): the descriptor's type is a status that the
+            # default's type overwrites; only a declaration without a default is typed by it.
+            desc = replace(desc, type=value.type)
         check_text(name, "description", desc.description)
         check_text(name, "additional_constraints", desc.additional_constraints)
-        value = default if isinstance(default, ParameterValue) else ParameterValue.from_python(default)
         override = None if ignore_override else self._overrides.get(name)
         chosen = override if override is not None else value
         if desc.dynamic_typing:
@@ -403,9 +414,8 @@ class ParameterTable:
         else:
             declared = desc.type
             if declared is ParameterType.NOT_SET:
-                declared = value.type if value.type is not ParameterType.NOT_SET else chosen.type
-            if declared is ParameterType.NOT_SET:
-                raise InvalidValueError(
+                # rclcpp and rclpy refuse it even when an override would give a value
+                raise TypeMismatchError(
                     f"Parameter {name!r} has no type: give a default value, a descriptor type, "
                     "or dynamic_typing=True"
                 )
@@ -531,6 +541,11 @@ class ParameterTable:
     def _attempt(self, params: _Objects, stage: _Stage) -> tuple[_Params, str]:
         """Steps 2-4 for one unit, writing into ``stage``. Raises _UnitFailed."""
         unit = self._run_pre_set(params)
+        for p in unit:  # as rclcpp: every name is checked for being declared and writable first
+            try:
+                self._check_access(p, stage)
+            except ParamddsError as exc:
+                raise _UnitFailed(_name_of(p), exc) from None
         planned: _Params = []
         for p in unit:
             try:
@@ -540,6 +555,23 @@ class ParameterTable:
             stage.pending[name] = entry
             planned.append(Parameter(name, entry[0] if entry is not None else NOT_SET))
         return planned, self._run_on_set(planned)
+
+    def _check_access(self, p: object, stage: _Stage) -> None:
+        """rclcpp's first pass over a request (set_parameters_atomically): a name that is not
+        declared (unless allowed) or is read-only fails before any value is looked at."""
+        if not isinstance(p, Parameter):
+            return  # refused with a clear reason by _plan_set
+        name = validate_name(p.name)
+        if self.read_only:
+            raise ReadOnlyError(f"node {self.node_id!r} is read-only")
+        current = stage.get(name)
+        if current is None and not self.allow_undeclared:
+            raise NotFoundError(
+                f"parameter {name!r} is not declared (start the node with --allow-undeclared "
+                "to accept new names)"
+            )
+        if current is not None and current[1].read_only:
+            raise ReadOnlyError(f"parameter {name!r} is read-only")
 
     def _plan_set(self, p: object, stage: _Stage) -> tuple[str, _Entry | None]:
         """Step 3 for one parameter: the entry it would leave (None: deleted), or raise."""
@@ -557,8 +589,7 @@ class ParameterTable:
                     f"parameter {name!r} is not declared (start the node with --allow-undeclared "
                     "to accept new names)"
                 )
-            if value.type is ParameterType.NOT_SET:
-                raise NotFoundError(f"parameter {name!r} is not declared, so it cannot be deleted")
+            # rclcpp declares it, dynamically typed (a NOT_SET value: declared without a value)
             return name, (value, ParameterDescriptor(name, value.type, dynamic_typing=True))
         desc = current[1]
         if desc.read_only:

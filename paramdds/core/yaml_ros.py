@@ -28,7 +28,7 @@ their node key; all sections matching the node are applied in that order, so a
 later matching section overrides an earlier one (``robot1`` written after ``/**``
 wins over it; written before, ``/**`` wins). The same node key written twice (for
 example ``/ns/robot1`` and ``/ns: {robot1: …}``, or ``/**:`` twice at the top
-level) is one section, later values winning, as rcl merges them. The root
+level) is one section, merged as rcl merges it (see ``_merge_repeated``). The root
 namespace key ``/`` followed by a node (``/: {my_node: …}``) is node ``/my_node``.
 
 **Values** are typed by :mod:`.yaml_scalar` (rcl's rules). Differences from rcl,
@@ -151,9 +151,16 @@ def _walk_nodes(node: yaml.MappingNode, prefix: str, source: Source, out: dict[s
             _check_node_name(prefix, source, knode)
             section = out.setdefault(prefix, _Section())
             local = {}
-            if not _is_null(vnode):
-                _walk_params(expect_map(vnode, source, f"node {prefix!r} {PARAMS_KEY}"), "", source, local)
-            section.values.update(local)
+            nested: set[str] = set()
+            if _is_null(vnode):  # rcl: "Cannot have a value before ros__parameters"
+                raise source.error(
+                    f"node {prefix!r}: {PARAMS_KEY} is empty; write '{PARAMS_KEY}: {{}}' for a node "
+                    "without parameters",
+                    knode,
+                )
+            params = expect_map(vnode, source, f"node {prefix!r} {PARAMS_KEY}")
+            _walk_params(params, "", source, local, nested)
+            _merge_repeated(section.values, local, nested)
         else:
             name = f"{prefix}{key}" if prefix.endswith("/") else f"{prefix}/{key}" if prefix else key
             if not isinstance(vnode, yaml.MappingNode):
@@ -170,6 +177,42 @@ def _walk_nodes(node: yaml.MappingNode, prefix: str, source: Source, out: dict[s
                 f"parameter {pname!r}: a descriptor without a value in this section's {PARAMS_KEY}", pknode
             )
         out[prefix].descriptors[pname] = (_descriptor(pname, dnode, source), line_of(pknode))
+
+
+# The order in which rclcpp (parameter_map.cpp, parameter_value_from) reads the typed slots of
+# rcl's rcl_variant_t: a value of another type never replaces one earlier in this order.
+_RCL_SLOTS = (
+    ParameterType.BOOL,
+    ParameterType.INTEGER,
+    ParameterType.DOUBLE,
+    ParameterType.STRING,
+    ParameterType.BYTE_ARRAY,
+    ParameterType.BOOL_ARRAY,
+    ParameterType.INTEGER_ARRAY,
+    ParameterType.DOUBLE_ARRAY,
+    ParameterType.STRING_ARRAY,
+)
+
+
+def _merge_repeated(
+    values: dict[str, tuple[_RawValue, int]], later: dict[str, tuple[_RawValue, int]], nested: set[str]
+) -> None:
+    """A node key written again, as rcl merges it (measured against rcl 10.1).
+
+    A parameter written again inside a map (``c: {d: 2}``) is a new entry in rcl, and the
+    later entry wins. One written again as a key of ``ros__parameters`` itself (``a: 2``,
+    ``c.d: 2``) updates rcl's existing entry, which keeps one slot per type (parse.c,
+    parse_value): only the slot of the new value's type is overwritten, so the later value
+    wins when the types agree, and otherwise the value whose type rclcpp reads first stays
+    (an empty list sets no slot)."""
+    for name, (raw, line) in later.items():
+        old = values.get(name)
+        if name in nested or old is None or isinstance(old[0], UntypedEmptyList):
+            values[name] = (raw, line)
+        elif isinstance(raw, UntypedEmptyList):
+            continue
+        elif _RCL_SLOTS.index(raw.type) <= _RCL_SLOTS.index(old[0].type):
+            values[name] = (raw, line)
 
 
 def _node_items(
@@ -193,17 +236,26 @@ def _is_null(node: yaml.Node) -> bool:
 
 
 def _walk_params(
-    node: yaml.MappingNode, prefix: str, source: Source, out: dict[str, tuple[_RawValue, int]]
+    node: yaml.MappingNode,
+    prefix: str,
+    source: Source,
+    out: dict[str, tuple[_RawValue, int]],
+    nested: set[str],
 ) -> None:
+    """Flatten ``node`` into ``out``; ``nested`` gets the names written inside a map."""
     where = f"parameters under {prefix!r}" if prefix else PARAMS_KEY
     for key, knode, vnode in items(node, source, where):
         name = f"{prefix}.{key}" if prefix else key
         if isinstance(vnode, yaml.MappingNode):
-            _walk_params(vnode, name, source, out)
+            if not vnode.value:  # rcl makes it a parameter without a value, or nests the next key in it
+                raise source.error(f"parameter {name!r}: an empty map {{}} is not a value", vnode)
+            _walk_params(vnode, name, source, out, nested)
             continue
         if name in out:
             raise source.error(f"parameter {name!r} is given twice (first at line {out[name][1]})", knode)
         out[name] = (node_value(vnode, source, name), line_of(knode))
+        if prefix:
+            nested.add(name)
 
 
 _TYPES = {t.label: t for t in ParameterType}

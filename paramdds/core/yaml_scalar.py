@@ -23,10 +23,12 @@ not with YAML 1.1's rules. We follow it, so a file means the same here as in ROS
    ``1_000``, ``0b101``, ``~``, ``null``, ``-.nan``, ``2024-01-01``.
 
 Block scalars (``|``, ``>``) are typed by content like plain ones (rcl only
-exempts quoted styles). The other tags we accept are our own typed forms:
+exempts quoted styles). Our own typed forms are tags:
 ``!bool_array [...]``, ``!integer_array``, ``!double_array``, ``!string_array``,
 ``!byte_array [0, 255]`` (the only way to write a byte array and to type an
-empty list), and ``!not_set`` (no value). Any other tag is an error.
+empty list), and ``!not_set`` (no value). Any other tag is ignored, as rcl ignores
+it: ``!!float 1`` is the integer 1 and ``!custom [1, 2]`` an integer array (``!!str``
+and quotes still make a string).
 
 Lists are typed by their elements, which must all have one type. Integers and
 doubles mixed in one list are an error, as in rcl ("Sequence should be of same
@@ -50,7 +52,7 @@ import yaml
 
 from ..errors import FileFormatError, InvalidValueError, ParamddsError
 from .values import INT64_MAX, INT64_MIN, NOT_SET, ParameterType, ParameterValue
-from .yaml_base import NONPLAIN_TAG, PLAIN_TAG, SEQ_TAG, STR_TAG, Source, compose
+from .yaml_base import STR_TAG, Source, compose
 
 __all__ = [
     "ARRAY_TAGS",
@@ -157,17 +159,15 @@ def _who(name: str) -> str:
 
 def _scalar(node: yaml.ScalarNode, source: Source, name: str, etype: ParameterType | None) -> ParameterValue:
     tag, text = node.tag, str(node.value)
-    if tag == STR_TAG or (tag == NONPLAIN_TAG and node.style in ("'", '"')):
+    if tag == STR_TAG or node.style in ("'", '"'):
         value = ParameterValue.of(ParameterType.STRING, text)
-    elif tag in (PLAIN_TAG, NONPLAIN_TAG):
+    else:  # untagged, or a tag rcl ignores (``!!float 1`` is the integer 1, ``!custom x`` a string)
         if not text:
             raise source.error(f'{_who(name)}: no value (write "" for an empty string)', node)
         if etype is ParameterType.STRING:
             value = ParameterValue.of(ParameterType.STRING, text)
         else:
             value = resolve_plain(text)
-    else:
-        raise source.error(f"{_who(name)}: unsupported tag {tag!r}", node)
     if etype is None or value.type is etype:
         return value
     if value.type is ParameterType.INTEGER and etype is ParameterType.DOUBLE:
@@ -230,8 +230,6 @@ def _sequence(
         ptype = ARRAY_TAGS[node.tag]
         if expected is not None and expected is not ptype:
             raise source.error(f"{_who(name)}: expected {_article(expected)}, got {node.tag}", node)
-    elif node.tag != SEQ_TAG:
-        raise source.error(f"{_who(name)}: unsupported tag {node.tag!r}", node)
     if ptype is not None and not ptype.is_array:
         raise source.error(f"{_who(name)}: expected {_article(ptype)}, got a list", node)
     elems: list[yaml.ScalarNode] = []

@@ -58,8 +58,9 @@ combinations the library refuses are refused (``bounds`` with ``gt``/``gt_eq``/
 ``upper_element_bounds``). An unknown built-in name or a wrong number of arguments is an
 error. A custom validator (``my_ns::check``) runs the function registered under
 that name (:mod:`.custom_validators`); one nobody registered loads with a warning
-naming it and a note in ``additional_constraints`` that it is not enforced, or is
-an error with ``strict=True`` (``--strict-spec``).
+naming it (``describe`` still lists it among the validators; ``additional_constraints``
+is the spec's own text, as in generate_parameter_library), or is an error with
+``strict=True`` (``--strict-spec``).
 
 **Ranges.** The descriptor's integer/floating-point range (step 0) is filled from
 the validators so ROS tools can show it, by generate_parameter_library's rules (its
@@ -67,8 +68,8 @@ the validators so ROS tools can show it, by generate_parameter_library's rules (
 ``gt_eq`` and ``lower_bounds`` give the lower end, ``lt``, ``lt_eq`` and
 ``upper_bounds`` the upper end, each at the bound itself (a range is inclusive, so
 for ``gt``/``lt`` the validator keeps the bound out); an open end is the type's limit
-as the library writes it (``std::numeric_limits<int>``, 32-bit, for integers; the
-lowest and largest double for doubles); on integer and double arrays the
+as the library's descriptor tests pin it (``std::numeric_limits<int64_t>`` for integers;
+the lowest and largest double for doubles); on integer and double arrays the
 element-bounds validators do the same for the elements.
 """
 
@@ -90,7 +91,7 @@ from .descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, 
 from .results import ChangeSet
 from .table import ParameterTable
 from .validation import check_validator
-from .values import NOT_SET, ParameterType, ParameterValue
+from .values import INT64_MAX, INT64_MIN, NOT_SET, ParameterType, ParameterValue
 from .yaml_base import Source, compose, expect_map, items, read_file
 from .yaml_ros import parse_validator
 from .yaml_scalar import node_value, typed_value
@@ -99,7 +100,9 @@ __all__ = ["MappedEntry", "Spec", "SpecEntry", "declare_spec", "load_spec", "loa
 
 log = logging.getLogger(__name__)
 _MAP = "__map_"
-_INT_MIN, _INT_MAX = -(2**31), 2**31 - 1  # std::numeric_limits<int>, as the library's generated code
+# generate_parameter_library's descriptor_test_gtest.cpp (check_gt, check_lt_eq) pins the open end
+# of an integer range at std::numeric_limits<int64_t>
+_INT_MIN, _INT_MAX = INT64_MIN, INT64_MAX
 _DBL_MAX = sys.float_info.max
 
 T = ParameterType
@@ -311,11 +314,9 @@ def _leaf(name: str, node: yaml.MappingNode, walk: _Walk) -> SpecEntry:
     if fixed is not None:
         validators.append(Validator("size_lt", (ParameterValue(T.INTEGER, fixed + 1),)))
     int_range, fp_range = _ranges(ptype, validators)
+    # generate_parameter_library takes additional_constraints from the spec's own key only; an
+    # unregistered custom validator is reported by a warning (and refused with strict=True)
     constraints = text("additional_constraints")
-    missing = [v.kind for v in validators if "::" in v.kind and lookup_validator(v.kind) is None]
-    if missing:
-        note = "not enforced: " + ", ".join(missing) + " (no such validator registered)"
-        constraints = f"{constraints}; {note}" if constraints else note
     descriptor = ParameterDescriptor(
         name=name,
         type=ptype,

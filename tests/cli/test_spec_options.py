@@ -53,7 +53,7 @@ def files(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     return tmp_path
 
 
-def test_validators_module_is_enforced_and_an_unknown_one_is_shown_not_enforced(files: Path) -> None:
+def test_validators_module_is_enforced_and_an_unknown_one_is_logged_not_enforced(files: Path) -> None:
     domain = next_domain()
     server = start_server(
         domain, "-n", "arm", "--spec", str(files / "spec.yaml"), "--validators", "acme_cli_validators"
@@ -63,10 +63,8 @@ def test_validators_module_is_enforced_and_an_unknown_one_is_shown_not_enforced(
         refused = run_cli(domain, "set", "arm", "k=5")
         assert refused.returncode == 1 and "must be even" in refused.stdout + refused.stderr
         described = json.loads(run_cli(domain, "describe", "arm", "k", "-o", "json").stdout)["k"]
-        assert (
-            described["additional_constraints"]
-            == "not enforced: acme_cli::unknown (no such validator registered)"
-        )
+        # the spec's own text only, as generate_parameter_library (issue 20); the server's log says it
+        assert described["additional_constraints"] == ""
         assert [v["kind"] for v in described["validators"]] == ["acme_cli::even", "acme_cli::unknown"]
     finally:
         assert server.stop() == 0

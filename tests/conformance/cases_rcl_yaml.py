@@ -122,8 +122,10 @@ CASES: list[Case] = [
          ("p:\n  ros__parameters:\n    m: [true, word]\n", "p"), ERROR),
     Case("rcl-tagged-str", f"{PARSE}: test_parser.correct_syntax (string_tag: !!str keeps a string)", "yaml",
          ("p:\n  ros__parameters:\n    s: !!str 12\n", "p"), {"s": ("string", "12")}),
-    Case("rcl-unknown-tag", f"{PARSE_C}: get_value (only the bool, int, float and str tags)", "yaml",
-         ("p:\n  ros__parameters:\n    s: !!binary 12\n", "p"), ERROR),
+    Case("rcl-unknown-tag", f"{PARSE_C}: parse_file_events (only !!str changes the typing; any other "
+         "tag is ignored, as rcl 10.1.3 shows)", "yaml",
+         ("p:\n  ros__parameters:\n    s: !!binary 12\n    t: !!float 1\n    u: !custom [1, 2]\n", "p"),
+         {"s": ("integer", 12), "t": ("integer", 1), "u": ("integer_array", [1, 2])}),
     Case("rcl-empty-name-in-ns", f"{PARSE}: test_file_parser.empty_name_in_ns", "yaml",
          ("ns:\n  \"\":\n    ros__parameters:\n      a: 1\n", "ns"), ERROR),
     Case("rcl-tag-str-bool-word", f"{PARSE}: test_parser.correct_syntax (string_tag)", "yaml",

@@ -126,8 +126,12 @@ def test_not_set_on_an_unset_dynamic_parameter_keeps_it_declared_and_changes_not
 
 
 def test_a_parameter_with_no_type_at_all_is_refused() -> None:
-    with pytest.raises(InvalidValueError, match="has no type"):
+    # rclcpp's declare_parameter_helper throws InvalidParameterTypeException, even when an
+    # override would give a value (issue 20, kind 4)
+    with pytest.raises(TypeMismatchError, match="has no type"):
         ParameterTable("n").declare("x")
+    with pytest.raises(TypeMismatchError, match="has no type"):
+        ParameterTable("n", overrides={"x": ParameterValue(T.INTEGER, 1)}).declare("x")
 
 
 def test_a_dynamically_typed_parameter_may_start_unset() -> None:
@@ -197,8 +201,9 @@ def test_declare_from_is_all_or_nothing() -> None:
     t = ParameterTable("n")
     with pytest.raises(AlreadyDeclaredError):
         t.declare_from([("a", V(1), None), ("a", V(2), None)])
-    with pytest.raises(TypeMismatchError):
-        t.declare_from([("a", V(1), None), ("b", V("x"), ParameterDescriptor("", T.INTEGER))])
+    with pytest.raises(OutOfRangeError):
+        ranged = ParameterDescriptor("", integer_range=IntegerRange(0, 10, 0))
+        t.declare_from([("a", V(1), None), ("b", V(20), ranged)])
     assert t.names() == [] and t.revision == 0
 
 
@@ -687,3 +692,30 @@ def test_name_lists_must_be_lists(table: ParameterTable) -> None:
         table.get_many("count")
     with pytest.raises(InvalidValueError, match="list of parameter names"):
         table.get_types("count")
+
+
+def test_not_set_for_an_undeclared_name_declares_it_without_a_value_when_allowed() -> None:
+    # rclcpp's set_parameters_atomically declares it (issue 20, kind 1); inside an atomic set too
+    t = ParameterTable("n", allow_undeclared=True)
+    assert t.set_atomically([Parameter("ghost", NOT_SET), Parameter("b", V(1))]).results[0].successful
+    assert t.has("ghost") and t.get_types(["ghost"]) == [T.NOT_SET] and t.get("b") == V(1)
+
+
+def test_an_atomic_set_reports_the_first_undeclared_or_read_only_name_before_any_type() -> None:
+    # rclcpp checks "declared" and "read-only" for every entry before any value (kind 2)
+    t = ParameterTable("n")
+    t.declare("a", 1)
+    results = t.set_atomically([Parameter("a", V("wrong type")), Parameter("ghost", V(1))]).results
+    assert [r.code for r in results] == [ErrorCode.INVALID_VALUE, ErrorCode.NOT_FOUND]
+
+
+def test_a_declaration_by_type_cannot_ask_for_dynamic_typing() -> None:
+    # rclcpp's declare_parameter(name, type, descriptor): std::invalid_argument, before the
+    # already-declared check (kind 5)
+    t = ParameterTable("n")
+    typed_dynamic = ParameterDescriptor("", T.INTEGER, dynamic_typing=True)
+    with pytest.raises(InvalidValueError, match="dynamic_typing"):
+        t.declare("x", None, typed_dynamic)
+    t.declare("y", 1)
+    with pytest.raises(InvalidValueError, match="dynamic_typing"):
+        t.declare("y", None, typed_dynamic)

@@ -142,7 +142,8 @@ def test_typed_tags_give_byte_arrays_and_typed_empty_lists() -> None:
         ("n:\n  ros__parameters:\n    a: 1\n    a: 2\n", 4, r"'a' is repeated"),
         ("n:\n  ros__parameters:\n    a.b: 1\n    a:\n      b: 2\n", 5, r"'a.b' is given twice"),
         ("n:\n  ros__parameters:\n    a: [[1]]\n", 3, r"'a'.*only single values"),
-        ("n:\n  ros__parameters:\n    a: !!float 1\n", 3, r"'a'.*unsupported tag"),
+        ("n:\n  ros__parameters:\n    a: {}\n    b: 1\n", 3, r"'a'.*empty map"),
+        ("n:\n  ros__parameters:\n", 2, r"'n'.*ros__parameters is empty"),
         ("n:\n  ros__parameters:\n    a: [1\n", 4, r"YAML syntax error"),
         ("ros__parameters:\n  a: 1\n", 1, r"needs a node name"),
         ("n:\n  x: 1\n", 2, r"node 'n/x'.*expected a map"),
@@ -253,3 +254,34 @@ def test_example_file_loads_per_node() -> None:
         "robot.max_velocity": PV(T.DOUBLE, 1.0),
     }
     assert all(d is None for _, _, d in load_ros_file_full(path, "robot1"))
+
+
+def test_tags_other_than_ours_are_ignored_as_rcl_ignores_them() -> None:
+    # issue 20, kind 6: rcl 10.1 types a tagged value by its content (only !!str and quotes make
+    # a string); before, the file was refused
+    text = "n:\n  ros__parameters:\n    a: !!float 1\n    b: !custom [1, 2]\n    c: !!str 1\n    d: !x '7'\n"
+    got = {k: (v.type.label, v.value) for k, v in load_ros_params_str(text, "n").items()}
+    assert got == {
+        "a": ("integer", 1),
+        "b": ("integer_array", (1, 2)),
+        "c": ("string", "1"),
+        "d": ("string", "7"),
+    }
+
+
+def test_a_repeated_node_key_merges_as_rcl_does() -> None:
+    # issue 20, kind 9 (measured against rcl 10.1): a key of ros__parameters written again keeps
+    # the earlier value unless the types agree or the new type is read first (bool, integer,
+    # double, string, then arrays); written again inside a map, the later value wins.
+    text = (
+        "n:\n  ros__parameters:\n    a: 1\n    b: x\n    c.d: 1\n    e: 1\n    f: [1]\n"
+        "n:\n  ros__parameters:\n    a: 2.5\n    b: 7\n    c:\n      d: 2.5\n    e: 2\n    f: []\n"
+    )
+    got = {k: (v.type.label, v.value) for k, v in load_ros_params_str(text, "n").items()}
+    assert got == {
+        "a": ("integer", 1),
+        "b": ("integer", 7),
+        "c.d": ("double", 2.5),
+        "e": ("integer", 2),
+        "f": ("integer_array", (1,)),
+    }

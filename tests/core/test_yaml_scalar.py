@@ -177,7 +177,6 @@ def test_cli_value_with_an_expected_type() -> None:
         ("a: b", "is a map.*quote it"),
         ("[1, [2]]", "only single values"),
         ("'unterminated", "cannot read value"),
-        ("!!float 1", "unsupported tag"),
         ("!byte_array [256]", "0..255"),
     ],
 )
