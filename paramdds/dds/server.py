@@ -63,7 +63,7 @@ from ..core.results import ChangeKind, ChangeSet, SetResult
 from ..core.table import ParameterTable
 from ..core.values import Parameter, ParameterType
 from ..errors import ErrorCode, NotPermittedError, ParamddsError
-from ..secure.scope import guard_raw, guard_samples, scope_of
+from ..secure.scope import guard_raw, guard_samples, permitted, scope_of
 from . import types as wire
 from ._binding import assert_liveliness, take_serialized, unregister_serialized, write_serialized
 from .cdr import MalformedSample, encode
@@ -137,13 +137,15 @@ class ParameterServer:
         state_qos = self._qos.writer("ParameterEvents")
         # liveliness is asserted by our dispatch loop, not by Cyclone's threads (see above)
         state_qos += _manual_liveliness()
-        self._state_writer = DataWriter(
-            self._pub, Topic(participant, "ParameterEvents", wire.ParameterEvent), state_qos
-        )
-        self._reply_writers = {
-            name: DataWriter(self._pub, Topic(participant, name, wire.TOPICS[name]), self._qos.writer(name))
-            for name in ("SetParametersResponse", "GetParametersResponse", "ListParametersResponse")
-        }
+        with permitted(self._scope, f"serving nodes {sorted(self._scoped or ())}"):
+            self._state_writer = DataWriter(
+                self._pub, Topic(participant, "ParameterEvents", wire.ParameterEvent), state_qos
+            )
+            replies = ("SetParametersResponse", "GetParametersResponse", "ListParametersResponse")
+            self._reply_writers = {
+                name: DataWriter(self._pub, Topic(self._dp, name, wire.TOPICS[name]), self._qos.writer(name))
+                for name in replies
+            }
         self._dispatcher = Dispatcher(participant, "paramdds-server", tick=self._tick, period=LEASE / 4)
         handlers = {
             "SetParametersRequest": self._on_set,
@@ -151,7 +153,8 @@ class ParameterServer:
             "ListParametersRequest": self._on_list,
         }
         for name, handler in handlers.items():
-            reader = DataReader(self._sub, self._request_topic(name), self._qos.reader(name))
+            with permitted(self._scope, f"reading {name}"):
+                reader = DataReader(self._sub, self._request_topic(name), self._qos.reader(name))
             self._dispatcher.add(reader, guard_samples(self._scope, reader, handler))
 
     @staticmethod

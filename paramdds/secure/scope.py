@@ -23,14 +23,15 @@ Nothing here is used without an identity: the default wire has no partitions.
 from __future__ import annotations
 
 import threading
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from contextlib import contextmanager
 from typing import Any
 
 from ..core.names import canonical_node_id
 from ..errors import NotPermittedError, ParamddsError
 from .identity import Identity
 
-__all__ = ["Scope", "guard_raw", "guard_samples", "not_permitted", "scope_of"]
+__all__ = ["Scope", "guard_raw", "guard_samples", "not_permitted", "permitted", "scope_of"]
 
 _MASK = (1 << 64) - 1
 _ACTIONS = {"SetParametersRequest": "set", "GetParametersRequest": "get", "ListParametersRequest": "list"}
@@ -161,6 +162,19 @@ class Scope:
         except ParamddsError:
             return False
         return node in self.writer_partitions(reader, handle)
+
+
+@contextmanager
+def permitted(scope: Scope | None, what: str) -> Iterator[None]:
+    """In secure mode, turn DDS Security's refusal to create an entity into NotPermittedError."""
+    from cyclonedds.core import DDSException
+
+    try:
+        yield
+    except DDSException as exc:
+        if scope is None:
+            raise
+        raise not_permitted(what, scope.identity, exc) from exc
 
 
 Handler = Callable[[Sequence[Any]], None]
