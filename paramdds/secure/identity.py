@@ -115,5 +115,5 @@ def require_secure_library() -> None:
         raise ParamddsError(
             f"secure mode needs Cyclone DDS built with security, and {where} has none (the PyPI "
             f"wheels are built without it): {HOW_TO_INSTALL}",
-            code=ErrorCode.UNAVAILABLE,
+            code=ErrorCode.INTERNAL,  # exit 4: this installation cannot do it
         )
