@@ -187,7 +187,15 @@ def guard_samples(scope: Scope | None, reader: Any, handler: Handler) -> Handler
         return handler
 
     def guarded(samples: Sequence[Any]) -> None:
-        handler([s for s in samples if scope.allows(reader, s.node_id, s.sample_info)])
+        # samples without data (an unregistered or disposed instance) carry no node_id;
+        # every handler skips them
+        handler(
+            [
+                s
+                for s in samples
+                if not s.sample_info.valid_data or scope.allows(reader, s.node_id, s.sample_info)
+            ]
+        )
 
     return guarded
 
