@@ -70,7 +70,10 @@ def _source_dir(source: Path, work: Path) -> Path:
     shutil.rmtree(target, ignore_errors=True)
     target.mkdir(parents=True)
     with tarfile.open(source) as tar:
-        tar.extractall(target, filter="data")
+        if hasattr(tarfile, "data_filter"):  # Python 3.10.12+: refuse paths outside target
+            tar.extractall(target, filter="data")
+        else:  # pragma: no cover - older Pythons
+            tar.extractall(target)
     entries = [p for p in target.iterdir() if p.is_dir()]
     root = entries[0] if len(entries) == 1 else target
     if not (root / "CMakeLists.txt").is_file():

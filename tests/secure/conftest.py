@@ -131,6 +131,21 @@ class SecureSystem:
             [*cmd, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=self.env()
         )
 
+    def nodes(self, identity: str | None, expected: set[str], tries: int = 3) -> dict[str, dict[str, object]]:
+        """``paramdds nodes -o json`` until ``expected`` are listed (``tries`` runs at most).
+
+        A one-shot ``nodes`` waits at most 2 s for the state to settle; on a loaded machine
+        a secure handshake (certificates, key exchange) with one server can take longer.
+        """
+        listed: dict[str, dict[str, object]] = {}
+        for _ in range(tries):
+            done = self.run(identity, "nodes", "-o", "json")
+            assert done.returncode == 0, done.stderr
+            listed = {str(n["node"]): n for n in json.loads(done.stdout)}
+            if expected <= set(listed):
+                break
+        return listed
+
     def value(self, node: str, name: str) -> object:
         """The value of one parameter, as a full-rights identity reads it."""
         done = self.run("admin", "get", node, name, "-o", "json")

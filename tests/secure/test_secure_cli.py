@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import subprocess
 import time
 from pathlib import Path
@@ -11,15 +10,15 @@ from .conftest import SecureSystem, stop, wait_line
 
 
 def test_full_rights_identity_runs_the_ordinary_flows(system: SecureSystem) -> None:
-    nodes = system.run("admin", "nodes")
-    assert nodes.returncode == 0, nodes.stderr
-    assert "robot1" in nodes.stdout and "robot2" in nodes.stdout
+    assert {"robot1", "robot2"} <= set(system.nodes("admin", {"robot1", "robot2"}))
     listed = system.run("admin", "list", "robot1")
     assert listed.stdout.split() == ["robot.max_velocity", "robot.mode", "robot.name", "robot.wheel_count"]
     done = system.run("admin", "set", "robot2", "robot.wheel_count=6")
     assert done.returncode == 0, done.stderr
     got = system.run("admin", "get", "robot2", "robot.wheel_count", "robot.name")
     assert got.stdout.splitlines() == ["robot.wheel_count = integer 6", "robot.name = string 'my_robot'"]
+    described = system.run("admin", "describe", "robot2", "robot.wheel_count")
+    assert described.returncode == 0 and "integer" in described.stdout, described
     dumped = system.run("admin", "dump", "robot2", "--no-descriptors")
     assert "wheel_count: 6" in dumped.stdout, dumped.stdout
     watch = system.start("admin", "watch", "robot2", "-o", "json")
@@ -35,8 +34,7 @@ def test_viewer_watches_and_gets_but_every_set_fails(system: SecureSystem) -> No
     got = system.run("viewer", "get", "robot1", "robot.max_velocity")
     assert got.returncode == 0, got.stderr
     assert got.stdout.strip() == "robot.max_velocity = double 1.5"
-    watch = system.run("viewer", "nodes")
-    assert "robot1" in watch.stdout and "robot2" in watch.stdout
+    assert {"robot1", "robot2"} <= set(system.nodes("viewer", {"robot1", "robot2"}))  # a monitor, as watch
     for args in (["set", "robot1", "robot.max_velocity=2.5"], ["delete", "robot1", "robot.name"]):
         refused = system.run("viewer", *args)
         assert refused.returncode == 1, refused
@@ -118,8 +116,7 @@ def test_state_a_granted_writer_writes_for_another_node_is_ignored(system: Secur
     )
     try:
         wait_line(rogue, "written")
-        nodes = system.run("admin", "nodes", "-o", "json")  # a late joiner: receives the rogue's state too
-        listed = {n["node"]: n for n in json.loads(nodes.stdout)}
+        listed = system.nodes("admin", {"robot1", "robot2"})  # a late joiner: gets the rogue's state too
         assert "ghost" not in listed
         assert listed["robot2"]["host"] != "rogue"
         got = system.run("admin", "get", "robot2", "robot.name")  # a client: presence and reply
