@@ -72,6 +72,8 @@ def keystore(tmp_path_factory: pytest.TempPathFactory) -> Path:
         ("srv1", "server", ["robot1"]),
         ("srv2", "server", ["robot2"]),
         ("op1", "operator", ["robot1*"]),
+        ("srv34", "server", ["robot3", "robot4"]),
+        ("op3", "operator", ["robot3"]),
         ("viewer", "viewer", ["*"]),
     ):
         add_identity(root, name, role, nodes)

@@ -169,3 +169,45 @@ def test_parameter_values_never_appear_in_plain_text_on_the_wire(
         assert marker.encode() in captured(None, "plain1", plain)
     finally:
         stop(server)
+
+
+ROGUE_REQUEST = """
+import sys, time
+from paramdds.dds.participant import make_participant, close_participant
+from paramdds.secure.identity import load_identity
+from paramdds.dds import types as wire
+from paramdds.dds.convert import parameter_to_wire
+from paramdds.core.values import Parameter, ParameterValue
+
+dp = make_participant(int(sys.argv[2]), localhost=True, identity=load_identity(sys.argv[1]))
+writer = dp._paramdds_scope.writer("SetParametersRequest", "robot3", None)  # granted: robot3
+for request_id, node in enumerate(["robot4", "robot3"] * 10, start=1):
+    param = parameter_to_wire(Parameter("robot.mode", ParameterValue.from_python("via-robot3")))
+    request = wire.SetParametersRequest(node_id=node, client_id=7, request_id=request_id, parameters=[param])
+    writer.write(request)
+    time.sleep(0.1)
+time.sleep(0.5)
+close_participant(dp)
+"""
+
+
+def test_a_request_naming_a_node_outside_its_writers_partitions_is_not_applied(system: SecureSystem) -> None:
+    server = system.start("srv34", "server", "-n", "robot3", "-n", "robot4", "-p", str(system.params))
+    try:
+        wait_line(server, "[SERVER] Serving")
+        done = subprocess.run(
+            [str(system.bin / "python"), "-c", ROGUE_REQUEST, system.identity("op3"), str(system.domain)],
+            capture_output=True,
+            text=True,
+            timeout=60,
+            env=system.env(),
+            check=False,
+        )
+        assert done.returncode == 0, done.stderr
+        # the same writer's requests for robot3 (its partition) reach this server and are applied ...
+        assert system.value("robot3", "robot.mode") == "via-robot3"
+        # ... while those naming robot4, also hosted here, are dropped
+        assert system.value("robot4", "robot.mode") == "idle"
+    finally:
+        _, err = stop(server)
+    assert "Traceback" not in err, err
