@@ -79,3 +79,20 @@ def test_a_library_without_security_stops_with_how_to_get_one(keystore: Path) ->
     assert done.returncode == 4, done
     assert "secure mode needs Cyclone DDS built with security" in done.stderr
     assert "paramdds keystore install" in done.stderr
+
+
+def test_the_keystore_verb(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from paramdds.cli import main
+
+    root = tmp_path / "ks"
+    assert main(["keystore", "init", str(root)]) == 0
+    assert (
+        main(["keystore", "add", str(root), "ops", "--role", "operator", "--nodes", "arm*", "--nodes", "leg"])
+        == 0
+    )
+    out = capsys.readouterr().out
+    assert f"identity ops (operator, nodes arm* leg): --identity {root}/identities/ops" in out
+    assert load_identity(root / "identities" / "ops").nodes == ("arm*", "leg")
+    assert main(["keystore", "init", str(root)]) == 2
+    assert "already holds a keystore" in capsys.readouterr().err
+    assert main(["keystore", "add", str(root), "x", "--role", "root", "--nodes", "*"]) == 2
