@@ -82,8 +82,9 @@ def _source_dir(source: Path, work: Path) -> Path:
 
 
 def _stamp_of(source: Path) -> str:
+    """What a build in a prefix was made from: the sources (path, size, time) and the options."""
     st = source.stat()
-    return f"{source.resolve()} {st.st_size} {int(st.st_mtime)}"
+    return f"{source.resolve()} {st.st_size} {int(st.st_mtime)} {' '.join(CMAKE_OPTIONS)}"
 
 
 def build_cyclone(source: Path, prefix: Path, *, jobs: int | None = None) -> Path:
