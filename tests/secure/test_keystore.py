@@ -96,3 +96,13 @@ def test_the_keystore_verb(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     assert main(["keystore", "init", str(root)]) == 2
     assert "already holds a keystore" in capsys.readouterr().err
     assert main(["keystore", "add", str(root), "x", "--role", "root", "--nodes", "*"]) == 2
+
+
+def test_install_says_what_is_missing(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from paramdds.cli import main
+
+    code = main(
+        ["keystore", "install", "--source", str(tmp_path / "none.tar.gz"), "--prefix", str(tmp_path / "p")]
+    )
+    assert code == 4
+    assert "none.tar.gz: no such file or directory" in capsys.readouterr().err
