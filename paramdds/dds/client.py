@@ -178,7 +178,7 @@ class ParameterClient:
         self._reply_filter = NativeFilter("client")
         self._reply_filter.set_client_id(self.client_id)
         self._reply_readers: dict[str, Any] = {}  # by request topic
-        self._match_counts = dict.fromkeys(REQUEST_TOPICS, 0)
+        self._match_counts: dict[int, int] = {}  # by id() of the request writer (one per node when secure)
         self._endpoints_lock = threading.Lock()
         if self._scope is None:
             for request in REQUEST_TOPICS:
@@ -388,7 +388,7 @@ class ParameterClient:
 
     def _send(self, topic: str, node: str, sample: Any) -> tuple[str, int, _Pending]:
         writer = self._writer_for(topic, node)
-        pending = _Pending(node, topic, sample, self._match_counts[topic], writer)
+        pending = _Pending(node, topic, sample, self._match_counts.get(id(writer), 0), writer)
         self._pending[sample.request_id] = pending
         try:
             writer.write(sample)
@@ -523,7 +523,7 @@ class ParameterClient:
             writer.get_publication_matched_status().total_count
             + self._reply_readers[topic].get_subscription_matched_status().total_count
         )
-        self._match_counts[topic] = count
+        self._match_counts[id(writer)] = count
         if count == pending.matched:
             return False
         pending.matched = count
