@@ -42,12 +42,14 @@ if TYPE_CHECKING:
     from .dds.participant import close_participant, make_participant
     from .dds.qos import QosProfiles
     from .dds.server import ParameterServer
+    from .secure.identity import load_identity
 
 from .errors import (
     ErrorCode,
     FileFormatError,
     InternalError,
     NotFoundError,
+    NotPermittedError,
     NotPersistedError,
     ParamddsError,
     ParameterError,
@@ -69,6 +71,7 @@ __getattr__ = loader(
         **dict.fromkeys(["close_participant", "make_participant"], "paramdds.dds.participant"),
         "QosProfiles": "paramdds.dds.qos",
         "ParameterServer": "paramdds.dds.server",
+        "load_identity": "paramdds.secure.identity",
     },
 )
 
@@ -90,6 +93,7 @@ __all__ = [
     "NodeInfo",
     "NodeState",
     "NotFoundError",
+    "NotPermittedError",
     "NotPersistedError",
     "ParamddsError",
     "Parameter",
@@ -112,5 +116,6 @@ __all__ = [
     "UnavailableError",
     "Validator",
     "close_participant",
+    "load_identity",
     "make_participant",
 ]

@@ -19,6 +19,7 @@ map errors without matching on message text::
     ├── TooLargeError                  TOO_LARGE (a request or value over our limits)
     ├── NotPersistedError              NOT_PERSISTED (applied, but not written to --persist)
     ├── InternalError                  INTERNAL (a bug on the node's side, reported to the caller)
+    ├── NotPermittedError              NOT_PERMITTED (secure mode: DDS Security refused the action)
     ├── RemoteError                    UNKNOWN (a code this version does not know; ``remote_code``)
     └── TransportError                 the node could not be reached
         ├── TimeoutError_              TIMEOUT (no answer within the timeout)
@@ -49,6 +50,7 @@ class ErrorCode(str, Enum):
     UNAVAILABLE = "UNAVAILABLE"
     NOT_PERSISTED = "NOT_PERSISTED"
     INTERNAL = "INTERNAL"
+    NOT_PERMITTED = "NOT_PERMITTED"  # secure mode: DDS Security refused this identity the action
     UNKNOWN = "UNKNOWN"  # a code this version does not know (a newer node's): see RemoteError
 
 
@@ -136,6 +138,12 @@ class InternalError(ParamddsError):
     code = ErrorCode.INTERNAL
 
 
+class NotPermittedError(ParamddsError):
+    """Secure mode: DDS Security does not let this identity do that (its role or node grants)."""
+
+    code = ErrorCode.NOT_PERMITTED
+
+
 class RemoteError(ParamddsError):
     """The node answered with an error code this version does not know (a newer node):
     ``remote_code`` is the code as sent."""
@@ -175,6 +183,7 @@ _BY_CODE: dict[ErrorCode, type[ParamddsError]] = {
         TooLargeError,
         NotPersistedError,
         InternalError,
+        NotPermittedError,
         TimeoutError_,
         UnavailableError,
     )

@@ -270,7 +270,7 @@ class ServerProcess:
         if self.store is not None:
             self.store.attach(self.tables)
         participant = self._participant_factory()
-        server = ParameterServer(participant, self._qos)
+        server = ParameterServer(participant, self._qos, nodes=list(self.tables))
         if self.store is not None:
             server.persisters.append(self.store.record)
         for table in self.tables.values():

@@ -32,6 +32,7 @@ VERBS = (
     "watch",
     "assign",
     "web",
+    "keystore",
     "bench",
 )
 OUTPUTS = ("table", "yaml", "json")
@@ -97,6 +98,12 @@ def _add_globals(p: argparse.ArgumentParser, *, top: bool) -> None:
         action="store_true",
         default=default(False),
         help="loopback only, no multicast (env PARAMDDS_LOCALHOST=1)",
+    )
+    g.add_argument(
+        "--identity",
+        metavar="DIR",
+        default=default(None),
+        help="secure mode: an identity made by 'paramdds keystore add' (env PARAMDDS_IDENTITY)",
     )
 
 
@@ -165,6 +172,23 @@ def _client(p: Parser) -> None:
         metavar="SECONDS",
         help="how long to wait for the target to appear (default 10)",
     )
+
+
+def _keystore(p: Parser) -> None:
+    actions = p.add_subparsers(dest="action", metavar="ACTION", parser_class=Parser)
+    actions.required = True
+    a = actions.add_parser("init", help="create the CAs and the signed governance in a new keystore")
+    a.add_argument("keystore", metavar="KEYSTORE")
+    a = actions.add_parser("add", help="issue an identity for a role and node-id globs")
+    a.add_argument("keystore", metavar="KEYSTORE")
+    a.add_argument("name", metavar="NAME")
+    a.add_argument("--role", required=True, choices=("server", "operator", "viewer", "admin"))
+    a.add_argument(
+        "--nodes", action="append", required=True, metavar="GLOB", help="node ids granted (repeat; '*': all)"
+    )
+    a = actions.add_parser("install", help="build Cyclone DDS C with security and rebuild the binding on it")
+    a.add_argument("--source", metavar="TARBALL|DIR", help="Cyclone DDS C 11.0.1 sources (default: upstream)")
+    a.add_argument("--prefix", metavar="DIR", required=True, help="where to install the secure build")
 
 
 def _assignment_values(p: Parser) -> None:
@@ -237,6 +261,8 @@ def build_parser(*, with_bench: bool = False) -> Parser:
         "needed to allow writes on a non-loopback --bind",
     )
 
+    _keystore(_verb(sub, "keystore", "secure mode: CAs, governance and identities; the secure Cyclone build"))
+
     if with_bench:
         _register_bench(sub)
     else:
@@ -274,5 +300,7 @@ def resolve_globals(args: argparse.Namespace, environ: dict[str, str] | None = N
         raise UsageError(f"the domain id must be between 0 and 232, got {args.domain}")
     if not args.localhost:
         args.localhost = env.get("PARAMDDS_LOCALHOST", "").strip().lower() in ("1", "true", "yes", "on")
+    if not args.identity:
+        args.identity = env.get("PARAMDDS_IDENTITY", "").strip() or None
     if args.timeout is None or not args.timeout > 0:
         raise UsageError(f"--timeout must be a positive number of seconds, got {args.timeout}")

@@ -38,11 +38,17 @@ class Session:
         if self._participant is None:
             from ..dds.participant import make_participant
 
+            identity = None
+            if getattr(self.args, "identity", None):  # secure mode (paramdds.secure)
+                from ..secure.identity import load_identity
+
+                identity = load_identity(self.args.identity)
             self._participant = make_participant(
                 self.args.domain,
                 localhost=self.args.localhost,
                 app_name=self._app_name,
                 short_lived=getattr(self.args, "verb", None) not in LONG_LIVED_VERBS,
+                identity=identity,
             )
         return self._participant
 

@@ -19,6 +19,7 @@ from cyclonedds.pub import DataWriter
 from cyclonedds.topic import Topic
 
 from ..core.names import canonical_node_id
+from ..secure.scope import scope_of
 from . import types as wire
 from .client import ParamsArg, _to_parameters
 from .convert import parameter_to_wire
@@ -29,14 +30,20 @@ class Assigner:
     def __init__(self, participant: Any, qos: QosProfiles | None = None) -> None:
         qos = qos or QosProfiles.load()
         topic = Topic(participant, "SetParametersRequest", wire.SetParametersRequest)
-        self._writer = DataWriter(participant, topic, qos.assignment_writer())
+        # secure mode: a writer per node, in its partition (paramdds.secure.scope), made on use
+        self._scope = scope_of(participant)
+        self._topic, self._qos = topic, qos.assignment_writer()
+        if self._scope is None:
+            self._writer = DataWriter(participant, topic, self._qos)
         self.client_id = secrets.randbits(64) or 1
         self._ids = itertools.count(1)
 
     def assign(self, node: str, params: ParamsArg) -> None:
         """Retain ``params`` for ``node`` (replacing what this assigner held for it)."""
         node = canonical_node_id(node)
-        self._writer.write(
+        scope = self._scope
+        writer = self._writer if scope is None else scope.writer("SetParametersRequest", node, self._qos)
+        writer.write(
             wire.SetParametersRequest(
                 node_id=node,
                 client_id=self.client_id,

@@ -37,8 +37,9 @@ from concurrent.futures import TimeoutError as FutureTimeout
 from dataclasses import dataclass
 from typing import Any
 
-from cyclonedds.core import DDSException, InstanceState
+from cyclonedds.core import DDSException, InstanceState, Policy
 from cyclonedds.pub import DataWriter
+from cyclonedds.qos import Qos
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 
@@ -55,6 +56,7 @@ from ..errors import (
     code_of,
     error_for,
 )
+from ..secure.scope import guard_samples, scope_of
 from . import types as wire
 from .cdr import is_malformed
 from .convert import descriptor_from_wire, parameter_to_wire, value_from_wire
@@ -72,6 +74,8 @@ _READ_ALL = 1 << 24  # "every sample" for read(); Cyclone refuses N >= 2**28
 PRESENCE_POLL = 0.02  # seconds between presence checks in wait_for_node
 RESEND_AFTER = 0.2  # seconds without a reply before a call checks presence and resends
 MATCH_POLL = 0.02  # seconds between checks, while a call waits, for a newly matched server
+SECURE_DEPTH = 4  # secure mode: presence samples kept per node (see _believed)
+REQUEST_TOPICS = ("SetParametersRequest", "GetParametersRequest", "ListParametersRequest")
 
 ParamsArg = Mapping[str, object] | Iterable[Parameter]
 
@@ -128,11 +132,12 @@ def _to_parameters(params: ParamsArg) -> list[Parameter]:
 
 
 class _Pending:
-    __slots__ = ("future", "matched", "node", "sample", "topic")
+    __slots__ = ("future", "matched", "node", "sample", "topic", "writer")
 
-    def __init__(self, node: str, topic: str, sample: Any, matched: int) -> None:
+    def __init__(self, node: str, topic: str, sample: Any, matched: int, writer: Any) -> None:
         self.node = node
         self.topic = topic
+        self.writer = writer
         self.sample = sample
         self.matched = matched  # the topic's match count when last looked at (see _newly_matched)
         self.future: Future[Any] = Future()
@@ -165,20 +170,19 @@ class ParameterClient:
         self._ids_lock = threading.Lock()
         self._pending: dict[int, _Pending] = {}
         self._closing = threading.Event()
-        self._writers = {
-            name: DataWriter(participant, Topic(participant, name, wire.TOPICS[name]), self._qos.writer(name))
-            for name in ("SetParametersRequest", "GetParametersRequest", "ListParametersRequest")
-        }
+        # secure mode (paramdds.secure.scope): a writer per target node, each in that node's
+        # partition, and a topic's endpoints made on its first call (a viewer may never set)
+        self._scope = scope_of(participant)
+        self._writers: dict[str, Any] = {}
         self._dispatcher = Dispatcher(participant, "paramdds-client")
         self._reply_filter = NativeFilter("client")
         self._reply_filter.set_client_id(self.client_id)
         self._reply_readers: dict[str, Any] = {}  # by request topic
-        self._match_counts = dict.fromkeys(self._writers, 0)
-        for request in self._writers:
-            name = request.replace("Request", "Response")
-            reader = DataReader(participant, self._own_replies(name), self._qos.reader(name))
-            self._reply_readers[request] = reader
-            self._dispatcher.add(reader, self._on_replies)
+        self._match_counts: dict[int, int] = {}  # by id() of the request writer (one per node when secure)
+        self._endpoints_lock = threading.Lock()
+        if self._scope is None:
+            for request in REQUEST_TOPICS:
+                self._open_topic(request)
         self._presence_filter = NativeFilter("presence")
         self._presence_filter.set_nodes(None)  # every node's presence, no parameter samples
         self._presence_args = (participant, presence_grace)
@@ -188,6 +192,27 @@ class ParameterClient:
         if not lazy_presence:
             self._watch()
         self._dispatcher.start()
+
+    def _open_topic(self, request: str) -> None:
+        """The request writer (not secure) and the reply reader of one request topic."""
+        participant = self._dp
+        if self._scope is None:
+            topic = Topic(participant, request, wire.TOPICS[request])
+            self._writers[request] = DataWriter(participant, topic, self._qos.writer(request))
+        name = request.replace("Request", "Response")
+        if self._scope is None:
+            reader = DataReader(participant, self._own_replies(name), self._qos.reader(name))
+        else:
+            reader = self._scope.reader(self._own_replies(name), self._qos.reader(name))
+        self._reply_readers[request] = reader
+        self._dispatcher.add(reader, guard_samples(self._scope, reader, self._on_replies))
+
+    def _writer_for(self, topic: str, node: str) -> Any:
+        """The writer of ``topic`` for ``node``: the one writer, or in secure mode that node's."""
+        if self._scope is None:
+            return self._writers[topic]
+        with self._endpoints_lock:
+            return self._scope.writer(topic, node, self._qos.writer(topic), opening=self._open_topic)
 
     def _watch(self) -> DiscoveryWatch:
         """The presence reader's discovery watch, creating both on first use.
@@ -203,7 +228,11 @@ class ParameterClient:
                 topic = filtered_topic(
                     participant, "ParameterEvents", wire.ParameterEvent, self._presence_filter
                 )
-                self._presence = DataReader(participant, topic, self._qos.reader("ParameterEvents"))
+                if self._scope is None:
+                    self._presence = DataReader(participant, topic, self._qos.reader("ParameterEvents"))
+                else:  # a few samples per instance, to skip one a writer had no right to write
+                    qos = self._qos.reader("ParameterEvents") + Qos(Policy.History.KeepLast(SECURE_DEPTH))
+                    self._presence = self._scope.reader(topic, qos)
                 self._discovery = DiscoveryWatch(
                     participant,
                     self._presence,
@@ -246,20 +275,30 @@ class ParameterClient:
         if handle is None:
             return None
         try:
-            samples: list[Any] = self._presence.read(N=1, instance_handle=handle)
+            depth = 1 if self._scope is None else SECURE_DEPTH
+            samples: list[Any] = self._presence.read(N=depth, instance_handle=handle)
         except DDSException:
             # the handle is process-wide: another entity here may know the key while
             # this reader holds no such instance (PRECONDITION_NOT_MET)
             return None
         watch.note_read(s.sample_info for s in samples)
-        return _node_info(samples[0]) if samples else None
+        samples = self._believed(samples)
+        return _node_info(samples[-1]) if samples else None
+
+    def _believed(self, samples: list[Any]) -> list[Any]:
+        """Secure mode: the presence samples whose writers may write their node's partition."""
+        scope = self._scope
+        if scope is None:
+            return samples
+        return [s for s in samples if scope.allows(self._presence, s.node_id, s.sample_info)]
 
     def nodes(self) -> list[NodeInfo]:
         """Every node whose presence this client holds (alive or not), sorted by name."""
         watch = self._watch()
         samples: list[Any] = self._presence.read(N=_READ_ALL)
         watch.note_read(s.sample_info for s in samples)
-        found = [_node_info(s) for s in samples]
+        latest = {s.node_id: s for s in self._believed(samples)}  # oldest first: the last one wins
+        found = [_node_info(s) for s in latest.values()]
         return sorted((n for n in found if n is not None), key=lambda n: n.node)
 
     def node_info(self, node: str) -> NodeInfo | None:
@@ -348,10 +387,11 @@ class ParameterClient:
             return next(self._ids)
 
     def _send(self, topic: str, node: str, sample: Any) -> tuple[str, int, _Pending]:
-        pending = _Pending(node, topic, sample, self._match_counts[topic])
+        writer = self._writer_for(topic, node)
+        pending = _Pending(node, topic, sample, self._match_counts.get(id(writer), 0), writer)
         self._pending[sample.request_id] = pending
         try:
-            self._writers[topic].write(sample)
+            writer.write(sample)
         except Exception as exc:
             del self._pending[sample.request_id]
             raise ParamddsError(f"could not send the request to {node!r}: {exc}") from exc
@@ -463,7 +503,7 @@ class ParameterClient:
             elif not self._newly_matched(pending):
                 continue
             try:
-                self._writers[pending.topic].write(pending.sample)
+                pending.writer.write(pending.sample)
             except Exception as exc:
                 log.debug("resending request %d failed: %s", pending.sample.request_id, exc)
 
@@ -478,12 +518,12 @@ class ParameterClient:
     def _newly_matched(self, pending: _Pending) -> bool:
         """Whether the topic of ``pending`` has matched a new peer since the count was last taken."""
         topic = pending.topic
-        writer: Any = self._writers[topic]  # the binding's status getters are untyped
+        writer: Any = pending.writer  # the binding's status getters are untyped
         count = (
             writer.get_publication_matched_status().total_count
             + self._reply_readers[topic].get_subscription_matched_status().total_count
         )
-        self._match_counts[topic] = count
+        self._match_counts[id(writer)] = count
         if count == pending.matched:
             return False
         pending.matched = count

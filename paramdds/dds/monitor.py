@@ -33,6 +33,7 @@ from cyclonedds.topic import Topic
 from ..core.descriptors import ParameterDescriptor
 from ..core.names import canonical_node_id
 from ..core.values import ParameterValue
+from ..secure.scope import guard_raw, scope_of
 from . import types as wire
 from .dispatch import Dispatcher
 from .filters import request_filter_of
@@ -113,10 +114,13 @@ class ParameterMonitor:
         )
         # depth 4, not 1: a late joiner must see the presence samples of every writer of one
         # node (two processes hosting one node id), not only the last one delivered
-        reader = DataReader(
-            participant, topic, qos.reader("ParameterEvents") + Qos(Policy.History.KeepLast(4))
-        )
-        self._dispatcher.add_raw(reader, _decode, self._on_samples)
+        reader_qos = qos.reader("ParameterEvents") + Qos(Policy.History.KeepLast(4))
+        scope = scope_of(participant)  # secure mode: the identity's node partitions, checked per sample
+        if scope is None:
+            reader = DataReader(participant, topic, reader_qos)
+        else:
+            reader = scope.reader(topic, reader_qos)
+        self._dispatcher.add_raw(reader, _decode, guard_raw(scope, reader, self._on_samples))
         self._dispatcher.start()
         self._closed = False
         self._sync_thread = threading.Thread(target=self._watch_sync, name="paramdds-sync", daemon=True)

@@ -55,6 +55,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from cyclonedds.domain import Domain, DomainParticipant
 
+    from ..secure.identity import Identity
     from .peers import PeerMismatch
 
 __all__ = [
@@ -109,7 +110,7 @@ def localhost_from_env(environ: dict[str, str] | None = None) -> bool:
 
 
 def domain_config(
-    *, localhost: bool = False, topic_discovery: bool = False, short_lived: bool = False
+    *, localhost: bool = False, topic_discovery: bool = False, short_lived: bool = False, security: str = ""
 ) -> str | None:
     """The Cyclone configuration string for these options, or None for Cyclone's normal one.
 
@@ -123,6 +124,8 @@ def domain_config(
         parts.append(_TOPIC_DISCOVERY_XML)
     if short_lived:
         parts.append(_SHORT_LIVED_XML)
+    if security:  # secure mode: a <Security> element (paramdds.secure.identity)
+        parts.append(security)
     if not parts:
         return None
     ours = '<CycloneDDS><Domain id="any">' + "".join(parts) + "</Domain></CycloneDDS>"
@@ -137,8 +140,12 @@ def make_participant(
     app_name: str = "paramdds",
     topic_discovery: bool = False,
     short_lived: bool = False,
+    identity: Identity | None = None,
 ) -> DomainParticipant:
     """A participant on ``domain_id`` (0..232), configured as the module docstring says.
+
+    With an ``identity`` (:mod:`paramdds.secure`) the participant authenticates with it,
+    and readers, writers and samples are scoped by node partitions (``secure.scope``).
 
     Raises ``ValueError`` for a domain id out of range, or when this process
     already uses ``domain_id`` with a different configuration (Cyclone allows
@@ -152,13 +159,25 @@ def make_participant(
     qos = Qos(Policy.EntityName(app_name), Policy.Property("__ProcessName", app_name, propagate=True))
     from .peers import PeerWatch
 
-    config = domain_config(localhost=localhost, topic_discovery=topic_discovery, short_lived=short_lived)
+    security = ""
+    if identity is not None:
+        from ..secure.hooks import prepare_secure
+
+        security = prepare_secure(identity, domain_id)
+    config = domain_config(
+        localhost=localhost, topic_discovery=topic_discovery, short_lived=short_lived, security=security
+    )
     if config is None:
         participant = DomainParticipant(domain_id, qos=qos)
     else:
         with _lock:
             domain = _domain(domain_id, config)
-            participant = DomainParticipant(domain_id, qos=qos)
+            if identity is None:
+                participant = DomainParticipant(domain_id, qos=qos)
+            else:
+                from ..secure.hooks import secure_participant
+
+                participant = secure_participant(domain_id, qos, identity)
         participant._paramdds_domain = domain  # type: ignore[attr-defined]  # keeps the Domain (and so the participant) alive
     participant._paramdds_peers = PeerWatch(participant)  # type: ignore[attr-defined]
     return participant

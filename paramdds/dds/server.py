@@ -46,7 +46,7 @@ import socket
 import threading
 import time
 from collections import OrderedDict
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from functools import partial
 from typing import Any
 
@@ -62,7 +62,8 @@ from ..core.names import canonical_node_id
 from ..core.results import ChangeKind, ChangeSet, SetResult
 from ..core.table import ParameterTable
 from ..core.values import Parameter, ParameterType
-from ..errors import ErrorCode, ParamddsError
+from ..errors import ErrorCode, NotPermittedError, ParamddsError
+from ..secure.scope import guard_raw, guard_samples, permitted, scope_of
 from . import types as wire
 from ._binding import assert_liveliness, take_serialized, unregister_serialized, write_serialized
 from .cdr import MalformedSample, encode
@@ -94,7 +95,11 @@ def now_stamp() -> wire.Time:
 class ParameterServer:
     """Serves the tables it hosts. ``start()`` begins serving, ``close()`` stops gracefully."""
 
-    def __init__(self, participant: Any, qos: QosProfiles | None = None) -> None:
+    def __init__(
+        self, participant: Any, qos: QosProfiles | None = None, *, nodes: Iterable[str] | None = None
+    ) -> None:
+        """``nodes``: the node ids this server will host; needed in secure mode only, where
+        its writers are created in those nodes' partitions (see :mod:`paramdds.secure.scope`)."""
         self._dp = participant
         self._qos = qos or QosProfiles.load()
         self._tables: dict[str, ParameterTable] = {}
@@ -124,16 +129,23 @@ class ParameterServer:
         self._check: threading.Thread | None = None
         self._last_tick = time.monotonic()
 
+        # secure mode: writers and readers in the partitions of the nodes hosted here
+        self._scope = scope_of(participant)
+        self._scoped = None if self._scope is None else self._scope_nodes(nodes)
+        self._pub = participant if self._scope is None else self._scope.publisher(self._scoped or ())
+        self._sub = participant if self._scope is None else self._scope.subscriber(self._scoped)
         state_qos = self._qos.writer("ParameterEvents")
         # liveliness is asserted by our dispatch loop, not by Cyclone's threads (see above)
         state_qos += _manual_liveliness()
-        self._state_writer = DataWriter(
-            participant, Topic(participant, "ParameterEvents", wire.ParameterEvent), state_qos
-        )
-        self._reply_writers = {
-            name: DataWriter(participant, Topic(participant, name, wire.TOPICS[name]), self._qos.writer(name))
-            for name in ("SetParametersResponse", "GetParametersResponse", "ListParametersResponse")
-        }
+        with permitted(self._scope, f"serving nodes {sorted(self._scoped or ())}"):
+            self._state_writer = DataWriter(
+                self._pub, Topic(participant, "ParameterEvents", wire.ParameterEvent), state_qos
+            )
+            replies = ("SetParametersResponse", "GetParametersResponse", "ListParametersResponse")
+            self._reply_writers = {
+                name: DataWriter(self._pub, Topic(self._dp, name, wire.TOPICS[name]), self._qos.writer(name))
+                for name in replies
+            }
         self._dispatcher = Dispatcher(participant, "paramdds-server", tick=self._tick, period=LEASE / 4)
         handlers = {
             "SetParametersRequest": self._on_set,
@@ -141,8 +153,15 @@ class ParameterServer:
             "ListParametersRequest": self._on_list,
         }
         for name, handler in handlers.items():
-            reader = DataReader(participant, self._request_topic(name), self._qos.reader(name))
-            self._dispatcher.add(reader, handler)
+            with permitted(self._scope, f"reading {name}"):
+                reader = DataReader(self._sub, self._request_topic(name), self._qos.reader(name))
+            self._dispatcher.add(reader, guard_samples(self._scope, reader, handler))
+
+    @staticmethod
+    def _scope_nodes(nodes: Iterable[str] | None) -> frozenset[str]:
+        if not nodes:
+            raise NotPermittedError("in secure mode a server is created with its node ids (nodes=...)")
+        return frozenset(canonical_node_id(n) for n in nodes)
 
     def _request_topic(self, name: str) -> Any:
         return filtered_topic(self._dp, name, wire.TOPICS[name], self._filter)
@@ -157,6 +176,10 @@ class ParameterServer:
     def add_node(self, table: ParameterTable) -> None:
         """Host ``table``: publish its state and presence and serve its requests."""
         node_id = table.node_id
+        if self._scoped is not None and node_id not in self._scoped:
+            raise NotPermittedError(
+                f"node {node_id!r} is not among the node ids this secure server was created with"
+            )
         if node_id in self._tables:
             raise ParamddsError(f"node {node_id!r} is already hosted by this server")
         worker = NodeWorker(self, table)
@@ -200,12 +223,12 @@ class ParameterServer:
             self._refilter()
         # not filtered: assignments for nodes not hosted yet are kept for when they are added
         topic = Topic(self._dp, "SetParametersRequest", wire.SetParametersRequest)
-        reader = DataReader(self._dp, topic, self._qos.assignment_reader())
-        self._dispatcher.add(reader, self._on_assignment)
+        reader = DataReader(self._sub, topic, self._qos.assignment_reader())
+        self._dispatcher.add(reader, guard_samples(self._scope, reader, self._on_assignment))
         if self._twins.native:  # other processes' presence of our nodes, and nothing else
             twins = filtered_topic(self._dp, "ParameterEvents", wire.ParameterEvent, self._twins)
-            reader = DataReader(self._dp, twins, self._twin_qos())
-            self._dispatcher.add_raw(reader, _decode_presence, self._on_twins)
+            reader = DataReader(self._sub, twins, self._twin_qos())
+            self._dispatcher.add_raw(reader, _decode_presence, guard_raw(self._scope, reader, self._on_twins))
         self._last_tick = time.monotonic()
         self._dispatcher.start()
         if not self._twins.native:  # without the filter, following presence would cost every change
@@ -253,7 +276,7 @@ class ParameterServer:
         """
         try:
             reader = DataReader(
-                self._dp, Topic(self._dp, "ParameterEvents", wire.ParameterEvent), self._twin_qos()
+                self._sub, Topic(self._dp, "ParameterEvents", wire.ParameterEvent), self._twin_qos()
             )
             deadline = time.monotonic() + seconds
             while time.monotonic() < deadline and not self._closed:

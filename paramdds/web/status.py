@@ -37,6 +37,7 @@ STATUS: dict[str, int] = {
     ErrorCode.NOT_PERSISTED: 507,  # applied, but not stored: the server's disk refused
     ErrorCode.UNAVAILABLE: 503,
     ErrorCode.TIMEOUT: 504,
+    ErrorCode.NOT_PERMITTED: 403,  # secure mode: DDS Security refuses this identity the action
     ErrorCode.INTERNAL: 500,  # the node (or this console) failed: not a refusal of the value
     ErrorCode.UNKNOWN: 502,  # the node answered with a code this version does not know
     WebCode.BAD_REQUEST: 400,
