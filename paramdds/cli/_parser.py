@@ -205,7 +205,12 @@ def build_parser(*, with_bench: bool = False) -> Parser:
     p.add_argument("node", metavar="NODE")
     p.add_argument("assignments", nargs="+", metavar="NAME=VALUE", help="values typed as YAML scalars")
     p.add_argument("--atomic", action="store_true", help="all or nothing")
-    p.add_argument("--if-revision", type=int, metavar="N", help="apply only while the node is at revision N")
+    p.add_argument(
+        "--if-revision",
+        metavar="[INCARNATION:]N",
+        help="apply only while the node is still at that state: INCARNATION:N (the 'at' of "
+        "`paramdds nodes -o json`) also fails after a restart; a bare N compares the revision alone",
+    )
 
     p = _verb(sub, "dump", "a node's parameters as a ROS 2 parameter file on stdout")
     p.add_argument("node", metavar="NODE")

@@ -65,6 +65,7 @@ def status() -> dict[str, object]:
 
 
 _TAG = "request_filter="
+ORIGIN_TAG = "origin="  # a presence tag: where the node comes from ("origin=ros2": a mirrored ROS 2 node)
 
 
 def filter_tag(native: bool) -> str:
@@ -78,6 +79,15 @@ def request_filter_of(tags: Iterable[object]) -> str | None:
     for tag in tags:
         if isinstance(tag, str) and tag.startswith(_TAG):
             return tag[len(_TAG) :]
+    return None
+
+
+def origin_of(tags: Iterable[object]) -> str | None:
+    """The presence tag ``origin`` (``"ros2"`` for a node mirrored from ROS 2 by the bridge);
+    None when the node does not say (a node served here, or an older server)."""
+    for tag in tags:
+        if isinstance(tag, str) and tag.startswith(ORIGIN_TAG):
+            return tag[len(ORIGIN_TAG) :]
     return None
 
 

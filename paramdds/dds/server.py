@@ -33,6 +33,14 @@ How it works:
   from a TRANSIENT_LOCAL writer; a second, TRANSIENT_LOCAL reader takes them. Those
   for nodes not hosted yet are kept (the newest per node, bounded) and applied
   when such a node is added, also after ``start()``.
+* **Incarnation.** Each time a server starts hosting a node it draws a random non-zero
+  64-bit incarnation, written with every state, presence and reply sample of that node.
+  A revision alone repeats across restarts (a node restored from ``--persist`` is back
+  at r9 after a restart from r13, and a fresh one counts from its declarations again);
+  (incarnation, revision) never does. Compare-and-set compares both when the request
+  names an incarnation (``expected_incarnation`` != 0), the revision alone otherwise
+  (a peer that knows no incarnation). The check lives here, not in the core table: an
+  incarnation belongs to the hosting, not to the parameters.
 * Retried requests (same client_id, request_id and bytes as received) get the cached
   reply again and are never applied twice. The same ids with other content are a
   new request: a client restarted with a fixed client_id counts from 1 again.
@@ -42,6 +50,7 @@ from __future__ import annotations
 
 import logging
 import os
+import secrets
 import socket
 import threading
 import time
@@ -86,6 +95,11 @@ LEASE = 1.0  # seconds: the state writer's liveliness lease, asserted from the d
 Persister = Callable[[ParameterTable, Sequence[ChangeSet]], None]
 
 
+def new_incarnation() -> int:
+    """A random non-zero 64-bit incarnation (0 means "none" on the wire)."""
+    return secrets.randbits(64) or 1
+
+
 def now_stamp() -> wire.Time:
     ns = time.time_ns()
     return wire.Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
@@ -99,6 +113,7 @@ class ParameterServer:
         self._qos = qos or QosProfiles.load()
         self._tables: dict[str, ParameterTable] = {}
         self._workers: dict[str, NodeWorker] = {}
+        self._incarnations: dict[str, int] = {}  # node -> its incarnation here (see the module doc)
         self._host = socket.gethostname()
         self._pid = os.getpid()
         self._replies_lock = threading.Lock()
@@ -160,6 +175,7 @@ class ParameterServer:
         if node_id in self._tables:
             raise ParamddsError(f"node {node_id!r} is already hosted by this server")
         worker = NodeWorker(self, table)
+        self._incarnations[node_id] = new_incarnation()
         for name, value, descriptor in table.snapshot():
             self._write_state(table, name, value, descriptor, table.revision)
         self._write_presence(table)
@@ -180,10 +196,15 @@ class ParameterServer:
         worker.close(timeout=2.0)
         for name in [*table.names(), ""]:
             unregister_serialized(self._state_writer, encode_key(node_id, name))
+        self._incarnations.pop(node_id, None)
 
     @property
     def nodes(self) -> dict[str, ParameterTable]:
         return dict(self._tables)
+
+    def incarnation(self, node_id: str) -> int:
+        """The incarnation of a node hosted here (0 for one that is not)."""
+        return self._incarnations.get(node_id, 0)
 
     def _refilter(self) -> None:
         """The filters accept the nodes hosted now; before :meth:`start` nothing is served,
@@ -335,7 +356,8 @@ class ParameterServer:
     ) -> None:
         """Publish one parameter's state; the common shape is encoded without a wire object."""
         sec, nanosec = divmod(time.time_ns(), 1_000_000_000)
-        data = encode_state(table.node_id, name, revision, sec, nanosec, value, descriptor)
+        incarnation = self.incarnation(table.node_id)
+        data = encode_state(table.node_id, name, revision, sec, nanosec, value, descriptor, incarnation)
         if data is not None:
             write_serialized(self._state_writer, data)
             return
@@ -348,6 +370,7 @@ class ParameterServer:
                 stamp=wire.Time(sec, nanosec),
                 value=value_to_wire(value),
                 descriptor=state_descriptor_to_wire(descriptor, value),
+                incarnation=incarnation,
             )
         )
 
@@ -363,6 +386,7 @@ class ParameterServer:
                 pid=self._pid,
                 parameter_count=len(table),
                 value=self._presence_tags,
+                incarnation=self.incarnation(table.node_id),
             )
         )
 
@@ -452,7 +476,10 @@ class ParameterServer:
                 self._send_reply("SetParametersResponse", seen[1])
                 return
         response = wire.SetParametersResponse(
-            node_id=table.node_id, client_id=request.client_id, request_id=request.request_id
+            node_id=table.node_id,
+            client_id=request.client_id,
+            request_id=request.request_id,
+            incarnation=self.incarnation(table.node_id),
         )
         try:
             response.results, response.revision = self._apply_set(table, request)
@@ -492,6 +519,15 @@ class ParameterServer:
                 who = request.client_id
                 self._log_once("malformed-value", "bad value for %r from client %x: %s", p.name, who, exc)
         expected = None if request.expected_revision < 0 else int(request.expected_revision)
+        incarnation = self.incarnation(table.node_id)
+        if request.expected_incarnation and request.expected_incarnation != incarnation:
+            reason = (
+                f"not applied: node {table.node_id!r} is at revision {table.revision} of incarnation "
+                f"{incarnation:016x} (restarted since), not the expected revision "
+                f"{request.expected_revision} of incarnation {request.expected_incarnation:016x}"
+            )
+            refused = [SetResult(p.name, False, reason, ErrorCode.CONFLICT) for p in request.parameters]
+            return [_result_to_wire(r) for r in refused], table.revision
         good = [p for p in params if p is not None]
         if bad and request.atomic:
             first = next(iter(bad.values())).name
@@ -561,7 +597,10 @@ class ParameterServer:
         """``fill(table, request, response)`` does the work; a refusal becomes the reply's code."""
         reply_type: Any = wire.TOPICS[reply_topic]
         response = reply_type(
-            node_id=table.node_id, client_id=request.client_id, request_id=request.request_id
+            node_id=table.node_id,
+            client_id=request.client_id,
+            request_id=request.request_id,
+            incarnation=self.incarnation(table.node_id),
         )
         try:
             fill(table, request, response)
@@ -585,7 +624,10 @@ def _content(request: Any) -> bytes:
     if isinstance(received, bytes):
         return received
     sample = wire.SetParametersRequest(
-        atomic=request.atomic, expected_revision=request.expected_revision, parameters=request.parameters
+        atomic=request.atomic,
+        expected_revision=request.expected_revision,
+        parameters=request.parameters,
+        expected_incarnation=request.expected_incarnation,
     )
     return encode(sample)
 

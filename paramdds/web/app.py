@@ -41,12 +41,13 @@ from starlette.staticfiles import StaticFiles
 from starlette.types import ASGIApp
 
 from ..core.names import validate_name
+from ..core.revision import Revision
 from ..core.values import Parameter
 from ..errors import ErrorCode, FileFormatError, ParamddsError
 from .guard import LOOPBACK_NAMES, Guard, error_response
 from .hub import Hub, sse
 from .inputs import bool_field, file_entries, int_arg, node_arg, read_body, revision_field
-from .model import Row, checked, parameter_row, result_row, summary_json, typed_values
+from .model import Row, checked, incarnation_text, parameter_row, result_row, summary_json, typed_values
 from .status import WebCode, WebError, code_of, error_body, status_of
 from .view import NodeDetail, StateView
 
@@ -282,7 +283,7 @@ class Console:
             if_revision=if_revision,
             timeout=self.options.timeout,
         )
-        return self._set_response(node, reply.revision, [result_row(r) for r in reply.results])
+        return self._set_response(node, reply.at, [result_row(r) for r in reply.results])
 
     async def delete(self, request: Request) -> Response:
         """Delete parameters.
@@ -300,7 +301,7 @@ class Console:
             validate_name(n)
         self._detail(node)
         reply = await self.client.delete(node, names, timeout=self.options.timeout)
-        return self._set_response(node, reply.revision, [result_row(r) for r in reply.results])
+        return self._set_response(node, reply.at, [result_row(r) for r in reply.results])
 
     async def load(self, request: Request) -> Response:
         """Set a node's parameters from the text of a parameter file.
@@ -331,17 +332,22 @@ class Console:
                     {"name": name, "successful": False, "reason": exc.message, "code": code_of(exc)}
                 )
         if refused and atomic:
-            return self._set_response(node, detail.summary.revision, refused)
+            return self._set_response(node, detail.summary.at, refused)
         results: list[Row] = list(refused)
-        revision = detail.summary.revision
+        at = detail.summary.at
         if sendable:
             reply = await self.client.set(node, sendable, atomic=atomic, timeout=self.options.timeout)
             results = [result_row(r) for r in reply.results] + refused
-            revision = reply.revision
-        return self._set_response(node, revision, results)
+            at = reply.at
+        return self._set_response(node, at, results)
 
-    def _set_response(self, node: str, revision: int, results: list[Row]) -> Response:
-        body: dict[str, object] = {"node": node, "revision": revision, "results": results}
+    def _set_response(self, node: str, at: Revision, results: list[Row]) -> Response:
+        body: dict[str, object] = {
+            "node": node,
+            "revision": at.revision,
+            "incarnation": incarnation_text(at.incarnation),
+            "results": results,
+        }
         failed = [r for r in results if not r["successful"]]
         if not failed:
             return JSONResponse(body)

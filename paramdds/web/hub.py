@@ -82,7 +82,7 @@ class Hub:
 
     def on_event(self, event: MonitorEvent) -> None:
         if event.node and event.event is not EventKind.DELETED:
-            self._view.note_revision(event.node, event.revision)
+            self._view.note_revision(event.node, event.revision, event.incarnation)
         with self._lock:
             self._pending.append(event)
             if self._scheduled or self._closed:

@@ -2,7 +2,8 @@
 
 Shapes (documented in the README):
 
-* a node summary: ``{"node", "online", "host", "pid", "revision", "parameters"}``;
+* a node summary: ``{"node", "online", "host", "pid", "revision", "parameters",
+  "request_filter", "incarnation", "origin"}`` (the incarnation in 16 hex digits);
 * a parameter row: ``{"name", "value", "type", "descriptor"}`` with the value and
   descriptor in the CLI's JSON shapes (:mod:`paramdds.cli._output`: byte arrays as
   lists of ints, non-finite doubles as ``"nan"``/``"inf"``/``"-inf"``);
@@ -38,8 +39,15 @@ _NON_FINITE = {"nan": math.nan, "inf": math.inf, "-inf": -math.inf}
 
 
 def summary_json(info: NodeInfo) -> Row:
-    """A node's line in the node list: the client's :class:`NodeInfo` as JSON."""
-    return asdict(info)
+    """A node's line in the node list: the client's :class:`NodeInfo` as JSON (the
+    incarnation in 16 hex digits: a JSON number loses digits above 2**53 in a browser)."""
+    row = asdict(info)
+    row["incarnation"] = incarnation_text(info.incarnation)
+    return row
+
+
+def incarnation_text(incarnation: int) -> str:
+    return f"{incarnation:016x}"
 
 
 def parameter_row(name: str, value: ParameterValue, descriptor: ParameterDescriptor | None) -> Row:

@@ -99,8 +99,9 @@ def test_a_foreign_monitor_joining_late_gets_every_value_exactly(
     for name, value in EVERY_TYPE.items():
         table.declare(name, value)
     with DdsSession(domain_id) as session:
-        session.server(table)
+        server = session.server(table)
         done = _run([str(program), "monitor", "10"], foreign_env)  # starts after the server: late
+        incarnation = server.incarnation("robot1")
     assert done.returncode == 0, done.stderr
     seen: dict[str, object] = {}
     for node, name, kind, text in _lines(done.stdout, "PARAM"):
@@ -109,7 +110,9 @@ def test_a_foreign_monitor_joining_late_gets_every_value_exactly(
         seen[name] = _typed(kind, text)
     assert seen == EVERY_TYPE  # every parameter, every value exactly (0.1, 5e-324, the int64 limits)
     ((node, _host, pid, rest),) = _lines(done.stdout, "NODE")
-    assert (node, pid, rest.split()[-1]) == ("robot1", str(os.getpid()), str(len(EVERY_TYPE)))
+    _revision, count, seen_incarnation = rest.split()
+    assert (node, pid, count) == ("robot1", str(os.getpid()), str(len(EVERY_TYPE)))
+    assert incarnation != 0 and seen_incarnation == f"{incarnation:016x}"  # the new last member, read
 
 
 def test_a_foreign_client_lists_gets_and_sets_on_a_paramdds_server(
@@ -195,6 +198,16 @@ def test_a_foreign_node_is_served_by_the_paramdds_tools(
         assert done.returncode == 0, done.stdout + done.stderr
         result: dict[str, Any] = json.loads(done.stdout)
         assert result["revision"] == 2 and result[f"{p}speed"]["successful"]
+        # compare-and-set on the foreign node's (incarnation, revision): a wrong incarnation is
+        # refused although the revision matches, the right one applies
+        at = str(result["at"])
+        incarnation, _, _ = at.partition(":")
+        assert int(incarnation, 16) != 0 and at.endswith(":2")
+        other = f"{int(incarnation, 16) ^ 1:016x}:2"
+        stale = _run([PARAMDDS, "set", "fnode", f"{p}count=3", "--if-revision", other, "-o", "json"], cli_env)
+        assert stale.returncode == 1 and not json.loads(stale.stdout)[f"{p}count"]["successful"]
+        cas = _run([PARAMDDS, "set", "fnode", f"{p}count=3", "--if-revision", at, "-o", "json"], cli_env)
+        assert cas.returncode == 0 and json.loads(cas.stdout)["revision"] == 3, cas.stdout + cas.stderr
         refused = _run([PARAMDDS, "set", "fnode", f"{p}speed=true"], cli_env)  # the node checks types
         assert refused.returncode == 1 and "TYPE" in refused.stdout + refused.stderr.upper()
 
