@@ -239,7 +239,14 @@ def build_parser(*, with_bench: bool = False) -> Parser:
         "--token-file",
         metavar="FILE",
         help="a bearer token (one word, 16+ characters) required for writes; "
-        "needed to allow writes on a non-loopback --bind",
+        "required on a non-loopback --bind, where reads need it too",
+    )
+    p.add_argument(
+        "--allow-host",
+        action="append",
+        metavar="NAME",
+        help="another name the console is reached under (checked against the Host header: "
+        "a DNS alias or a proxy's name; the bind address is always allowed); repeatable",
     )
 
     if with_bench:

@@ -64,6 +64,7 @@ def log_entry(e: MonitorEvent) -> Row:
         "name": e.name,
         "revision": e.revision,
         "value": parameter_row(e.name, e.value, e.descriptor)["value"] if e.value is not None else None,
+        "type": e.value.type.label if e.value is not None else None,  # shown as the node shows it (2.0)
         "stamp": e.stamp or time.time(),
     }
 

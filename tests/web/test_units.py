@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import math
+from pathlib import Path
 
 import pytest
 from hypothesis import given
@@ -81,7 +82,22 @@ def test_writes_on_a_non_loopback_bind_need_a_token() -> None:
     with pytest.raises(UsageError, match="--token-file"):
         options_from(args, "0.0.0.0")
     args.read_only = True
-    assert options_from(args, "0.0.0.0").allowed_hosts == ()  # read-only: any Host may read
+    with pytest.raises(UsageError, match="--token-file"):  # there reads need the token too
+        options_from(args, "0.0.0.0")
+
+
+def test_the_host_check_holds_on_every_bind(tmp_path: Path) -> None:
+    token = tmp_path / "token"
+    token.write_text("a-token-of-enough-length\n")
+    args = argparse.Namespace(token_file=str(token), read_only=True, domain=1, timeout=5.0, allow_host=None)
+    remote = options_from(args, "10.99.0.1")
+    assert remote.allowed_hosts == ("10.99.0.1",) and remote.token_for_reads
+    args.allow_host = ["robot.example", "Console.Lan"]
+    assert options_from(args, "10.99.0.1").allowed_hosts == ("10.99.0.1", "robot.example", "console.lan")
+    wildcard = options_from(args, "0.0.0.0").allowed_hosts
+    assert {"localhost", "127.0.0.1", "robot.example"} <= set(wildcard) and "evil.example" not in wildcard
+    local = options_from(args, "127.0.0.1")
+    assert not local.token_for_reads and "robot.example" in local.allowed_hosts
 
 
 def test_a_burst_is_coalesced_into_one_message_per_kind() -> None:
