@@ -35,7 +35,7 @@ from ..core.names import canonical_node_id
 from ..core.values import ParameterValue
 from . import types as wire
 from .dispatch import Dispatcher
-from .filters import origin_of, request_filter_of
+from .filters import gone_of, origin_of, request_filter_of
 from .participant import poll_peers
 from .qos import QosProfiles
 from .state import StateKey, StateSample, decode_key, decode_state
@@ -234,11 +234,16 @@ class ParameterMonitor:
 
     def _apply_presence(self, state: NodeState, s: StateSample, info: Any) -> MonitorEvent | None:
         writer = int(getattr(info, "publication_handle", 0))
+        tags = s.value.value  # a string array of the server's tags, or NOT_SET
+        gone = gone_of(tags) if isinstance(tags, tuple) else []
+        if gone:  # the other host of this node stopped: it is neither shown nor a second host
+            state.duplicates = [d for d in state.duplicates if d not in gone]
         if (
             state.online
             and state.writer
             and writer != state.writer
             and (s.host, s.pid) != (state.host, state.pid)
+            and f"pid {state.pid} on {state.host}" not in gone
         ):
             # a second live writer of this node's presence: two processes host one node id
             previous, new = f"pid {state.pid} on {state.host}", f"pid {s.pid} on {s.host}"
@@ -255,7 +260,6 @@ class ParameterMonitor:
         state.host, state.pid = s.host, s.pid
         state.revision, state.announced = s.revision, s.parameter_count
         state.incarnation = s.incarnation
-        tags = s.value.value  # a string array of the server's tags, or NOT_SET
         state.request_filter = request_filter_of(tags) if isinstance(tags, tuple) else None
         state.origin = origin_of(tags) if isinstance(tags, tuple) else None
         return self._set_online(state, info.instance_state == InstanceState.Alive)

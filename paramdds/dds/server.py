@@ -77,11 +77,11 @@ from ._binding import assert_liveliness, take_serialized, unregister_serialized,
 from .cdr import MalformedSample, encode
 from .convert import descriptor_to_wire, parameter_from_wire, state_descriptor_to_wire, value_to_wire
 from .dispatch import SERIALIZED, Dispatcher
-from .filters import NativeFilter, filter_tag, filtered_topic
+from .filters import GONE_TAG, NativeFilter, filter_tag, filtered_topic
 from .node_worker import NodeWorker
 from .participant import poll_peers
 from .qos import QosProfiles
-from .state import decode_state, encode_key, encode_state
+from .state import StateKey, StateSample, decode_key, decode_state, encode_key, encode_state
 
 log = logging.getLogger(__name__)
 
@@ -135,6 +135,7 @@ class ParameterServer:
         )
         self._twins.set_nodes(())
         self._twins_seen: set[tuple[str, str, int]] = set()
+        self._twin_of: dict[str, tuple[str, int]] = {}  # node -> (host, pid) of its other live host
         self.foreign_requests = 0  # requests that reached a handler for a node not hosted here
         self._check: threading.Thread | None = None
         self._last_tick = time.monotonic()
@@ -246,9 +247,25 @@ class ParameterServer:
         return qos
 
     def _on_twins(self, samples: Sequence[tuple[Any, Any]]) -> None:
-        """Presence of one of our nodes written by another process: warn, once per process."""
-        for sample, _ in samples:
-            if sample is not None and sample.node_id in self._tables:
+        """Presence of one of our nodes written by another process: warn, once per process.
+        When that process stops (or dies), its presence instance loses its writers here:
+        write ours again, saying which one went (a ``gone=`` tag), so monitors that showed
+        its host and pid, or listed it as a second host, show this process alone."""
+        for sample, info in samples:
+            worker = self._workers.get(sample.node_id)
+            if worker is None:
+                continue
+            if isinstance(sample, StateKey):
+                twin = self._twin_of.pop(sample.node_id, None)
+                if twin is not None and info.instance_state != InstanceState.Alive:
+                    gone = f"{GONE_TAG}pid {twin[1]} on {twin[0]}"
+                    job = partial(self._write_presence, worker.table, gone)
+                    if worker.idle():
+                        job()
+                    else:
+                        worker.submit(job)
+            elif (sample.host, sample.pid) != (self._host, self._pid):
+                self._twin_of[sample.node_id] = (sample.host, sample.pid)
                 self._warn_twin(sample.node_id, sample.host, sample.pid)
 
     def _warn_twin(self, node: str, host: str, pid: int) -> None:
@@ -374,7 +391,13 @@ class ParameterServer:
             )
         )
 
-    def _write_presence(self, table: ParameterTable) -> None:
+    def _write_presence(self, table: ParameterTable, *tags: str) -> None:
+        """The node's presence sample; ``tags`` are said once, beside the server's own."""
+        value = self._presence_tags
+        if tags:
+            value = wire.ParameterValue(
+                type=value.type, string_array_value=[*value.string_array_value, *tags]
+            )
         self._state_writer.write(
             wire.ParameterEvent(
                 node_id=table.node_id,
@@ -385,7 +408,7 @@ class ParameterServer:
                 host=self._host,
                 pid=self._pid,
                 parameter_count=len(table),
-                value=self._presence_tags,
+                value=value,
                 incarnation=self.incarnation(table.node_id),
             )
         )
@@ -684,9 +707,6 @@ def _summary(response: Any) -> str:
     return "; ".join(f"{r.name}: {r.reason}" for r in response.results if not r.successful)
 
 
-def _decode_presence(data: bytes, info: Any) -> Any:
-    """A presence sample's (node_id, host, pid), or None for anything else (key-only samples)."""
-    if not info.valid_data:
-        return None
-    sample = decode_state(data)
-    return None if sample.name else sample
+def _decode_presence(data: bytes, info: Any) -> StateSample | StateKey:
+    """A presence sample, or the key of an instance without data (its writers went)."""
+    return decode_state(data) if info.valid_data else decode_key(data)

@@ -3,6 +3,7 @@ console, real servers and real Cyclone on loopback. Each test failed before its 
 
 from __future__ import annotations
 
+import json
 import signal
 import socket
 import time
@@ -203,3 +204,28 @@ def test_a_console_reachable_from_other_machines_checks_host_and_needs_the_token
         assert httpx.get(url, timeout=5).status_code == 200  # the page itself holds no data
     finally:
         remote.stop()
+
+
+def test_when_one_of_two_hosts_of_a_node_stops_the_summary_shows_the_other(
+    domain: int, console: Console
+) -> None:
+    """Item 11: the summary kept the dead pid (and `nodes` kept it as a second host)."""
+    first = start_server(domain, "-n", "twin", "-p", str(CONSOLE_PARAMS))
+    second: Proc | None = None
+    try:
+        wait_for_nodes(console.url, {"twin"})
+        second = start_server(domain, "-n", "twin", "-p", str(CONSOLE_PARAMS))
+        procs = {first.popen.pid: first, second.popen.pid: second}
+        assert run_cli(domain, "set", "twin", "gain=5").returncode == 0  # both apply it and write presence
+        shown = wait_summary(console, "twin", lambda s: s["pid"] in procs and s["revision"] == 10)
+        doomed = procs.pop(shown["pid"])  # the one shown, whichever wrote last
+        (kept,) = procs
+        kill(doomed)
+        survivor = wait_summary(console, "twin", lambda s: s["pid"] != doomed.popen.pid)
+        assert survivor["pid"] == kept and survivor["online"]
+        (row,) = [r for r in json.loads(run_cli(domain, "nodes", "-o", "json").stdout) if r["node"] == "twin"]
+        assert (row["pid"], row["also_hosted_by"]) == (kept, [])
+    finally:
+        first.stop()
+        if second is not None and second.popen.poll() is None:
+            second.stop()
