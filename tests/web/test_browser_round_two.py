@@ -3,14 +3,16 @@ Chromium against a real console and real servers. Each test failed before its fi
 
 from __future__ import annotations
 
+import signal
 from collections.abc import Iterator
 from pathlib import Path
 
+import httpx
 import pytest
 from playwright.sync_api import Page, expect
 
 from ..cli._support import Proc, run_cli, start_server
-from ._support import Console
+from ._support import CONSOLE_PARAMS, Console
 from .conftest import wait_for_nodes
 from .test_api import post, value_of
 from .test_browser import cli_value, current, open_node, row
@@ -170,3 +172,119 @@ def test_doubles_in_the_log_keep_their_point_and_no_request_is_a_404(
     expect(page.locator("#stream-state")).to_have_text("live")
     page.wait_for_timeout(300)
     assert missing == []
+
+
+def test_after_a_restart_the_page_applies_atomically_again(page: Page, console: Console, domain: int) -> None:
+    """Item 1: the page kept r11 after the node came back at r9, and every "Apply atomically"
+    answered "changed meanwhile (revision 11 -> 11)"."""
+    first = start_server(domain, "-n", "lazarus", "-p", str(CONSOLE_PARAMS))
+    try:
+        wait_for_nodes(console.url, {"lazarus"})
+        open_node(page, console, "lazarus")
+        start = int(page.locator("#node-meta").get_attribute("data-revision") or 0)
+        for gain in ("1", "2"):
+            field = row(page, "gain").locator('[data-role="input"]')
+            field.fill(gain)
+            field.press("Enter")
+            expect(current(page, "gain")).to_have_text(gain)
+        expect(page.locator("#node-meta")).to_have_attribute("data-revision", str(start + 2))
+        old = page.locator("#node-meta").get_attribute("data-incarnation")
+    finally:
+        first.popen.send_signal(signal.SIGKILL)
+        first.stop()
+    expect(page.locator("#node-view")).to_have_class("offline")
+    again = start_server(domain, "-n", "lazarus", "-p", str(CONSOLE_PARAMS))
+    try:
+        expect(page.locator("#node-view")).not_to_have_class("offline")
+        expect(page.locator("#node-meta")).not_to_have_attribute("data-incarnation", old or "")
+        expect(page.locator("#node-meta")).to_have_attribute("data-revision", str(start))
+        row(page, "gain").locator('[data-role="input"]').fill("7")
+        page.click("#apply")
+        expect(page.locator("#banner")).to_contain_text("Applied 1 changes atomically")
+        assert cli_value(domain, "lazarus", "gain") == "7"
+    finally:
+        again.stop()
+
+
+def test_a_node_mirrored_from_ros2_is_marked(page: Page, console: Console, domain: int) -> None:
+    """A presence tagged origin=ros2 (the bridge's mirrored nodes) shows a mark in the list and
+    the node's line, and "origin" in the API."""
+    from cyclonedds.pub import DataWriter
+    from cyclonedds.topic import Topic
+
+    from paramdds.dds import types as wire
+    from paramdds.dds.participant import close_participant, make_participant
+    from paramdds.dds.qos import QosProfiles
+
+    dp = make_participant(domain, localhost=True)
+    try:
+        writer = DataWriter(
+            dp,
+            Topic(dp, "ParameterEvents", wire.ParameterEvent),
+            QosProfiles.load().writer("ParameterEvents"),
+        )
+        tags = wire.ParameterValue(type=9, string_array_value=["request_filter=handler", "origin=ros2"])
+        writer.write(
+            wire.ParameterEvent(
+                node_id="talker",
+                name="use_sim_time",
+                kind=0,
+                revision=1,
+                value=wire.ParameterValue(type=1),
+                incarnation=7,
+            )
+        )
+        writer.write(
+            wire.ParameterEvent(
+                node_id="talker",
+                name="",
+                kind=1,
+                revision=1,
+                host="ros",
+                pid=1,
+                parameter_count=1,
+                value=tags,
+                incarnation=7,
+            )
+        )
+        wait_for_nodes(console.url, {"talker"}, params=1)
+        listed = [
+            n
+            for n in httpx.get(console.url + "api/nodes", timeout=5).json()["nodes"]
+            if n["node"] == "talker"
+        ]
+        assert [n["origin"] for n in listed] == ["ros2"]
+        assert all(
+            n["origin"] is None
+            for n in httpx.get(console.url + "api/nodes", timeout=5).json()["nodes"]
+            if n["node"] != "talker"
+        )
+        open_node(page, console, "talker")
+        expect(page.locator('#nodes li[data-node="talker"] .origin')).to_have_text("ros2")
+        expect(page.locator('#nodes li[data-node="arm"] .origin')).to_have_count(0)
+        expect(page.locator("#node-meta")).to_contain_text("mirrored from ros2")
+    finally:
+        close_participant(dp)
+
+
+def test_off_loopback_the_page_asks_for_the_token_before_reading(
+    page: Page, domain: int, servers: Proc, tmp_path: Path
+) -> None:
+    """Security: a console other machines can reach reads nothing without the token; the page
+    asks for it first, then lists the nodes and streams (the stream sends it as a cookie)."""
+    from ._support import write_token
+
+    token = "page-token-for-reads-0123456"
+    remote = Console(domain, "--bind", "0.0.0.0:0", "--token-file", str(write_token(tmp_path, token)))
+    try:
+        page.goto(remote.url.replace("0.0.0.0", "127.0.0.1") + "#node=arm")
+        expect(page.locator("#stream-state")).to_have_text("needs the token")
+        expect(page.locator("#token-box")).to_be_visible()
+        expect(page.locator("#nodes li")).to_have_count(0)
+        page.fill("#token", token)
+        page.locator("#token").dispatch_event("change")
+        expect(page.locator("#stream-state")).to_have_text("live")
+        expect(page.locator('#nodes li[data-node="arm"]')).to_be_visible()
+        expect(row(page, "gain")).to_be_visible()
+    finally:
+        remote.stop()
