@@ -21,6 +21,7 @@ const $ = (sel, root = document) => root.querySelector(sel);
 // JSON with exact 64-bit integers: a number beyond ±2^53 is read as a BigInt from its source
 // text (a plain Number would round it) and written back as its digits.
 function parseJSON(text) {
+  if (!/\d{16}/.test(text)) return JSON.parse(text);  // no number of 16+ digits: no reviver to pay for
   return JSON.parse(text, (k, v, ctx) =>
     typeof v === "number" && !Number.isSafeInteger(v) && ctx && /^-?\d+$/.test(ctx.source) ? BigInt(ctx.source) : v);
 }
