@@ -134,3 +134,22 @@ def test_a_missing_web_extra_is_a_clear_usage_error(monkeypatch: pytest.MonkeyPa
     )
     with pytest.raises(UsageError, match=r"uvicorn not installed.*pip install 'paramdds\[web\]'"):
         _web.run_web(argparse.Namespace())
+
+
+def test_the_view_follows_a_restart_instead_of_keeping_the_highest_revision() -> None:
+    """A node's events raise the revision shown within one incarnation; events of another
+    incarnation (a restart, counting again) never hold it up."""
+    from paramdds.dds.monitor import NodeState
+
+    view = StateView()
+    old, new = (
+        NodeState("n", online=True, revision=9, incarnation=1),
+        NodeState("n", online=True, revision=9, incarnation=2),
+    )
+    view.note_revision("n", 13, 1)
+    assert view._summary(old).revision == 13  # the newest event of this start
+    assert view._summary(new).revision == 9  # restarted: its own revision, not 13
+    view.note_revision("n", 10, 2)
+    assert view._summary(new).revision == 10
+    view.note_revision("n", 12, 1)  # a late event of the old start does not count for the new one
+    assert view._summary(new).revision == 9
