@@ -36,6 +36,7 @@ if TYPE_CHECKING:
         SetVeto,
         Validator,
     )
+    from .core.revision import Revision
     from .dds.assign import Assigner
     from .dds.client import AsyncParameterClient, NodeInfo, ParameterClient
     from .dds.monitor import EventKind, MonitorEvent, NodeState, ParameterMonitor
@@ -64,6 +65,7 @@ __getattr__ = loader(
     {
         **dict.fromkeys(_core.__all__, "paramdds.core"),
         "Assigner": "paramdds.dds.assign",
+        "Revision": "paramdds.core.revision",
         **dict.fromkeys(["AsyncParameterClient", "NodeInfo", "ParameterClient"], "paramdds.dds.client"),
         **dict.fromkeys(
             ["EventKind", "MonitorEvent", "NodeState", "ParameterMonitor"], "paramdds.dds.monitor"
@@ -108,6 +110,7 @@ __all__ = [
     "ParameterValue",
     "QosProfiles",
     "RemoteError",
+    "Revision",
     "SetOutcome",
     "SetResult",
     "SetVeto",

@@ -182,6 +182,7 @@ struct node
   struct param params[MAX_PARAMS];
   int count;
   int64_t revision;
+  uint64_t incarnation; /* random, non-zero, new on every start: (incarnation, revision) never repeats */
   dds_entity_t state;
   char host[256];
 };
@@ -192,6 +193,17 @@ static struct param *find (struct node *n, const char *name)
     if (strcmp (n->params[i].name, name) == 0)
       return &n->params[i];
   return NULL;
+}
+
+static uint64_t new_incarnation (void)
+{
+  uint64_t x = 0;
+  FILE *f = fopen ("/dev/urandom", "rb");
+  if (f == NULL || fread (&x, sizeof (x), 1, f) != 1)
+    x = ((uint64_t) time (NULL) << 32) ^ (uint64_t) getpid ();
+  if (f != NULL)
+    fclose (f);
+  return x ? x : 1;
 }
 
 static void stamp_now (paramdds_Time *t)
@@ -210,6 +222,7 @@ static void publish_param (struct node *n, const struct param *p)
   snprintf (ev.name, sizeof (ev.name), "%s", p->name);
   ev.kind = 0;
   ev.revision = n->revision;
+  ev.incarnation = n->incarnation;
   stamp_now (&ev.stamp);
   ev.value = p->value;
   ev.host = "";
@@ -223,6 +236,7 @@ static void publish_presence (struct node *n)
   snprintf (ev.node_id, sizeof (ev.node_id), "%s", n->id);
   ev.kind = 1;
   ev.revision = n->revision;
+  ev.incarnation = n->incarnation;
   stamp_now (&ev.stamp);
   ev.value.string_value = "";
   ev.host = n->host;
@@ -244,6 +258,7 @@ static void answer_get (struct node *n, const paramdds_GetParametersRequest *rq,
   rp.client_id = rq->client_id; /* echoed: each client reads only its own replies */
   rp.request_id = rq->request_id;
   rp.revision = n->revision;
+  rp.incarnation = n->incarnation;
   rp.code = rp.reason = "";
   for (uint32_t i = 0; i < count; i++)
   {
@@ -283,6 +298,7 @@ static void answer_list (struct node *n, const paramdds_ListParametersRequest *r
   rp.client_id = rq->client_id;
   rp.request_id = rq->request_id;
   rp.revision = n->revision;
+  rp.incarnation = n->incarnation;
   rp.code = rp.reason = "";
   for (int i = 0; i < n->count; i++)
   {
@@ -321,7 +337,8 @@ static void answer_set (struct node *n, const paramdds_SetParametersRequest *rq,
     r->name = in->name;
     r->successful = true;
     r->code = r->reason = "";
-    if (rq->expected_revision >= 0 && rq->expected_revision != n->revision)
+    if ((rq->expected_incarnation != 0 && rq->expected_incarnation != n->incarnation)
+        || (rq->expected_revision >= 0 && rq->expected_revision != n->revision))
       r->code = "CONFLICT", r->reason = "the node's revision has moved on";
     else if (p == NULL)
       r->code = "NOT_FOUND", r->reason = "no such parameter on this node";
@@ -363,6 +380,7 @@ static void answer_set (struct node *n, const paramdds_SetParametersRequest *rq,
   if (changed)
     publish_presence (n);
   rp.revision = n->revision;
+  rp.incarnation = n->incarnation;
   rp.results._length = rp.results._maximum = count;
   rp.results._buffer = results;
   check (dds_write (wr, &rp), "write SetParametersResponse");
@@ -376,6 +394,7 @@ static int run_node (dds_entity_t dp, const char *id)
   snprintf (n.id, sizeof (n.id), "%s", id);
   gethostname (n.host, sizeof (n.host) - 1);
   n.revision = 1;
+  n.incarnation = new_incarnation ();
   const char *names[] = {"c.speed", "c.count", "c.label", "c.enabled"};
   for (int i = 0; i < 4; i++)
   {
@@ -466,7 +485,8 @@ static int run_monitor (dds_entity_t dp, double seconds)
       if (!infos[i].valid_data)
         continue;
       if (ev->kind == 1)
-        printf ("NODE %s %s %d %lld %u\n", ev->node_id, ev->host, ev->pid, (long long) ev->revision, ev->parameter_count);
+        printf ("NODE %s %s %d %lld %u %016llx\n", ev->node_id, ev->host, ev->pid, (long long) ev->revision,
+                ev->parameter_count, (unsigned long long) ev->incarnation);
       else
       {
         printf ("PARAM %s %s ", ev->node_id, ev->name);

@@ -269,11 +269,20 @@ static paramdds::ParameterValue parse_value(const std::string &text)
 
 static volatile std::sig_atomic_t stop_requested = 0;
 
+static uint64_t new_incarnation()
+{
+    std::random_device rd;
+    uint64_t x = (static_cast<uint64_t>(rd()) << 32) ^ rd();
+    return x ? x : 1;
+}
+
 struct Node
 {
     std::string id;
     std::vector<paramdds::Parameter> params;
     int64_t revision = 1;
+    // random, non-zero, new on every start: (incarnation, revision) never repeats
+    uint64_t incarnation = new_incarnation();
     DataWriter *state = nullptr;
     std::string host;
 
@@ -302,6 +311,7 @@ struct Node
         ev.name(p.name());
         ev.kind(0);
         ev.revision(revision);
+        ev.incarnation(incarnation);
         ev.stamp(now());
         ev.value(p.value());
         state->write(&ev);
@@ -314,6 +324,7 @@ struct Node
         ev.name("");
         ev.kind(1);
         ev.revision(revision);
+        ev.incarnation(incarnation);
         ev.stamp(now());
         ev.host(host);
         ev.pid(static_cast<int32_t>(getpid()));
@@ -328,6 +339,7 @@ struct Node
         rp.client_id(rq.client_id());  // echoed: each client reads only its own replies
         rp.request_id(rq.request_id());
         rp.revision(revision);
+        rp.incarnation(incarnation);
         for (const auto &name : rq.names())
         {
             paramdds::GetParameterResult r;
@@ -361,6 +373,7 @@ struct Node
         rp.client_id(rq.client_id());
         rp.request_id(rq.request_id());
         rp.revision(revision);
+        rp.incarnation(incarnation);
         for (const auto &p : params)
         {
             bool wanted = rq.prefixes().empty();
@@ -385,7 +398,8 @@ struct Node
             paramdds::SetParameterResult r;
             r.name(in.name());
             paramdds::Parameter *p = find(in.name());
-            if (rq.expected_revision() >= 0 && rq.expected_revision() != revision)
+            if ((rq.expected_incarnation() != 0 && rq.expected_incarnation() != incarnation) ||
+                (rq.expected_revision() >= 0 && rq.expected_revision() != revision))
                 r.code("CONFLICT"), r.reason("the node's revision has moved on");
             else if (!p)
                 r.code("NOT_FOUND"), r.reason("no such parameter on this node");
@@ -418,6 +432,7 @@ struct Node
         if (changed)
             publish_presence();
         rp.revision(revision);
+        rp.incarnation(incarnation);
         wr->write(&rp);
         std::fflush(stdout);
     }
@@ -502,8 +517,9 @@ static int run_monitor(Dds &dds, double seconds)
             if (!info.valid_data)
                 continue;
             if (ev.kind() == 1)
-                std::printf("NODE %s %s %d %lld %u\n", ev.node_id().c_str(), ev.host().c_str(), ev.pid(),
-                            static_cast<long long>(ev.revision()), ev.parameter_count());
+                std::printf("NODE %s %s %d %lld %u %016llx\n", ev.node_id().c_str(), ev.host().c_str(), ev.pid(),
+                            static_cast<long long>(ev.revision()), ev.parameter_count(),
+                            static_cast<unsigned long long>(ev.incarnation()));
             else
             {
                 std::printf("PARAM %s %s ", ev.node_id().c_str(), ev.name().c_str());

@@ -229,7 +229,12 @@ def build_parser(*, with_bench: bool = False) -> Parser:
     p.add_argument("node", metavar="NODE")
     p.add_argument("assignments", nargs="+", metavar="NAME=VALUE", help="values typed as YAML scalars")
     p.add_argument("--atomic", action="store_true", help="all or nothing")
-    p.add_argument("--if-revision", type=int, metavar="N", help="apply only while the node is at revision N")
+    p.add_argument(
+        "--if-revision",
+        metavar="[INCARNATION:]N",
+        help="apply only while the node is still at that state: INCARNATION:N (the 'at' of "
+        "`paramdds nodes -o json`) also fails after a restart; a bare N compares the revision alone",
+    )
 
     p = _verb(sub, "dump", "a node's parameters as a ROS 2 parameter file on stdout")
     p.add_argument("node", metavar="NODE")
@@ -258,7 +263,14 @@ def build_parser(*, with_bench: bool = False) -> Parser:
         "--token-file",
         metavar="FILE",
         help="a bearer token (one word, 16+ characters) required for writes; "
-        "needed to allow writes on a non-loopback --bind",
+        "required on a non-loopback --bind, where reads need it too",
+    )
+    p.add_argument(
+        "--allow-host",
+        action="append",
+        metavar="NAME",
+        help="another name the console is reached under (checked against the Host header: "
+        "a DNS alias or a proxy's name; the bind address is always allowed); repeatable",
     )
 
     _keystore(_verb(sub, "keystore", "secure mode: CAs, governance and identities; the secure Cyclone build"))

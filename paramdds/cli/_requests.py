@@ -16,6 +16,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 from ..core.descriptors import ParameterDescriptor
+from ..core.revision import Revision
 from ..core.values import Parameter, ParameterType
 from ..errors import ParamddsError
 from ._errors import Exit, UsageError, one_line
@@ -69,6 +70,9 @@ def run_nodes(args: argparse.Namespace) -> int:
             "revision": st.revision,
             "also_hosted_by": list(st.duplicates),  # other processes hosting the same node id
             "request_filter": st.request_filter,  # "native", "handler", or None: the server does not say
+            "incarnation": f"{st.incarnation:016x}",  # the server's for the node, new on every start
+            "at": str(Revision(st.incarnation, st.revision)),  # what `set --if-revision` takes
+            "origin": st.origin,  # the presence tag "origin" ("ros2": mirrored by the bridge), or None
         }
         for st in sorted(states.values(), key=lambda st: st.node)
         if st.online
@@ -143,12 +147,18 @@ def _report_missing(node: str, missing: Sequence[object]) -> int:
 def run_set(args: argparse.Namespace) -> int:
     node = node_arg(args.node)
     assignments = parse_assignments(args.assignments)
-    if args.if_revision is not None and args.if_revision < 0:
-        raise UsageError(f"--if-revision must be 0 or positive, got {args.if_revision}")
+    if_revision = None
+    if args.if_revision is not None:
+        try:
+            if_revision = Revision.parse(args.if_revision)
+        except ParamddsError as exc:
+            raise UsageError(f"--if-revision: {exc.message}") from exc
     with Session(args) as session:
         client = session.client()
         params = typed_parameters(client, node, assignments)
-        reply = client.set(node, params, atomic=args.atomic, if_revision=args.if_revision)
+        # a bare revision compares the revision alone (incarnation 0 on the wire)
+        expected = if_revision.revision if if_revision and not if_revision.incarnation else if_revision
+        reply = client.set(node, params, atomic=args.atomic, if_revision=expected)
     return report_set(args.output, node, reply)
 
 

@@ -46,6 +46,7 @@ from cyclonedds.topic import Topic
 from ..core.limits import MAX_PARAMETERS_PER_REQUEST, check_value
 from ..core.names import canonical_node_id, validate_name
 from ..core.results import GetResult, ListResult, SetResult
+from ..core.revision import Revision
 from ..core.values import NOT_SET, Parameter, ParameterValue
 from ..errors import (
     NotFoundError,
@@ -62,7 +63,7 @@ from .cdr import is_malformed
 from .convert import descriptor_from_wire, parameter_to_wire, value_from_wire
 from .discovery import MIN_QUIET, DiscoveryState, DiscoveryWatch, Presence
 from .dispatch import Dispatcher
-from .filters import NativeFilter, filtered_topic, request_filter_of
+from .filters import NativeFilter, filtered_topic, origin_of, request_filter_of
 from .participant import peer_mismatches
 from .qos import QosProfiles
 
@@ -89,6 +90,13 @@ class NodeInfo:
     revision: int
     parameters: int
     request_filter: str | None = None  # how the server filters requests: "native", "handler", or unsaid
+    incarnation: int = 0  # the server's for this node (new on every start); 0 from one without
+    origin: str | None = None  # where the node comes from (presence tag "origin", "ros2" for a mirror)
+
+    @property
+    def at(self) -> Revision:
+        """(incarnation, revision): what ``set(..., if_revision=)`` compares."""
+        return Revision(self.incarnation, self.revision)
 
 
 @dataclass(frozen=True)
@@ -96,6 +104,11 @@ class GetReply:
     node: str
     revision: int
     results: tuple[GetResult, ...]
+    incarnation: int = 0
+
+    @property
+    def at(self) -> Revision:
+        return Revision(self.incarnation, self.revision)
 
     def values(self) -> dict[str, ParameterValue]:
         """The values found, by name (unknown names are in :meth:`missing`)."""
@@ -110,6 +123,11 @@ class SetReply:
     node: str
     revision: int
     results: tuple[SetResult, ...]
+    incarnation: int = 0  # the node's (on CONFLICT: its current one, with revision)
+
+    @property
+    def at(self) -> Revision:
+        return Revision(self.incarnation, self.revision)
 
     @property
     def successful(self) -> bool:
@@ -367,13 +385,17 @@ class ParameterClient:
         params: ParamsArg,
         *,
         atomic: bool = False,
-        if_revision: int | None = None,
+        if_revision: int | Revision | None = None,
         timeout: float | None = None,
     ) -> SetReply:
         """Set parameters: each on its own, or all-or-nothing with ``atomic``.
 
-        ``if_revision`` applies the set only while the node's revision is still that
-        number (compare-and-set); otherwise every result fails with CONFLICT.
+        ``if_revision`` applies the set only while the node is still at that state
+        (compare-and-set); otherwise every result fails with CONFLICT and the reply
+        carries the node's current :attr:`SetReply.at`. A :class:`Revision` (from
+        ``NodeInfo.at``, ``GetReply.at``, ``SetReply.at``) compares the incarnation and
+        the revision, so a restarted node never matches; a plain ``int`` compares the
+        revision alone, which a restart can repeat.
         """
         return self._finish_set(self._wait(*self._send_set(node, params, atomic, if_revision), timeout))
 
@@ -426,16 +448,18 @@ class ParameterClient:
         return self._send("GetParametersRequest", node, sample)
 
     def _send_set(
-        self, node: str, params: ParamsArg, atomic: bool, if_revision: int | None
+        self, node: str, params: ParamsArg, atomic: bool, if_revision: int | Revision | None
     ) -> tuple[str, int, _Pending]:
         node = canonical_node_id(node)
+        expected = _expected(if_revision)
         sample = wire.SetParametersRequest(
             node_id=node,
             client_id=self.client_id,
             request_id=self._next_id(),
             atomic=atomic,
-            expected_revision=-1 if if_revision is None else if_revision,
+            expected_revision=expected.revision,
             parameters=[parameter_to_wire(p) for p in _to_parameters(params)],
+            expected_incarnation=expected.incarnation,
         )
         return self._send("SetParametersRequest", node, sample)
 
@@ -576,12 +600,12 @@ class ParameterClient:
                     reason=r.reason,
                 )
             )
-        return GetReply(reply.node_id, reply.revision, tuple(results))
+        return GetReply(reply.node_id, reply.revision, tuple(results), reply.incarnation)
 
     def _finish_set(self, reply: Any) -> SetReply:
         self._check(reply)
         results = tuple(SetResult(r.name, r.successful, r.reason, code_of(r.code)) for r in reply.results)
-        return SetReply(reply.node_id, reply.revision, results)
+        return SetReply(reply.node_id, reply.revision, results, reply.incarnation)
 
 
 class AsyncParameterClient:
@@ -608,7 +632,7 @@ class AsyncParameterClient:
         params: ParamsArg,
         *,
         atomic: bool = False,
-        if_revision: int | None = None,
+        if_revision: int | Revision | None = None,
         timeout: float | None = None,
     ) -> SetReply:
         c = self.sync
@@ -636,4 +660,19 @@ def _node_info(sample: Any) -> NodeInfo | None:
         sample.revision,
         sample.parameter_count,
         request_filter_of(tags),
+        sample.incarnation,
+        origin_of(tags),
     )
+
+
+def _expected(if_revision: int | Revision | None) -> Revision:
+    """What a set request compares: (0, -1) nothing, (0, n) the revision alone."""
+    if if_revision is None:
+        return Revision(0, -1)
+    expected = if_revision if isinstance(if_revision, Revision) else Revision(0, if_revision)
+    incarnation, revision = expected
+    if not (isinstance(incarnation, int) and isinstance(revision, int)):
+        raise ParamddsError(f"if_revision must be an int or a Revision, got {if_revision!r}")
+    if not (0 <= incarnation < 2**64 and 0 <= revision < 2**63):
+        raise ParamddsError(f"if_revision out of range: {if_revision!r}")
+    return expected

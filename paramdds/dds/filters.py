@@ -65,6 +65,10 @@ def status() -> dict[str, object]:
 
 
 _TAG = "request_filter="
+# a presence tag said once by a server whose twin (another process hosting the same node id)
+# stopped: "gone=pid N on HOST", so monitors drop that process from the node's hosts
+GONE_TAG = "gone="
+ORIGIN_TAG = "origin="  # a presence tag: where the node comes from ("origin=ros2": a mirrored ROS 2 node)
 
 
 def filter_tag(native: bool) -> str:
@@ -79,6 +83,20 @@ def request_filter_of(tags: Iterable[object]) -> str | None:
         if isinstance(tag, str) and tag.startswith(_TAG):
             return tag[len(_TAG) :]
     return None
+
+
+def origin_of(tags: Iterable[object]) -> str | None:
+    """The presence tag ``origin`` (``"ros2"`` for a node mirrored from ROS 2 by the bridge);
+    None when the node does not say (a node served here, or an older server)."""
+    for tag in tags:
+        if isinstance(tag, str) and tag.startswith(ORIGIN_TAG):
+            return tag[len(ORIGIN_TAG) :]
+    return None
+
+
+def gone_of(tags: Iterable[object]) -> list[str]:
+    """The processes a presence says stopped hosting the node ("pid N on HOST")."""
+    return [t[len(GONE_TAG) :] for t in tags if isinstance(t, str) and t.startswith(GONE_TAG)]
 
 
 def disable_native() -> None:

@@ -36,7 +36,7 @@ from ..core.values import ParameterValue
 from ..secure.scope import guard_raw, scope_of
 from . import types as wire
 from .dispatch import Dispatcher
-from .filters import request_filter_of
+from .filters import gone_of, origin_of, request_filter_of
 from .participant import poll_peers
 from .qos import QosProfiles
 from .state import StateKey, StateSample, decode_key, decode_state
@@ -64,6 +64,7 @@ class MonitorEvent:
     descriptor: ParameterDescriptor | None = None
     revision: int = 0
     stamp: float = 0.0  # seconds since the epoch, from the writer
+    incarnation: int = 0  # the server's for the node (new on every start): see NodeState.incarnation
 
 
 @dataclass
@@ -79,6 +80,10 @@ class NodeState:
     duplicates: list[str] = field(default_factory=list)
     writer: int = 0  # the publication handle of the last presence sample
     request_filter: str | None = None  # "native" or "handler" as the server says; None if it does not
+    # the server's for this node, new on every start: a different one is a restart, whose
+    # revisions start again (compare-and-set compares both; see ParameterClient.set)
+    incarnation: int = 0
+    origin: str | None = None  # the presence tag "origin" ("ros2": mirrored by the bridge); None if unsaid
     parameters: dict[str, tuple[ParameterValue, ParameterDescriptor]] = field(default_factory=dict)
 
     @property
@@ -211,7 +216,15 @@ class ParameterMonitor:
                 return self._set_online(state, False)
             if info.instance_state == InstanceState.NotAliveDisposed and s.name in state.parameters:
                 value, descriptor = state.parameters.pop(s.name)
-                return MonitorEvent(EventKind.DELETED, state.node, s.name, value, descriptor, state.revision)
+                return MonitorEvent(
+                    EventKind.DELETED,
+                    state.node,
+                    s.name,
+                    value,
+                    descriptor,
+                    state.revision,
+                    incarnation=state.incarnation,
+                )
             return None  # "no writers" on a parameter: the node is offline, keep its value
         if s.kind == wire.EVENT_PRESENCE and s.name == "":
             return self._apply_presence(state, s, info)
@@ -219,15 +232,22 @@ class ParameterMonitor:
         state.parameters[s.name] = (s.value, s.descriptor)
         if not self._callbacks:
             return None  # an event exists only to be emitted: a monitor's full state is 5,000+ samples
-        return MonitorEvent(kind, state.node, s.name, s.value, s.descriptor, s.revision, s.stamp)
+        return MonitorEvent(
+            kind, state.node, s.name, s.value, s.descriptor, s.revision, s.stamp, s.incarnation
+        )
 
     def _apply_presence(self, state: NodeState, s: StateSample, info: Any) -> MonitorEvent | None:
         writer = int(getattr(info, "publication_handle", 0))
+        tags = s.value.value  # a string array of the server's tags, or NOT_SET
+        gone = gone_of(tags) if isinstance(tags, tuple) else []
+        if gone:  # the other host of this node stopped: it is neither shown nor a second host
+            state.duplicates = [d for d in state.duplicates if d not in gone]
         if (
             state.online
             and state.writer
             and writer != state.writer
             and (s.host, s.pid) != (state.host, state.pid)
+            and f"pid {state.pid} on {state.host}" not in gone
         ):
             # a second live writer of this node's presence: two processes host one node id
             previous, new = f"pid {state.pid} on {state.host}", f"pid {s.pid} on {s.host}"
@@ -243,8 +263,9 @@ class ParameterMonitor:
         state.writer = writer
         state.host, state.pid = s.host, s.pid
         state.revision, state.announced = s.revision, s.parameter_count
-        tags = s.value.value  # a string array of the server's tags, or NOT_SET
+        state.incarnation = s.incarnation
         state.request_filter = request_filter_of(tags) if isinstance(tags, tuple) else None
+        state.origin = origin_of(tags) if isinstance(tags, tuple) else None
         return self._set_online(state, info.instance_state == InstanceState.Alive)
 
     def _set_online(self, state: NodeState, online: bool) -> MonitorEvent | None:
@@ -254,7 +275,9 @@ class ParameterMonitor:
         if not online:
             state.writer, state.duplicates = 0, []
         kind = EventKind.ONLINE if online else EventKind.OFFLINE
-        return MonitorEvent(kind, state.node, revision=state.revision, stamp=time.time())
+        return MonitorEvent(
+            kind, state.node, revision=state.revision, stamp=time.time(), incarnation=state.incarnation
+        )
 
     def _emit(self, events: list[MonitorEvent]) -> None:
         for event in events:

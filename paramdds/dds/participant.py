@@ -48,8 +48,10 @@ pid that Cyclone adds itself (``__Hostname``, ``__Pid``).
 from __future__ import annotations
 
 import os
+import re
 import threading
 import weakref
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -78,9 +80,10 @@ MAX_DOMAIN_ID = 232  # Cyclone's default port mapping fits domain ids 0..232
 # on neighbouring domain ids never collide.
 MAX_PARTICIPANT_INDEX = 119
 
+_LOOPBACK_INTERFACE = '<Interfaces><NetworkInterface address="127.0.0.1"/></Interfaces>'
 _LOCALHOST_XML = (
     "<General>"
-    '<Interfaces><NetworkInterface address="127.0.0.1"/></Interfaces>'
+    f"{_LOOPBACK_INTERFACE}"
     "<AllowMulticast>false</AllowMulticast>"
     "</General>"
     "<Discovery>"
@@ -117,9 +120,13 @@ def domain_config(
     The user's ``CYCLONEDDS_URI`` comes first, so our settings refine it rather
     than replace it.
     """
+    user = os.environ.get("CYCLONEDDS_URI", "").strip()
     parts = []
     if localhost:
-        parts.append(_LOCALHOST_XML)
+        # a user configuration that already selects loopback keeps its selection (Cyclone
+        # refuses one interface selected twice); ours adds unicast discovery to it
+        loopback_already = _selects_loopback(user)
+        parts.append(_LOCALHOST_XML.replace(_LOOPBACK_INTERFACE, "") if loopback_already else _LOCALHOST_XML)
     if topic_discovery:
         parts.append(_TOPIC_DISCOVERY_XML)
     if short_lived:
@@ -129,8 +136,29 @@ def domain_config(
     if not parts:
         return None
     ours = '<CycloneDDS><Domain id="any">' + "".join(parts) + "</Domain></CycloneDDS>"
-    user = os.environ.get("CYCLONEDDS_URI", "").strip()
     return f"{user},{ours}" if user else ours
+
+
+_SELECTS_LOOPBACK = re.compile(
+    r"""<NetworkInterface\b[^>]*\b(?:name\s*=\s*["']lo["']|address\s*=\s*["']127\.)"""
+    r"|<NetworkInterfaceAddress>\s*(?:lo|127\.[0-9.]+)\s*<",
+    re.IGNORECASE,
+)
+
+
+def _selects_loopback(uri: str) -> bool:
+    """Whether a ``CYCLONEDDS_URI`` (inline XML and files named by ``file://`` or an absolute
+    path, comma-separated) selects the loopback interface itself."""
+    texts = [uri]
+    for match in _FILE_ITEM.finditer(uri):
+        try:
+            texts.append(Path(match.group(1)).read_text(encoding="utf-8", errors="replace"))
+        except OSError:
+            continue  # Cyclone reports a file it cannot read itself
+    return any(_SELECTS_LOOPBACK.search(t) for t in texts)
+
+
+_FILE_ITEM = re.compile(r"(?:^|,)\s*(?:file://)?(/[^,<>]*?)\s*(?=,|$)")
 
 
 def make_participant(

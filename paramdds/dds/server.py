@@ -33,6 +33,14 @@ How it works:
   from a TRANSIENT_LOCAL writer; a second, TRANSIENT_LOCAL reader takes them. Those
   for nodes not hosted yet are kept (the newest per node, bounded) and applied
   when such a node is added, also after ``start()``.
+* **Incarnation.** Each time a server starts hosting a node it draws a random non-zero
+  64-bit incarnation, written with every state, presence and reply sample of that node.
+  A revision alone repeats across restarts (a node restored from ``--persist`` is back
+  at r9 after a restart from r13, and a fresh one counts from its declarations again);
+  (incarnation, revision) never does. Compare-and-set compares both when the request
+  names an incarnation (``expected_incarnation`` != 0), the revision alone otherwise
+  (a peer that knows no incarnation). The check lives here, not in the core table: an
+  incarnation belongs to the hosting, not to the parameters.
 * Retried requests (same client_id, request_id and bytes as received) get the cached
   reply again and are never applied twice. The same ids with other content are a
   new request: a client restarted with a fixed client_id counts from 1 again.
@@ -42,6 +50,7 @@ from __future__ import annotations
 
 import logging
 import os
+import secrets
 import socket
 import threading
 import time
@@ -69,11 +78,11 @@ from ._binding import assert_liveliness, take_serialized, unregister_serialized,
 from .cdr import MalformedSample, encode
 from .convert import descriptor_to_wire, parameter_from_wire, state_descriptor_to_wire, value_to_wire
 from .dispatch import SERIALIZED, Dispatcher
-from .filters import NativeFilter, filter_tag, filtered_topic
+from .filters import GONE_TAG, NativeFilter, filter_tag, filtered_topic
 from .node_worker import NodeWorker
 from .participant import poll_peers
 from .qos import QosProfiles
-from .state import decode_state, encode_key, encode_state
+from .state import StateKey, StateSample, decode_key, decode_state, encode_key, encode_state
 
 log = logging.getLogger(__name__)
 
@@ -85,6 +94,11 @@ LEASE = 1.0  # seconds: the state writer's liveliness lease, asserted from the d
 # persist the changes of one node (called on its worker, before the reply); raising means
 # the changes are applied but not persisted (NOT_PERSISTED)
 Persister = Callable[[ParameterTable, Sequence[ChangeSet]], None]
+
+
+def new_incarnation() -> int:
+    """A random non-zero 64-bit incarnation (0 means "none" on the wire)."""
+    return secrets.randbits(64) or 1
 
 
 def now_stamp() -> wire.Time:
@@ -104,6 +118,7 @@ class ParameterServer:
         self._qos = qos or QosProfiles.load()
         self._tables: dict[str, ParameterTable] = {}
         self._workers: dict[str, NodeWorker] = {}
+        self._incarnations: dict[str, int] = {}  # node -> its incarnation here (see the module doc)
         self._host = socket.gethostname()
         self._pid = os.getpid()
         self._replies_lock = threading.Lock()
@@ -125,6 +140,7 @@ class ParameterServer:
         )
         self._twins.set_nodes(())
         self._twins_seen: set[tuple[str, str, int]] = set()
+        self._twin_of: dict[str, tuple[str, int]] = {}  # node -> (host, pid) of its other live host
         self.foreign_requests = 0  # requests that reached a handler for a node not hosted here
         self._check: threading.Thread | None = None
         self._last_tick = time.monotonic()
@@ -183,6 +199,7 @@ class ParameterServer:
         if node_id in self._tables:
             raise ParamddsError(f"node {node_id!r} is already hosted by this server")
         worker = NodeWorker(self, table)
+        self._incarnations[node_id] = new_incarnation()
         for name, value, descriptor in table.snapshot():
             self._write_state(table, name, value, descriptor, table.revision)
         self._write_presence(table)
@@ -203,10 +220,15 @@ class ParameterServer:
         worker.close(timeout=2.0)
         for name in [*table.names(), ""]:
             unregister_serialized(self._state_writer, encode_key(node_id, name))
+        self._incarnations.pop(node_id, None)
 
     @property
     def nodes(self) -> dict[str, ParameterTable]:
         return dict(self._tables)
+
+    def incarnation(self, node_id: str) -> int:
+        """The incarnation of a node hosted here (0 for one that is not)."""
+        return self._incarnations.get(node_id, 0)
 
     def _refilter(self) -> None:
         """The filters accept the nodes hosted now; before :meth:`start` nothing is served,
@@ -248,9 +270,25 @@ class ParameterServer:
         return qos
 
     def _on_twins(self, samples: Sequence[tuple[Any, Any]]) -> None:
-        """Presence of one of our nodes written by another process: warn, once per process."""
-        for sample, _ in samples:
-            if sample is not None and sample.node_id in self._tables:
+        """Presence of one of our nodes written by another process: warn, once per process.
+        When that process stops (or dies), its presence instance loses its writers here:
+        write ours again, saying which one went (a ``gone=`` tag), so monitors that showed
+        its host and pid, or listed it as a second host, show this process alone."""
+        for sample, info in samples:
+            worker = self._workers.get(sample.node_id)
+            if worker is None:
+                continue
+            if isinstance(sample, StateKey):
+                twin = self._twin_of.pop(sample.node_id, None)
+                if twin is not None and info.instance_state != InstanceState.Alive:
+                    gone = f"{GONE_TAG}pid {twin[1]} on {twin[0]}"
+                    job = partial(self._write_presence, worker.table, gone)
+                    if worker.idle():
+                        job()
+                    else:
+                        worker.submit(job)
+            elif (sample.host, sample.pid) != (self._host, self._pid):
+                self._twin_of[sample.node_id] = (sample.host, sample.pid)
                 self._warn_twin(sample.node_id, sample.host, sample.pid)
 
     def _warn_twin(self, node: str, host: str, pid: int) -> None:
@@ -358,7 +396,8 @@ class ParameterServer:
     ) -> None:
         """Publish one parameter's state; the common shape is encoded without a wire object."""
         sec, nanosec = divmod(time.time_ns(), 1_000_000_000)
-        data = encode_state(table.node_id, name, revision, sec, nanosec, value, descriptor)
+        incarnation = self.incarnation(table.node_id)
+        data = encode_state(table.node_id, name, revision, sec, nanosec, value, descriptor, incarnation)
         if data is not None:
             write_serialized(self._state_writer, data)
             return
@@ -371,10 +410,17 @@ class ParameterServer:
                 stamp=wire.Time(sec, nanosec),
                 value=value_to_wire(value),
                 descriptor=state_descriptor_to_wire(descriptor, value),
+                incarnation=incarnation,
             )
         )
 
-    def _write_presence(self, table: ParameterTable) -> None:
+    def _write_presence(self, table: ParameterTable, *tags: str) -> None:
+        """The node's presence sample; ``tags`` are said once, beside the server's own."""
+        value = self._presence_tags
+        if tags:
+            value = wire.ParameterValue(
+                type=value.type, string_array_value=[*value.string_array_value, *tags]
+            )
         self._state_writer.write(
             wire.ParameterEvent(
                 node_id=table.node_id,
@@ -385,7 +431,8 @@ class ParameterServer:
                 host=self._host,
                 pid=self._pid,
                 parameter_count=len(table),
-                value=self._presence_tags,
+                value=value,
+                incarnation=self.incarnation(table.node_id),
             )
         )
 
@@ -475,7 +522,10 @@ class ParameterServer:
                 self._send_reply("SetParametersResponse", seen[1])
                 return
         response = wire.SetParametersResponse(
-            node_id=table.node_id, client_id=request.client_id, request_id=request.request_id
+            node_id=table.node_id,
+            client_id=request.client_id,
+            request_id=request.request_id,
+            incarnation=self.incarnation(table.node_id),
         )
         try:
             response.results, response.revision = self._apply_set(table, request)
@@ -515,6 +565,15 @@ class ParameterServer:
                 who = request.client_id
                 self._log_once("malformed-value", "bad value for %r from client %x: %s", p.name, who, exc)
         expected = None if request.expected_revision < 0 else int(request.expected_revision)
+        incarnation = self.incarnation(table.node_id)
+        if request.expected_incarnation and request.expected_incarnation != incarnation:
+            reason = (
+                f"not applied: node {table.node_id!r} is at revision {table.revision} of incarnation "
+                f"{incarnation:016x} (restarted since), not the expected revision "
+                f"{request.expected_revision} of incarnation {request.expected_incarnation:016x}"
+            )
+            refused = [SetResult(p.name, False, reason, ErrorCode.CONFLICT) for p in request.parameters]
+            return [_result_to_wire(r) for r in refused], table.revision
         good = [p for p in params if p is not None]
         if bad and request.atomic:
             first = next(iter(bad.values())).name
@@ -584,7 +643,10 @@ class ParameterServer:
         """``fill(table, request, response)`` does the work; a refusal becomes the reply's code."""
         reply_type: Any = wire.TOPICS[reply_topic]
         response = reply_type(
-            node_id=table.node_id, client_id=request.client_id, request_id=request.request_id
+            node_id=table.node_id,
+            client_id=request.client_id,
+            request_id=request.request_id,
+            incarnation=self.incarnation(table.node_id),
         )
         try:
             fill(table, request, response)
@@ -608,7 +670,10 @@ def _content(request: Any) -> bytes:
     if isinstance(received, bytes):
         return received
     sample = wire.SetParametersRequest(
-        atomic=request.atomic, expected_revision=request.expected_revision, parameters=request.parameters
+        atomic=request.atomic,
+        expected_revision=request.expected_revision,
+        parameters=request.parameters,
+        expected_incarnation=request.expected_incarnation,
     )
     return encode(sample)
 
@@ -665,9 +730,6 @@ def _summary(response: Any) -> str:
     return "; ".join(f"{r.name}: {r.reason}" for r in response.results if not r.successful)
 
 
-def _decode_presence(data: bytes, info: Any) -> Any:
-    """A presence sample's (node_id, host, pid), or None for anything else (key-only samples)."""
-    if not info.valid_data:
-        return None
-    sample = decode_state(data)
-    return None if sample.name else sample
+def _decode_presence(data: bytes, info: Any) -> StateSample | StateKey:
+    """A presence sample, or the key of an instance without data (its writers went)."""
+    return decode_state(data) if info.valid_data else decode_key(data)

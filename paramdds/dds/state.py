@@ -24,14 +24,16 @@ primitive aligned to its size, up to 8, from the end of the encapsulation header
     header | node_id | name | kind | pad to 8 | revision | Time{sec nanosec}
     | ParameterValue{type bool pad(6) int64 double string 5 sequences}
     | descriptor: sequence of 0 or 1 ParameterDescriptor | host | pid | parameter_count
+    | pad to 8 | incarnation
 
 The value and descriptor readers and writers live in :mod:`.state_cdr`. Descriptors
 repeat (a fleet runs the same node types, a server republishes a parameter on every
 set) and are immutable, so both directions keep them in bounded caches: decoded ones
-keyed on their exact bytes to the end of the sample (the tail after a parameter's
-descriptor, ``host pid parameter_count``, is the same for every node) and the offset
-modulo 8 (XCDR1 padding is relative to the stream); encoded ones keyed on the
-descriptor and that offset. Scalar values are shared the same way, keyed on their
+keyed on their exact bytes up to the incarnation, the sample's last member (the tail
+after a parameter's descriptor, ``host pid parameter_count``, is the same for every
+node; the incarnation differs per node and is read apart) and the offset modulo 8
+(XCDR1 padding is relative to the stream); encoded ones keyed on the descriptor and
+that offset. Scalar values are shared the same way, keyed on their
 bytes: a live monitor spent a sixth of its sync in the garbage collector, walking
 200,000 new value objects that mostly repeat.
 """
@@ -87,6 +89,7 @@ class StateSample(NamedTuple):
     host: str
     pid: int
     parameter_count: int
+    incarnation: int  # the server's for this node (new on every start); 0 from a writer without one
 
 
 class StateKey(NamedTuple):
@@ -107,6 +110,8 @@ _unpack_u32 = _U32.unpack_from
 _MIDDLE = struct.Struct("<qiIB?6xqdI")
 _unpack_middle = _MIDDLE.unpack_from
 _TAIL = struct.Struct("<iI")  # pid, parameter_count
+_U64 = struct.Struct("<Q")  # the incarnation, the last member (8-aligned)
+_unpack_u64 = _U64.unpack_from
 _EMPTY = bytes(4)  # a sequence's length, 0: no descriptor
 _NO_ARRAYS = bytes(20)  # a value's five sequences, all empty
 _NO_HOST_PID_COUNT = bytes.fromhex("01000000000000000000000000000000")  # "", 0, 0
@@ -142,7 +147,17 @@ def decode_state_slowly(data: bytes) -> StateSample:
         raise MalformedSample(str(exc)) from exc
     stamp = s.stamp.sec + s.stamp.nanosec / 1e9
     return StateSample(
-        s.node_id, s.name, s.kind, s.revision, stamp, value, descriptor, s.host, s.pid, s.parameter_count
+        s.node_id,
+        s.name,
+        s.kind,
+        s.revision,
+        stamp,
+        value,
+        descriptor,
+        s.host,
+        s.pid,
+        s.parameter_count,
+        s.incarnation,
     )
 
 
@@ -203,17 +218,19 @@ def _decode_fast(buf: bytes) -> StateSample | None:
             pos += -pos & 3
         if buf[pos : pos + 4] == _EMPTY:  # only the name and the value's type: see convert.is_plain
             descriptor = _plain(name, value.type)
-            host, pid, count = _tail(buf, pos + 4, end)
+            host, pid, count, pos = _tail(buf, pos + 4, end)
+            (incarnation,) = _unpack_u64(buf, pos + ((4 - pos) & 7))
         else:
-            descriptor, host, pid, count = _described(buf, pos, end)
+            descriptor, host, pid, count, incarnation = _described(buf, pos, end)
     except REFUSED:
         return None
     stamp = sec + nanosec / 1e9
-    fields = (node_id, name, kind, revision, stamp, value, descriptor, host, pid, count)
+    fields = (node_id, name, kind, revision, stamp, value, descriptor, host, pid, count, incarnation)
     return _new_tuple(StateSample, fields)  # StateSample(*fields) without its Python __new__
 
 
-_Described = tuple[ParameterDescriptor, str, int, int]  # descriptor, host, pid, parameter_count
+_Tail = tuple[ParameterDescriptor, str, int, int]  # descriptor, host, pid, parameter_count
+_Described = tuple[ParameterDescriptor, str, int, int, int]  # and the incarnation
 
 
 def _key_string(buf: bytes, pos: int, end: int) -> tuple[str, int]:
@@ -225,31 +242,36 @@ def _key_string(buf: bytes, pos: int, end: int) -> tuple[str, int]:
     return buf[pos + 4 : e - 1].decode(), e
 
 
-def _tail(buf: bytes, pos: int, end: int) -> tuple[str, int, int]:
-    """host, pid, parameter_count; bytes after them are padding, ignored as the codec does."""
+def _tail(buf: bytes, pos: int, end: int) -> tuple[str, int, int, int]:
+    """host, pid, parameter_count and the offset after them (the incarnation is next)."""
     host, pos = read_str(buf, pos, end)
-    pid, count = _TAIL.unpack_from(buf, pos + (-pos & 3))
-    return host, pid, count
+    pos += -pos & 3
+    pid, count = _TAIL.unpack_from(buf, pos)
+    return host, pid, count, pos + _TAIL.size
 
 
-_decoded: dict[tuple[int, bytes], _Described] = {}
+_decoded: dict[tuple[int, bytes], _Tail] = {}
 
 
 def _described(buf: bytes, pos: int, end: int) -> _Described:
     """The descriptor sequence at ``pos`` (not empty) and the tail after it, decoded once per
-    distinct bytes and alignment."""
-    key = (pos & 7, buf[pos:])
+    distinct bytes (all but the incarnation, the last 8) and alignment. Bytes after the
+    incarnation are padding, ignored as the codec does; such a sample is not cached."""
+    key = (pos & 7, buf[pos : end - 8])
     hit = _decoded.get(key)
-    if hit is not None:
-        return hit
+    if hit is not None:  # the same bytes before the incarnation: it is the last 8 here too
+        return (*hit, _unpack_u64(buf, end - 8)[0])
     (n,) = _unpack_u32(buf, pos)
     if n != 1:
         raise NotFast("a descriptor sequence over its bound of 1")
     descriptor, pos = read_descriptor(buf, pos + 4, end)
-    hit = (descriptor, *_tail(buf, pos, end))
-    if len(key[1]) <= _CACHED_BYTES_MAX:
-        _bounded(_decoded, _CACHE_MAX)[key] = hit
-    return hit
+    host, pid, count, pos = _tail(buf, pos, end)
+    pos += (4 - pos) & 7
+    (incarnation,) = _unpack_u64(buf, pos)
+    tail = (descriptor, host, pid, count)
+    if pos + 8 == end and len(key[1]) <= _CACHED_BYTES_MAX:
+        _bounded(_decoded, _CACHE_MAX)[key] = tail
+    return (*tail, incarnation)
 
 
 def _bounded(cache: dict[Any, Any], limit: int) -> dict[Any, Any]:
@@ -280,6 +302,7 @@ def encode_state(
     nanosec: int,
     value: ParameterValue,
     d: ParameterDescriptor,
+    incarnation: int = 0,
 ) -> bytes | None:
     """A parameter's state sample, ready to write: the generated encoder's bytes for the wire
     sample of these arguments; None where that encoder would fail (a key over its bound, a
@@ -314,6 +337,11 @@ def encode_state(
         return None  # out of range, not text, no core value: the generated encoder decides
     out += _PAD[-len(out) & 3]  # a descriptor may end unaligned (on a string array)
     out += _NO_HOST_PID_COUNT
+    out += _PAD[(4 - len(out)) & 7]
+    try:
+        out += _U64.pack(incarnation)
+    except struct.error:
+        return None  # out of range: the generated encoder raises the error
     return bytes(out)
 
 

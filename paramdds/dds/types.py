@@ -120,6 +120,9 @@ class ParameterEvent(IdlStruct, typename="paramdds.ParameterEvent"):
     host: str = ""
     pid: int32 = 0
     parameter_count: uint32 = 0
+    # random, non-zero, new each time a server starts hosting the node: with the revision it
+    # never repeats (a revision alone does after a restart); 0 from a writer that has none
+    incarnation: uint64 = 0
 
 
 @fast_cdr
@@ -134,6 +137,7 @@ class SetParametersRequest(IdlStruct, typename="paramdds.SetParametersRequest"):
     expected_revision: int64 = -1  # -1: no compare-and-set
     retained: bool = False  # an assignment (TRANSIENT_LOCAL, never on the interactive path)
     parameters: sequence[Parameter] = field(default_factory=list)
+    expected_incarnation: uint64 = 0  # 0: compare the revision alone (when expected_revision >= 0)
 
 
 @fast_cdr
@@ -158,6 +162,7 @@ class SetParametersResponse(IdlStruct, typename="paramdds.SetParametersResponse"
     code: str = ""  # a failure of the whole request (TOO_LARGE, INVALID_VALUE…), "" otherwise
     reason: str = ""
     results: sequence[SetParameterResult] = field(default_factory=list)
+    incarnation: uint64 = 0  # the node's, with revision (on CONFLICT: its current one)
 
 
 @fast_cdr
@@ -195,6 +200,7 @@ class GetParametersResponse(IdlStruct, typename="paramdds.GetParametersResponse"
     code: str = ""
     reason: str = ""
     results: sequence[GetParameterResult] = field(default_factory=list)
+    incarnation: uint64 = 0
 
 
 @fast_cdr
@@ -222,6 +228,7 @@ class ListParametersResponse(IdlStruct, typename="paramdds.ListParametersRespons
     reason: str = ""
     names: sequence[str] = field(default_factory=list)
     prefixes: sequence[str] = field(default_factory=list)
+    incarnation: uint64 = 0
 
 
 # topic name -> type, in the order of design.md's table

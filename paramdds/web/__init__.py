@@ -4,7 +4,7 @@ One process serves one page and a JSON API. State comes from one
 :class:`~paramdds.dds.monitor.ParameterMonitor` (every node's current table,
 online/offline, events); writes go through one
 :class:`~paramdds.dds.client.ParameterClient` (bounded timeouts, atomic sets,
-compare-and-set on the node's revision). Updates reach the browser as
+compare-and-set on the node's incarnation and revision). Updates reach the browser as
 server-sent events, coalesced per subscriber, and only for what it shows.
 
 Modules:

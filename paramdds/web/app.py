@@ -30,6 +30,7 @@ import logging
 from collections.abc import AsyncIterator
 from dataclasses import dataclass
 from typing import Any
+from urllib.parse import unquote
 
 from starlette.applications import Starlette
 from starlette.exceptions import HTTPException
@@ -41,18 +42,29 @@ from starlette.staticfiles import StaticFiles
 from starlette.types import ASGIApp
 
 from ..core.names import validate_name
+from ..core.revision import Revision
 from ..core.values import Parameter
 from ..errors import ErrorCode, FileFormatError, ParamddsError
 from .guard import LOOPBACK_NAMES, Guard, error_response
 from .hub import Hub, sse
 from .inputs import bool_field, file_entries, int_arg, node_arg, read_body, revision_field
-from .model import Row, checked, parameter_row, result_row, summary_json, typed_values
+from .model import (
+    Row,
+    checked,
+    incarnation_text,
+    parameter_row,
+    result_row,
+    same_value,
+    summary_json,
+    typed_values,
+)
 from .status import WebCode, WebError, code_of, error_body, status_of
 from .view import NodeDetail, StateView
 
 log = logging.getLogger(__name__)
 
 PAGE_LIMIT = 200  # nodes per page at most
+TOKEN_COOKIE = "paramdds-token"  # set by the page where reads need the token (see Console._check_read)
 KEEPALIVE = 15.0  # seconds between comments on an idle event stream
 
 
@@ -61,8 +73,9 @@ class WebOptions:
     read_only: bool = False
     token: str | None = None
     domain: int = 0
-    allowed_hosts: tuple[str, ...] = LOOPBACK_NAMES  # empty: any Host (a non-loopback bind)
+    allowed_hosts: tuple[str, ...] = LOOPBACK_NAMES  # the Host names accepted (DNS rebinding)
     timeout: float = 5.0
+    token_for_reads: bool = False  # a bind other machines reach: reads need the token as well
 
 
 # -- errors ------------------------------------------------------------------------------
@@ -87,6 +100,12 @@ async def _internal_error(_request: Request, exc: Exception) -> Response:
 # -- input -------------------------------------------------------------------------------
 
 
+def _bearer(request: Request) -> str:
+    """The token of an ``Authorization: Bearer TOKEN`` header, "" without one."""
+    scheme, _, value = request.headers.get("authorization", "").partition(" ")
+    return value.strip() if scheme.lower() == "bearer" else ""
+
+
 # -- the app -----------------------------------------------------------------------------
 
 
@@ -105,6 +124,15 @@ class Console:
             raise WebError(ErrorCode.NOT_FOUND, f"node {node!r} is unknown to this console")
         return detail
 
+    def _online(self, node: str) -> NodeDetail:
+        """The node to write to; UNAVAILABLE at once when this console sees it offline (its
+        server stopped, or was killed and its liveliness lease ran out), instead of
+        sending a request that only a timeout would end."""
+        detail = self._detail(node)
+        if not detail.summary.online:
+            raise WebError(ErrorCode.UNAVAILABLE, f"node {node!r} is offline (its server is not running)")
+        return detail
+
     @staticmethod
     def _rows(detail: NodeDetail) -> list[Row]:
         return [parameter_row(n, v, d) for n, (v, d) in sorted(detail.parameters.items())]
@@ -120,8 +148,24 @@ class Console:
         """
         o = self.options
         return JSONResponse(
-            {"read_only": o.read_only, "token_required": o.token is not None, "domain": o.domain}
+            {
+                "read_only": o.read_only,
+                "token_required": o.token is not None,
+                "token_for_reads": o.token_for_reads,
+                "domain": o.domain,
+            }
         )
+
+    def _check_read(self, request: Request) -> None:
+        """On a bind other machines reach, reads need the token too: the ``Authorization``
+        header, or the ``paramdds-token`` cookie the page sets (an EventSource and a download
+        link send no header). The cookie is SameSite=Strict; writes still need the header."""
+        token = self.options.token
+        if not self.options.token_for_reads or token is None:
+            return
+        given = _bearer(request) or unquote(request.cookies.get(TOKEN_COOKIE, ""))
+        if not hmac.compare_digest(given.encode(), token.encode()):
+            raise WebError(WebCode.UNAUTHORIZED, "this console needs the bearer token (reads too)")
 
     async def nodes(self, request: Request) -> Response:
         """One page of the node list.
@@ -135,6 +179,7 @@ class Console:
           200: {description: '{"total", "offset", "nodes": [summary]}'}
           400: {description: BAD_REQUEST}
         """
+        self._check_read(request)
         query = request.query_params.get("q", "")[:200]
         offset = int_arg(request, "offset", 0, 0, 10**9)
         limit = int_arg(request, "limit", 50, 1, PAGE_LIMIT)
@@ -153,6 +198,7 @@ class Console:
           200: {description: '{"summary", "rows": [{"name", "value", "type", "descriptor"}]}'}
           404: {description: NOT_FOUND (unknown node)}
         """
+        self._check_read(request)
         detail = self._detail(node_arg(request.query_params.get("node")))
         return JSONResponse({"summary": summary_json(detail.summary), "rows": self._rows(detail)})
 
@@ -169,6 +215,7 @@ class Console:
         """
         from ..runtime import dump_text
 
+        self._check_read(request)
         node = node_arg(request.query_params.get("node"))
         detail = self._detail(node)
         with_descriptors = request.query_params.get("descriptors", "1") != "0"
@@ -190,6 +237,7 @@ class Console:
         responses:
           200: {description: text/event-stream}
         """
+        self._check_read(request)
         raw = request.query_params.get("node", "")
         node = node_arg(raw) if raw else ""
         sub = self.hub.subscribe(node)
@@ -237,11 +285,8 @@ class Console:
         if request.headers.get("sec-fetch-site", "same-origin") not in ("same-origin", "none"):
             raise WebError(WebCode.CROSS_ORIGIN, "a write from another site is refused")
         token = self.options.token
-        if token is not None:
-            given = request.headers.get("authorization", "")
-            scheme, _, value = given.partition(" ")
-            if scheme.lower() != "bearer" or not hmac.compare_digest(value.strip().encode(), token.encode()):
-                raise WebError(WebCode.UNAUTHORIZED, "this console needs the bearer token for writes")
+        if token is not None and not hmac.compare_digest(_bearer(request).encode(), token.encode()):
+            raise WebError(WebCode.UNAUTHORIZED, "this console needs the bearer token for writes")
 
     async def _write_request(self, request: Request) -> tuple[dict[str, Any], str]:
         """A write's JSON body and its node, once the write is allowed (checked before reading)."""
@@ -273,7 +318,7 @@ class Console:
             raise WebError(WebCode.BAD_REQUEST, "'values' must be a non-empty object of name: value")
         atomic = bool_field(body, "atomic")
         if_revision = revision_field(body)
-        detail = self._detail(node)
+        detail = self._online(node)
         typed = typed_values(values, detail.parameters)
         reply = await self.client.set(
             node,
@@ -282,7 +327,7 @@ class Console:
             if_revision=if_revision,
             timeout=self.options.timeout,
         )
-        return self._set_response(node, reply.revision, [result_row(r) for r in reply.results])
+        return self._set_response(node, reply.at, [result_row(r) for r in reply.results])
 
     async def delete(self, request: Request) -> Response:
         """Delete parameters.
@@ -298,9 +343,9 @@ class Console:
             raise WebError(WebCode.BAD_REQUEST, "'names' must be a non-empty list of strings")
         for n in names:
             validate_name(n)
-        self._detail(node)
+        self._online(node)
         reply = await self.client.delete(node, names, timeout=self.options.timeout)
-        return self._set_response(node, reply.revision, [result_row(r) for r in reply.results])
+        return self._set_response(node, reply.at, [result_row(r) for r in reply.results])
 
     async def load(self, request: Request) -> Response:
         """Set a node's parameters from the text of a parameter file.
@@ -316,14 +361,19 @@ class Console:
         if not isinstance(text, str) or not text.strip():
             raise WebError(WebCode.BAD_REQUEST, "'text' must be the non-empty text of a parameter file")
         atomic = bool_field(body, "atomic")
-        detail = self._detail(node)
+        detail = self._online(node)
         entries = file_entries(text, node)
         if not entries:
             raise FileFormatError(f"no parameters for node {node!r} in this file", file="upload")
         sendable: list[Parameter] = []
         refused: list[Row] = []
+        unchanged: list[Row] = []
         for name, value, _ in entries:
             described = detail.parameters.get(name)
+            if described is not None and same_value(described[0], value):
+                # not a change (a node's own dump holds its read-only parameters too): not sent
+                unchanged.append({"name": name, "successful": True, "reason": "unchanged", "code": None})
+                continue
             try:
                 sendable.append(Parameter(name, checked(name, value, described[1] if described else None)))
             except ParamddsError as exc:
@@ -331,17 +381,22 @@ class Console:
                     {"name": name, "successful": False, "reason": exc.message, "code": code_of(exc)}
                 )
         if refused and atomic:
-            return self._set_response(node, detail.summary.revision, refused)
-        results: list[Row] = list(refused)
-        revision = detail.summary.revision
+            return self._set_response(node, detail.summary.at, refused + unchanged)
+        results: list[Row] = refused + unchanged
+        at = detail.summary.at
         if sendable:
             reply = await self.client.set(node, sendable, atomic=atomic, timeout=self.options.timeout)
-            results = [result_row(r) for r in reply.results] + refused
-            revision = reply.revision
-        return self._set_response(node, revision, results)
+            results = [result_row(r) for r in reply.results] + results
+            at = reply.at
+        return self._set_response(node, at, results)
 
-    def _set_response(self, node: str, revision: int, results: list[Row]) -> Response:
-        body: dict[str, object] = {"node": node, "revision": revision, "results": results}
+    def _set_response(self, node: str, at: Revision, results: list[Row]) -> Response:
+        body: dict[str, object] = {
+            "node": node,
+            "revision": at.revision,
+            "incarnation": incarnation_text(at.incarnation),
+            "results": results,
+        }
         failed = [r for r in results if not r["successful"]]
         if not failed:
             return JSONResponse(body)
@@ -364,6 +419,7 @@ def build_app(view: StateView, hub: Hub, client: Any, options: WebOptions) -> AS
 
     console = Console(view, hub, client, options)
     index = str(files("paramdds.web") / "static" / "index.html")
+    icon = str(files("paramdds.web") / "static" / "favicon.svg")
 
     async def page(_request: Request) -> Response:
         return FileResponse(index, media_type="text/html", headers={"Cache-Control": "no-store"})
@@ -377,8 +433,12 @@ def build_app(view: StateView, hub: Hub, client: Any, options: WebOptions) -> AS
     async def openapi(request: Request) -> Response:
         return JSONResponse(schemas.get_schema(routes=request.app.routes))
 
+    async def favicon(_request: Request) -> Response:
+        return FileResponse(icon, media_type="image/svg+xml", headers={"Cache-Control": "max-age=86400"})
+
     routes = [
         Route("/", page, include_in_schema=False),
+        Route("/favicon.ico", favicon, include_in_schema=False),  # browsers ask for it on every load
         Route("/api/openapi.json", openapi, include_in_schema=False),
         Route("/api/info", console.info),
         Route("/api/nodes", console.nodes),

@@ -8,6 +8,11 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 from .status import WebCode, error_body, status_of
 
 LOOPBACK_NAMES = ("localhost", "127.0.0.1", "::1")
+SECURITY_HEADERS = (
+    (b"content-security-policy", b"default-src 'self'; frame-ancestors 'none'"),
+    (b"x-content-type-options", b"nosniff"),
+    (b"referrer-policy", b"no-referrer"),
+)
 
 
 def error_response(code: str, message: str, **extra: object) -> JSONResponse:
@@ -35,7 +40,7 @@ class Guard:
             return
         headers = {k.decode("latin-1").lower(): v.decode("latin-1") for k, v in scope["headers"]}
         host = _host_name(headers.get("host", "")).lower()
-        if self.allowed and host not in self.allowed:
+        if host not in self.allowed:  # every bind: loopback names, or the names it is served under
             response = error_response(WebCode.CROSS_ORIGIN.value, f"unexpected Host {host[:100]!r}")
             await response(scope, receive, send)
             return
@@ -43,12 +48,7 @@ class Guard:
         async def send_with_headers(message: Message) -> None:
             if message["type"] == "http.response.start":
                 message.setdefault("headers", [])
-                message["headers"] = [
-                    *message["headers"],
-                    (b"content-security-policy", b"default-src 'self'; frame-ancestors 'none'"),
-                    (b"x-content-type-options", b"nosniff"),
-                    (b"referrer-policy", b"no-referrer"),
-                ]
+                message["headers"] = [*message["headers"], *SECURITY_HEADERS]
             await send(message)
 
         await self.app(scope, receive, send_with_headers)

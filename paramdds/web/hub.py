@@ -64,6 +64,7 @@ def log_entry(e: MonitorEvent) -> Row:
         "name": e.name,
         "revision": e.revision,
         "value": parameter_row(e.name, e.value, e.descriptor)["value"] if e.value is not None else None,
+        "type": e.value.type.label if e.value is not None else None,  # shown as the node shows it (2.0)
         "stamp": e.stamp or time.time(),
     }
 
@@ -82,7 +83,7 @@ class Hub:
 
     def on_event(self, event: MonitorEvent) -> None:
         if event.node and event.event is not EventKind.DELETED:
-            self._view.note_revision(event.node, event.revision)
+            self._view.note_revision(event.node, event.revision, event.incarnation)
         with self._lock:
             self._pending.append(event)
             if self._scheduled or self._closed:

@@ -13,8 +13,9 @@ from starlette.requests import Request
 
 from ..core.descriptors import ParameterDescriptor
 from ..core.names import canonical_node_id
+from ..core.revision import Revision
 from ..core.values import ParameterValue
-from ..errors import ErrorCode
+from ..errors import ErrorCode, ParamddsError
 from .status import WebCode, WebError
 
 MAX_BODY = 1024 * 1024  # bytes
@@ -68,12 +69,22 @@ def bool_field(body: dict[str, Any], name: str) -> bool:
     return value
 
 
-def revision_field(body: dict[str, Any]) -> int | None:
+def revision_field(body: dict[str, Any]) -> int | Revision | None:
+    """``if_revision``: null, ``"INCARNATION:REVISION"`` (a summary's ``incarnation`` and
+    ``revision``: compares both), or a bare revision number (compares it alone)."""
     value = body.get("if_revision")
     if value is None:
         return None
-    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-        raise WebError(WebCode.BAD_REQUEST, "'if_revision' must be null or a non-negative integer")
+    if isinstance(value, str):
+        try:
+            return Revision.parse(value)
+        except ParamddsError as exc:
+            raise WebError(WebCode.BAD_REQUEST, f"'if_revision': {exc.message}") from None
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < 2**63:
+        raise WebError(
+            WebCode.BAD_REQUEST,
+            "'if_revision' must be null, \"INCARNATION:REVISION\" or a revision from 0 to 2**63-1",
+        )
     return value
 
 

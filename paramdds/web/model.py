@@ -2,7 +2,8 @@
 
 Shapes (documented in docs/web.md):
 
-* a node summary: ``{"node", "online", "host", "pid", "revision", "parameters"}``;
+* a node summary: ``{"node", "online", "host", "pid", "revision", "parameters",
+  "request_filter", "incarnation", "origin"}`` (the incarnation in 16 hex digits);
 * a parameter row: ``{"name", "value", "type", "descriptor"}`` with the value and
   descriptor in the CLI's JSON shapes (:mod:`paramdds.cli._output`: byte arrays as
   lists of ints, non-finite doubles as ``"nan"``/``"inf"``/``"-inf"``);
@@ -38,8 +39,15 @@ _NON_FINITE = {"nan": math.nan, "inf": math.inf, "-inf": -math.inf}
 
 
 def summary_json(info: NodeInfo) -> Row:
-    """A node's line in the node list: the client's :class:`NodeInfo` as JSON."""
-    return asdict(info)
+    """A node's line in the node list: the client's :class:`NodeInfo` as JSON (the
+    incarnation in 16 hex digits: a JSON number loses digits above 2**53 in a browser)."""
+    row = asdict(info)
+    row["incarnation"] = incarnation_text(info.incarnation)
+    return row
+
+
+def incarnation_text(incarnation: int) -> str:
+    return f"{incarnation:016x}"
 
 
 def parameter_row(name: str, value: ParameterValue, descriptor: ParameterDescriptor | None) -> Row:
@@ -50,6 +58,23 @@ def parameter_row(name: str, value: ParameterValue, descriptor: ParameterDescrip
         "type": value.type.label,
         "descriptor": json_descriptor(described),
     }
+
+
+def same_value(held: ParameterValue, given: ParameterValue) -> bool:
+    """Whether ``given`` is the value held: same type, same value (NaN equals NaN, and
+    -0.0 is not 0.0: a change of sign is a change)."""
+    if held.type is not given.type:
+        return False
+    a, b = held.value, given.value
+    if isinstance(a, tuple) and isinstance(b, tuple):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
+    return _same(a, b)
+
+
+def _same(a: object, b: object) -> bool:
+    if isinstance(a, float) and isinstance(b, float):
+        return (math.isnan(a) and math.isnan(b)) or (a == b and math.copysign(1, a) == math.copysign(1, b))
+    return type(a) is type(b) and a == b
 
 
 def result_row(r: SetResult) -> Row:

@@ -11,18 +11,23 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import ipaddress
+import json
 import socket
 import sys
 from pathlib import Path
 
+import h11
 import uvicorn
+from uvicorn.protocols.http.h11_impl import H11Protocol
 
 from ..cli._errors import Exit, UsageError
 from ..cli._session import Session
 from .app import WebOptions, build_app
-from .guard import LOOPBACK_NAMES
+from .guard import LOOPBACK_NAMES, SECURITY_HEADERS
 from .hub import Hub
+from .status import WebCode, error_body
 from .view import StateView
 
 DEFAULT_BIND = "127.0.0.1:8800"
@@ -76,6 +81,26 @@ def bind_socket(host: str, port: int) -> socket.socket:
     return sock
 
 
+class JsonH11Protocol(H11Protocol):
+    """uvicorn's HTTP/1.1 protocol, answering a request it cannot parse (an HTTP/1.1
+    request without ``Host``, a malformed request line) with the console's JSON error body
+    and headers instead of uvicorn's plain text: such a request never reaches the app."""
+
+    def send_400_response(self, msg: str) -> None:
+        why = f"not a valid HTTP/1.1 request (a Host header is required): {msg}"
+        body = json.dumps(error_body(WebCode.BAD_REQUEST.value, why)).encode()
+        headers = [
+            (b"content-type", b"application/json"),
+            (b"content-length", str(len(body)).encode()),
+            (b"connection", b"close"),
+            *SECURITY_HEADERS,
+        ]
+        response = h11.Response(status_code=400, headers=headers)
+        for event in (response, h11.Data(data=body), h11.EndOfMessage()):
+            self.transport.write(self.conn.send(event) or b"")
+        self.transport.close()
+
+
 class _Server(uvicorn.Server):
     """uvicorn, ending our event streams before it waits for open connections."""
 
@@ -89,18 +114,42 @@ class _Server(uvicorn.Server):
 
 
 def options_from(args: argparse.Namespace, host: str) -> WebOptions:
+    """The console's options; on a bind other machines can reach, a token is required (for
+    reads as well as writes) and the ``Host`` check names the bind address and ``--allow-host``."""
     token = read_token(args.token_file) if args.token_file else None
     loopback = is_loopback(host)
-    if not loopback and not args.read_only and token is None:
+    extra = tuple(getattr(args, "allow_host", None) or ())
+    if not loopback and token is None:
         raise UsageError(
-            f"--bind {host} is reachable from other machines: give --token-file (or use --read-only)"
+            f"--bind {host} is reachable from other machines: give --token-file "
+            "(there the token is needed to read as well as to write)"
         )
-    allowed: tuple[str, ...] = LOOPBACK_NAMES if loopback else ()
-    if loopback and host not in allowed:
-        allowed = (*allowed, host)
+    allowed = (*LOOPBACK_NAMES, host, *extra) if loopback else (*served_names(host), *extra)
     return WebOptions(
-        read_only=args.read_only, token=token, domain=args.domain, allowed_hosts=allowed, timeout=args.timeout
+        read_only=args.read_only,
+        token=token,
+        domain=args.domain,
+        allowed_hosts=tuple(dict.fromkeys(h.lower() for h in allowed)),
+        timeout=args.timeout,
+        token_for_reads=not loopback,
     )
+
+
+def served_names(host: str) -> tuple[str, ...]:
+    """The names a browser may reach a non-loopback bind under: the bind address itself; for a
+    wildcard bind (``0.0.0.0``, ``::``) this machine's name, its FQDN and their addresses, and
+    the loopback names. Other names (a DNS alias, a proxy's) are given with ``--allow-host``."""
+    try:
+        wildcard = ipaddress.ip_address(host).is_unspecified
+    except ValueError:
+        wildcard = False
+    if not wildcard:
+        return (host,)
+    names = [*LOOPBACK_NAMES, socket.gethostname(), socket.getfqdn()]
+    for name in names[-2:]:
+        with contextlib.suppress(OSError):  # a name that does not resolve here: the others hold
+            names += [str(info[4][0]) for info in socket.getaddrinfo(name, None)]
+    return tuple(names)
 
 
 def run_web(args: argparse.Namespace) -> int:
@@ -127,7 +176,12 @@ async def _serve(args: argparse.Namespace, options: WebOptions, sock: socket.soc
         client = AsyncParameterClient(session.client())
         app = build_app(view, hub, client, options)
         config = uvicorn.Config(
-            app, log_level=args.log_level, access_log=False, lifespan="off", timeout_graceful_shutdown=2
+            app,
+            log_level=args.log_level,
+            access_log=False,
+            lifespan="off",
+            timeout_graceful_shutdown=2,
+            http=JsonH11Protocol,
         )
         server = _Server(config, hub)
         name, port = sock.getsockname()[:2]

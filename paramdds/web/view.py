@@ -7,9 +7,11 @@ under its lock (through ``wait_until`` with a zero timeout, whose predicate sees
 the live dict) and copies only what was asked for.
 
 A node's revision is the larger of its presence instance's and the newest
-revision carried by one of its events (:meth:`note_revision`): the presence and
-the parameter samples of one change are separate instances and may arrive in
-separate batches, and compare-and-set needs the newest.
+revision carried by one of its events (:meth:`note_revision`) *of the same
+incarnation*: the presence and the parameter samples of one change are separate
+instances and may arrive in separate batches, and compare-and-set needs the newest.
+A restarted server has a new incarnation and counts its revisions again (r9 after
+r13): the view follows it instead of keeping the highest revision ever seen.
 """
 
 from __future__ import annotations
@@ -47,17 +49,18 @@ class NodeDetail:
 class StateView:
     def __init__(self, monitor: ParameterMonitor | None = None) -> None:
         self._monitor = monitor
-        self._revisions: dict[str, int] = {}
+        self._revisions: dict[str, tuple[int, int]] = {}  # node -> (incarnation, newest revision)
         self._lock = threading.Lock()
 
     def attach(self, monitor: ParameterMonitor) -> None:
         """Read ``monitor`` from now on (it is made after the hub that receives its events)."""
         self._monitor = monitor
 
-    def note_revision(self, node: str, revision: int) -> None:
+    def note_revision(self, node: str, revision: int, incarnation: int = 0) -> None:
         with self._lock:
-            if revision > self._revisions.get(node, -1):
-                self._revisions[node] = revision
+            seen = self._revisions.get(node)
+            if seen is None or seen[0] != incarnation or revision > seen[1]:
+                self._revisions[node] = (incarnation, revision)
 
     def _peek(self, fn: Callable[[dict[str, NodeState]], T]) -> T:
         out: list[T] = []
@@ -72,9 +75,22 @@ class StateView:
         return out[0]
 
     def _summary(self, st: NodeState) -> NodeInfo:
+        revision = st.revision
         with self._lock:
-            revision = max(st.revision, self._revisions.get(st.node, -1))
-        return NodeInfo(st.node, st.online, st.host, st.pid, revision, len(st.parameters), st.request_filter)
+            seen = self._revisions.get(st.node)
+        if seen is not None and seen[0] == st.incarnation:  # events of another incarnation do not count
+            revision = max(revision, seen[1])
+        return NodeInfo(
+            st.node,
+            st.online,
+            st.host,
+            st.pid,
+            revision,
+            len(st.parameters),
+            st.request_filter,
+            st.incarnation,
+            st.origin,
+        )
 
     def page(self, query: str, offset: int, limit: int) -> NodePage:
         def build(states: dict[str, NodeState]) -> NodePage:

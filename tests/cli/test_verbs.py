@@ -177,6 +177,20 @@ def test_byte_arrays_and_empty_lists_take_the_nodes_type(c: Cluster) -> None:
     assert c.json("get", "robot2", "blob", "weights") == {"blob": [7, 255], "weights": []}
 
 
+def test_set_if_revision_compares_the_incarnation_too(c: Cluster) -> None:
+    (row,) = [r for r in c.json("nodes") if r["node"] == "robot2"]
+    at = str(row["at"])
+    incarnation, _, revision = at.partition(":")
+    other = f"{int(incarnation, 16) ^ 1:016x}:{revision}"  # the same revision, another start
+    stale = c.cli("set", "robot2", "limits.speed=2.5", "--if-revision", other)
+    assert stale.returncode == 1 and "incarnation" in stale.stdout + stale.stderr
+    done = c.cli("set", "robot2", "limits.speed=2.5", "--if-revision", at, "-o", "json")
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert json.loads(done.stdout)["revision"] == int(revision) + 1
+    bad = c.cli("set", "robot2", "limits.speed=2.5", "--if-revision", "zz:3")
+    assert bad.returncode == 2 and "--if-revision" in bad.stderr
+
+
 def test_nodes_json_lists_every_live_node(c: Cluster) -> None:
     rows = c.json("nodes")
     assert isinstance(rows, list)
@@ -191,8 +205,16 @@ def test_nodes_json_lists_every_live_node(c: Cluster) -> None:
         "revision",
         "also_hosted_by",
         "request_filter",
+        "incarnation",
+        "at",
+        "origin",
     }
     assert by_name["robot1"]["also_hosted_by"] == []
+    assert by_name["robot1"]["origin"] is None  # served here, not mirrored
+    incarnation = str(by_name["robot1"]["incarnation"])
+    assert len(incarnation) == 16 and int(incarnation, 16) != 0
+    assert by_name["robot1"]["at"] == f"{incarnation}:{by_name['robot1']['revision']}"
+    assert by_name["robot2"]["incarnation"] != incarnation  # drawn per node
     assert by_name["robot1"]["request_filter"] == ("native" if filters.NATIVE else "handler")
     assert by_name["robot1"]["online"] is True and by_name["robot1"]["parameters"] == 18
     assert by_name["robot1"]["pid"] == by_name["robot2"]["pid"] == c.procs[0].popen.pid

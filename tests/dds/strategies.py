@@ -112,6 +112,7 @@ class StateArgs(NamedTuple):
     nanosec: int
     value: ParameterValue
     descriptor: ParameterDescriptor
+    incarnation: int = 0
 
 
 _KEY = st.text(st.characters(exclude_categories=("Cs",)), max_size=40).filter(
@@ -140,6 +141,7 @@ def state_args(draw: st.DrawFn) -> StateArgs:
         draw(st.integers(0, 2**32 - 1)),
         value,
         descriptor,
+        draw(st.integers(0, 2**64 - 1)),
     )
 
 

@@ -158,3 +158,11 @@ def test_garbage_never_crashes(data: bytes) -> None:
 
 def test_status_names_the_filter() -> None:
     assert filters.status() == {"filter": "native"}
+
+
+def test_origin_is_read_from_the_presence_tags() -> None:
+    from paramdds.dds.filters import origin_of
+
+    assert origin_of(["request_filter=native", "origin=ros2"]) == "ros2"
+    assert origin_of(["request_filter=native"]) is None  # served here: no origin
+    assert origin_of([]) is None

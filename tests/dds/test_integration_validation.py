@@ -122,6 +122,34 @@ def test_compare_and_set_refuses_a_stale_revision(dds: DdsSession) -> None:
     assert table.get("speed").value == 1
 
 
+def test_compare_and_set_on_a_revision_of_an_earlier_start_is_refused(dds: DdsSession) -> None:
+    """A revision repeats across a restart (r9 again), (incarnation, revision) does not:
+    a set made against the node before its restart conflicts, and the reply, the presence
+    and a monitor all carry the new incarnation."""
+    monitor = dds.monitor()
+    first = strict_table()
+    server = dds.server(first)
+    client = dds.client()
+    before = client.wait_for_node(NODE, timeout=5.0).at
+    assert before.incarnation == server.incarnation(NODE) != 0
+    assert client.get(NODE, ["speed"]).at == before
+    server.close()
+    again = strict_table()  # the same declarations: the same revision as before
+    restarted = dds.server(again)
+    assert again.revision == before.revision
+    assert wait_until(lambda: (client.node_info(NODE) or before).incarnation != before.incarnation, 5.0)
+    now = client.node_info(NODE)
+    assert now is not None and now.at == (restarted.incarnation(NODE), before.revision)
+    stale = client.set(NODE, {"speed": 2}, if_revision=before, atomic=True)
+    assert [(r.successful, r.code) for r in stale.results] == [(False, ErrorCode.CONFLICT)]
+    assert "incarnation" in stale.results[0].reason and stale.at == now.at  # the node's current state
+    assert again.get("speed").value == 5 and again.revision == before.revision  # nothing applied
+    assert client.set(NODE, {"speed": 2}, if_revision=before.revision).successful  # revision alone: as before
+    ok = client.set(NODE, {"speed": 3}, if_revision=stale.at._replace(revision=before.revision + 1))
+    assert ok.successful and ok.at == (now.incarnation, before.revision + 2)
+    assert wait_until(lambda: monitor.snapshot()[NODE].incarnation == now.incarnation, 5.0)
+
+
 def test_concurrent_sets_from_threads_never_corrupt_the_table(dds: DdsSession) -> None:
     table = strict_table()
     dds.server(table)

@@ -57,6 +57,7 @@ def common_samples(draw: st.DrawFn) -> wire.ParameterEvent:
         host=draw(_KEY),
         pid=draw(st.integers(-(2**31), 2**31 - 1)),
         parameter_count=draw(st.integers(0, 2**32 - 1)),
+        incarnation=draw(st.integers(0, 2**64 - 1)),
     )
 
 
@@ -84,6 +85,7 @@ def _wire(a: StateArgs, **tail: object) -> wire.ParameterEvent:
         stamp=wire.Time(a.sec, a.nanosec),
         value=value_to_wire(a.value),
         descriptor=state_descriptor_to_wire(a.descriptor, a.value),
+        incarnation=a.incarnation,
         **tail,
     )
 
@@ -113,6 +115,7 @@ def test_the_common_shapes_take_the_fast_path_and_agree(sample: wire.ParameterEv
         expected,
     )
     assert (fast.host, fast.pid, fast.parameter_count) == (sample.host, sample.pid, sample.parameter_count)
+    assert fast.incarnation == sample.incarnation
     assert fast.descriptor == ParameterDescriptor(sample.name, ptype)
 
 
@@ -134,7 +137,7 @@ def test_every_well_formed_sample_takes_the_fast_path_and_agrees(
         assert canonical(fast) == canonical(slow)
     assert canonical((fast.value, fast.descriptor)) == canonical((args.value, _sent(args)))
     assert (fast.node_id, fast.name, fast.kind) == (args.node_id, args.name, kind)
-    assert fast.revision == args.revision
+    assert (fast.revision, fast.incarnation) == (args.revision, args.incarnation)
     assert (fast.host, fast.pid, fast.parameter_count) == (host, pid, len(host))
 
 
@@ -360,3 +363,18 @@ def test_an_instance_key_is_encoded_as_the_binding_does(node_id: str, name: str)
     expected = sample.serialize_key()
     expected = expected.ljust(-(-len(expected) // 4) * 4, b"\0")  # the binding pads keys to 4
     assert state.encode_key(node_id, name) == expected
+
+
+def test_nodes_sharing_a_described_parameter_keep_their_own_incarnation() -> None:
+    """The decoded-descriptor cache is keyed on the bytes before the incarnation: a fleet's
+    nodes share the entry, and each sample still reads its own node's incarnation."""
+    v = ParameterValue.from_python(1.5)
+    d = ParameterDescriptor("p", ParameterType.DOUBLE, "shared by every node")
+    for incarnation in (1, 2**64 - 1, 0x1234_5678_9ABC_DEF0, 1):
+        data = encode_state("n", "p", 3, 0, 0, v, d, incarnation)
+        assert data is not None
+        assert data == encode(_wire(StateArgs("n", "p", 3, 0, 0, v, d, incarnation)))
+        fast = _decode_fast(data)
+        assert fast is not None
+        assert (fast.incarnation, fast.descriptor) == (incarnation, d)
+    assert encode_state("n", "p", 3, 0, 0, v, d, 2**64) is None  # over uint64: the encoder decides

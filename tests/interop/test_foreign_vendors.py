@@ -99,8 +99,9 @@ def test_a_foreign_monitor_joining_late_gets_every_value_exactly(
     for name, value in EVERY_TYPE.items():
         table.declare(name, value)
     with DdsSession(domain_id) as session:
-        session.server(table)
+        server = session.server(table)
         done = _run([str(program), "monitor", "10"], foreign_env)  # starts after the server: late
+        incarnation = server.incarnation("robot1")
     assert done.returncode == 0, done.stderr
     seen: dict[str, object] = {}
     for node, name, kind, text in _lines(done.stdout, "PARAM"):
@@ -109,7 +110,9 @@ def test_a_foreign_monitor_joining_late_gets_every_value_exactly(
         seen[name] = _typed(kind, text)
     assert seen == EVERY_TYPE  # every parameter, every value exactly (0.1, 5e-324, the int64 limits)
     ((node, _host, pid, rest),) = _lines(done.stdout, "NODE")
-    assert (node, pid, rest.split()[-1]) == ("robot1", str(os.getpid()), str(len(EVERY_TYPE)))
+    _revision, count, seen_incarnation = rest.split()
+    assert (node, pid, count) == ("robot1", str(os.getpid()), str(len(EVERY_TYPE)))
+    assert incarnation != 0 and seen_incarnation == f"{incarnation:016x}"  # the new last member, read
 
 
 def test_a_foreign_client_lists_gets_and_sets_on_a_paramdds_server(
@@ -168,6 +171,17 @@ class _Node:
         self.proc.communicate(timeout=10)
 
 
+def _state_of(node: str, env: dict[str, str]) -> str:
+    """A node's "INCARNATION:REVISION" from `paramdds nodes -o json` (asked until it shows)."""
+    for _ in range(5):
+        found = [
+            n for n in json.loads(_run([PARAMDDS, "nodes", "-o", "json"], env).stdout) if n["node"] == node
+        ]
+        if found:
+            return str(found[0]["at"])
+    raise AssertionError(f"{node} not listed by `paramdds nodes`")
+
+
 def test_a_foreign_node_is_served_by_the_paramdds_tools(
     vendor: tuple[Vendor, Path], envs: tuple[dict[str, str], dict[str, str]], domain_id: int
 ) -> None:
@@ -179,14 +193,16 @@ def test_a_foreign_node_is_served_by_the_paramdds_tools(
         # `nodes` shows what discovery has found when it runs; a Fast DDS participant is
         # sometimes found ~1 s after a new one starts, so ask until it shows (at most 5 tries)
         rows: list[Any] = []
+        listed: list[Any] = []
         for _ in range(5):
-            rows = [
-                (n["node"], n["online"], n["parameters"], n["pid"], n["request_filter"])
-                for n in json.loads(_run([PARAMDDS, "nodes", "-o", "json"], cli_env).stdout)
-            ]
+            listed = json.loads(_run([PARAMDDS, "nodes", "-o", "json"], cli_env).stdout)
+            rows = [(n["node"], n["online"], n["parameters"], n["pid"], n["request_filter"]) for n in listed]
             if rows:
                 break
         assert rows == [("fnode", True, 4, node.proc.pid, None)]  # its presence says nothing of filtering
+        # the foreign node's own incarnation, read from its presence (the new last member)
+        incarnation = str(listed[0]["incarnation"])
+        assert listed[0]["at"] == f"{incarnation}:1" and int(incarnation, 16) != 0
         got = _run([PARAMDDS, "get", "fnode", f"{p}speed", f"{p}count", "-o", "json"], cli_env)
         assert (got.returncode, json.loads(got.stdout)) == (0, {f"{p}speed": 1.5, f"{p}count": 3}), got.stderr
         listed = _run([PARAMDDS, "list", "fnode", "-o", "json"], cli_env)
@@ -195,6 +211,25 @@ def test_a_foreign_node_is_served_by_the_paramdds_tools(
         assert done.returncode == 0, done.stdout + done.stderr
         result: dict[str, Any] = json.loads(done.stdout)
         assert result["revision"] == 2 and result[f"{p}speed"]["successful"]
+
+        # compare-and-set on the foreign node's (incarnation, revision): a wrong incarnation is
+        # refused although the revision matches, the right one applies
+        # (the example peers keep no reply cache: a resend of an applied request is applied
+        # again, or refused once the revision moved, so the node's value is what is checked)
+        def count() -> object:
+            got = _run([PARAMDDS, "get", "fnode", f"{p}count", "-o", "json"], cli_env)
+            return json.loads(got.stdout)[f"{p}count"]
+
+        for _ in range(3):
+            at = _state_of("fnode", cli_env)
+            assert at.startswith(incarnation + ":")  # the same start: the incarnation holds
+            other = f"{int(incarnation, 16) ^ 1:016x}:{at.partition(':')[2]}"
+            stale = _run([PARAMDDS, "set", "fnode", f"{p}count=5", "--if-revision", other], cli_env)
+            assert stale.returncode == 1 and count() == 3  # the revision matches, the start does not
+            _run([PARAMDDS, "set", "fnode", f"{p}count=4", "--if-revision", at], cli_env)
+            if count() == 4:
+                break
+        assert count() == 4  # applied on the right (incarnation, revision)
         refused = _run([PARAMDDS, "set", "fnode", f"{p}speed=true"], cli_env)  # the node checks types
         assert refused.returncode == 1 and "TYPE" in refused.stdout + refused.stderr.upper()
 
@@ -208,7 +243,7 @@ def test_a_foreign_node_is_served_by_the_paramdds_tools(
                 event = json.loads(watch.stdout.readline())
                 if event["event"] == "added":
                     added[event["name"]] = event["value"]
-            assert added == {f"{p}speed": 2.5, f"{p}count": 3, f"{p}label": "on-ice", f"{p}enabled": True}
+            assert added == {f"{p}speed": 2.5, f"{p}count": 4, f"{p}label": "on-ice", f"{p}enabled": True}
         finally:
             watch.terminate()
             watch.communicate(timeout=10)

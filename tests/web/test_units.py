@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import math
+from pathlib import Path
 
 import pytest
 from hypothesis import given
@@ -81,7 +82,22 @@ def test_writes_on_a_non_loopback_bind_need_a_token() -> None:
     with pytest.raises(UsageError, match="--token-file"):
         options_from(args, "0.0.0.0")
     args.read_only = True
-    assert options_from(args, "0.0.0.0").allowed_hosts == ()  # read-only: any Host may read
+    with pytest.raises(UsageError, match="--token-file"):  # there reads need the token too
+        options_from(args, "0.0.0.0")
+
+
+def test_the_host_check_holds_on_every_bind(tmp_path: Path) -> None:
+    token = tmp_path / "token"
+    token.write_text("a-token-of-enough-length\n")
+    args = argparse.Namespace(token_file=str(token), read_only=True, domain=1, timeout=5.0, allow_host=None)
+    remote = options_from(args, "10.99.0.1")
+    assert remote.allowed_hosts == ("10.99.0.1",) and remote.token_for_reads
+    args.allow_host = ["robot.example", "Console.Lan"]
+    assert options_from(args, "10.99.0.1").allowed_hosts == ("10.99.0.1", "robot.example", "console.lan")
+    wildcard = options_from(args, "0.0.0.0").allowed_hosts
+    assert {"localhost", "127.0.0.1", "robot.example"} <= set(wildcard) and "evil.example" not in wildcard
+    local = options_from(args, "127.0.0.1")
+    assert not local.token_for_reads and "robot.example" in local.allowed_hosts
 
 
 def test_a_burst_is_coalesced_into_one_message_per_kind() -> None:
@@ -118,3 +134,22 @@ def test_a_missing_web_extra_is_a_clear_usage_error(monkeypatch: pytest.MonkeyPa
     )
     with pytest.raises(UsageError, match=r"uvicorn not installed.*pip install 'paramdds\[web\]'"):
         _web.run_web(argparse.Namespace())
+
+
+def test_the_view_follows_a_restart_instead_of_keeping_the_highest_revision() -> None:
+    """A node's events raise the revision shown within one incarnation; events of another
+    incarnation (a restart, counting again) never hold it up."""
+    from paramdds.dds.monitor import NodeState
+
+    view = StateView()
+    old, new = (
+        NodeState("n", online=True, revision=9, incarnation=1),
+        NodeState("n", online=True, revision=9, incarnation=2),
+    )
+    view.note_revision("n", 13, 1)
+    assert view._summary(old).revision == 13  # the newest event of this start
+    assert view._summary(new).revision == 9  # restarted: its own revision, not 13
+    view.note_revision("n", 10, 2)
+    assert view._summary(new).revision == 10
+    view.note_revision("n", 12, 1)  # a late event of the old start does not count for the new one
+    assert view._summary(new).revision == 9

@@ -17,6 +17,22 @@ const S = {
   es: null, listTimer: null,
 };
 const $ = (sel, root = document) => root.querySelector(sel);
+
+// JSON with exact 64-bit integers: a number beyond ±2^53 is read as a BigInt from its source
+// text (a plain Number would round it) and written back as its digits.
+function parseJSON(text) {
+  if (!/\d{16}/.test(text)) return JSON.parse(text);  // no number of 16+ digits: no reviver to pay for
+  return JSON.parse(text, (k, v, ctx) =>
+    typeof v === "number" && !Number.isSafeInteger(v) && ctx && /^-?\d+$/.test(ctx.source) ? BigInt(ctx.source) : v);
+}
+function toJSON(obj) { return JSON.stringify(obj, (k, v) => typeof v === "bigint" ? JSON.rawJSON(v.toString()) : v); }
+// Control, invisible and bidirectional-formatting characters written as escapes, as the node
+// writes them (Python's repr): a U+202E cannot turn 'gnp.exe' into 'exe.png', a newline shows.
+const HIDDEN = /[\u0000-\u001f\u007f-\u009f\u00ad\u061c\u180e\u200b-\u200f\u2028-\u202e\u2060-\u2064\u2066-\u206f\ufeff\ufff9-\ufffb]/g;
+function visible(s) {
+  return s.replace(HIDDEN, (c) => ({ "\n": "\\n", "\t": "\\t", "\r": "\\r" })[c]
+    || (c.charCodeAt(0) < 0x100 ? "\\x" + c.charCodeAt(0).toString(16).padStart(2, "0") : "\\u" + c.charCodeAt(0).toString(16).padStart(4, "0")));
+}
 const el = (tag, props = {}, ...kids) => {
   const e = document.createElement(tag);
   for (const [k, v] of Object.entries(props)) {
@@ -34,7 +50,7 @@ const el = (tag, props = {}, ...kids) => {
 function showScalar(v, type) {
   if (typeof v === "boolean") return v ? "true" : "false";
   if (typeof v === "string" && (type === "double" || type === "double_array") && ["nan", "inf", "-inf"].includes(v)) return v;
-  if (typeof v === "string") return "'" + v.replace(/\\/g, "\\\\").replace(/'/g, "\\'") + "'";
+  if (typeof v === "string") return "'" + visible(v.replace(/\\/g, "\\\\").replace(/'/g, "\\'")) + "'";
   if (typeof v === "number" && (type === "double" || type === "double_array")) return Number.isInteger(v) ? v.toFixed(1) : String(v);
   return String(v);
 }
@@ -45,13 +61,19 @@ function showValue(v, type) {
   return showScalar(v, type);
 }
 function showRangeEnd(x, type) { return type.startsWith("double") ? showScalar(x, "double") : String(x); }
+// A validator's argument as the node shows it: a number in the parameter's own kind (2.0 for a
+// double), a string quoted, a list in brackets.
+function showArg(x, type) {
+  const t = type.startsWith("double") ? "double" : type.startsWith("string") ? "string" : "integer";
+  return Array.isArray(x) ? "[" + x.map((y) => showScalar(y, t)).join(", ") + "]" : showScalar(x, t);
+}
 
 function constraintsText(d) {
   const parts = [];
   const r = d.integer_range || d.floating_point_range;
   const t = d.floating_point_range ? "double" : "integer";
   if (r) parts.push(`[${showRangeEnd(r.from_value, t)}, ${showRangeEnd(r.to_value, t)}]` + (r.step ? ` step ${r.step}` : ""));
-  for (const v of d.validators) parts.push(v.args.length ? `${v.kind}(${v.args.map((a) => JSON.stringify(a)).join(", ")})` : v.kind);
+  for (const v of d.validators) parts.push(v.args.length ? `${v.kind}(${v.args.map((a) => toJSON(a)).join(", ")})` : v.kind);
   if (d.additional_constraints) parts.push(d.additional_constraints);
   return parts.join("; ");
 }
@@ -65,9 +87,9 @@ function parseScalar(text, type) {
   const t = text.trim();
   if (type === "integer") {
     if (!/^[-+]?\d+$/.test(t)) throw new Error(`expected an integer, got '${text}'`);
-    const n = Number(t);
-    if (!Number.isSafeInteger(n)) throw new Error(`${t} is beyond what this editor can send exactly (±2^53)`);
-    return n;
+    const big = BigInt(t.replace(/^\+/, ""));
+    if (big < -(2n ** 63n) || big >= 2n ** 63n) throw new Error(`${t} does not fit in a 64-bit integer`);
+    return Number.isSafeInteger(Number(big)) ? Number(big) : big;  // exact either way
   }
   if (type === "double") {
     if (["nan", "inf", "-inf"].includes(t.toLowerCase())) return t.toLowerCase();
@@ -88,13 +110,13 @@ function parseEditor(row, raw) {
     return hex;
   }
   let list;
-  try { list = JSON.parse(raw); } catch (e) { throw new Error("expected a list such as [1, 2, 3]"); }
+  try { list = parseJSON(raw); } catch (e) { throw new Error("expected a list such as [1, 2, 3]"); }
   if (!Array.isArray(list)) throw new Error("expected a list such as [1, 2, 3]");
   const et = elementType(type);
   return list.map((x, i) => {
     const ok = et === "bool" ? typeof x === "boolean" : et === "string" ? typeof x === "string"
-      : et === "integer" ? Number.isInteger(x) : typeof x === "number" || ["nan", "inf", "-inf"].includes(x);
-    if (!ok) throw new Error(`element ${i} (${JSON.stringify(x)}) is not a ${et}`);
+      : et === "integer" ? Number.isInteger(x) || typeof x === "bigint" : typeof x === "number" || ["nan", "inf", "-inf"].includes(x);
+    if (!ok) throw new Error(`element ${i} (${toJSON(x)}) is not a ${et}`);
     return x;
   });
 }
@@ -114,7 +136,17 @@ function violation(name, row, value) {
   const shown = type === "byte_array" ? showValue(value.match(/../g)?.map((h) => parseInt(h, 16)) ?? [], type) : showValue(value, type);
   const who = `Parameter '${name}' with value ${shown} must`;
   const r = d.integer_range || d.floating_point_range;
-  if (r && type !== "byte_array") {
+  if (r && type !== "byte_array" && !d.floating_point_range) {
+    const big = (x) => typeof x === "bigint" ? x : BigInt(x);
+    for (const x of elems(value)) {  // exact, also beyond 2^53
+      const v = big(x), lo = big(r.from_value), hi = big(r.to_value), st = big(r.step || 0);
+      if (v === lo || v === hi) continue;
+      if (!(v >= lo && v <= hi && (st === 0n || (v - lo) % st === 0n))) {
+        const grid = r.step ? ` in steps of ${r.step}` : "";
+        return `${who} be within [${r.from_value}, ${r.to_value}]${grid}`;
+      }
+    }
+  } else if (r && type !== "byte_array") {
     const isFloat = !!d.floating_point_range;
     for (const x of elems(value)) {
       const v = num(x);
@@ -130,24 +162,27 @@ function violation(name, row, value) {
   for (const val of d.validators) {
     const a = val.args.map(num), size = list ? list.length : typeof value === "string" ? [...value].length : 0;
     const scalar = num(value);
+    const arg = (i) => showArg(val.args[i], type), et = elementType(type) || type;
+    const repeated = () => { const seen = new Set(); return list.find((x) => { const k = typeof x + String(x); return seen.has(k) || !seen.add(k); }); };
+    const outside = (lo, hi) => list.find((x) => !(num(x) >= lo && num(x) <= hi));
     const broken = {
-      bounds: () => !(scalar >= a[0] && scalar <= a[1]) && `be within bounds [${val.args[0]}, ${val.args[1]}]`,
-      lower_bounds: () => !(scalar >= a[0]) && `be at least ${val.args[0]}`,
-      upper_bounds: () => !(scalar <= a[0]) && `be at most ${val.args[0]}`,
-      gt: () => !(scalar > a[0]) && `be greater than ${val.args[0]}`,
-      lt: () => !(scalar < a[0]) && `be less than ${val.args[0]}`,
-      gt_eq: () => !(scalar >= a[0]) && `be at least ${val.args[0]}`,
-      lt_eq: () => !(scalar <= a[0]) && `be at most ${val.args[0]}`,
-      one_of: () => !val.args[0].some((c) => c === value) && `be one of ${JSON.stringify(val.args[0])}`,
-      size_gt: () => !(size > a[0]) && `have more than ${a[0]} elements`,
-      size_lt: () => !(size < a[0]) && `have fewer than ${a[0]} elements`,
-      fixed_size: () => size !== a[0] && `have exactly ${a[0]} elements`,
+      bounds: () => !(scalar >= a[0] && scalar <= a[1]) && `be within bounds [${arg(0)}, ${arg(1)}]`,
+      lower_bounds: () => !(scalar >= a[0]) && `be at least ${arg(0)}`,
+      upper_bounds: () => !(scalar <= a[0]) && `be at most ${arg(0)}`,
+      gt: () => !(scalar > a[0]) && `be greater than ${arg(0)}`,
+      lt: () => !(scalar < a[0]) && `be less than ${arg(0)}`,
+      gt_eq: () => !(scalar >= a[0]) && `be greater than or equal to ${arg(0)}`,
+      lt_eq: () => !(scalar <= a[0]) && `be less than or equal to ${arg(0)}`,
+      one_of: () => !val.args[0].some((c) => c === value) && `be one of ${arg(0)}`,
+      size_gt: () => !(size > a[0]) && `have a size greater than ${a[0]} (it has ${size})`,
+      size_lt: () => !(size < a[0]) && `have a size less than ${a[0]} (it has ${size})`,
+      fixed_size: () => size !== a[0] && `have exactly ${a[0]} elements (it has ${size})`,
       not_empty: () => size === 0 && "not be empty",
-      unique: () => list && new Set(list.map(String)).size !== list.length && "have unique elements",
-      subset_of: () => list && list.some((x) => !val.args[0].includes(x)) && `only hold elements of ${JSON.stringify(val.args[0])}`,
-      element_bounds: () => list && list.some((x) => !(num(x) >= a[0] && num(x) <= a[1])) && `have every element within [${val.args[0]}, ${val.args[1]}]`,
-      lower_element_bounds: () => list && list.some((x) => !(num(x) >= a[0])) && `have every element at least ${val.args[0]}`,
-      upper_element_bounds: () => list && list.some((x) => !(num(x) <= a[0])) && `have every element at most ${val.args[0]}`,
+      unique: () => list && repeated() !== undefined && `have unique elements (${showScalar(repeated(), et)} repeats)`,
+      subset_of: () => list && list.some((x) => !val.args[0].includes(x)) && `only hold elements of ${arg(0)} (${showScalar(list.find((x) => !val.args[0].includes(x)), et)} is not one)`,
+      element_bounds: () => list && outside(a[0], a[1]) !== undefined && `have every element within bounds [${arg(0)}, ${arg(1)}] (${showScalar(outside(a[0], a[1]), et)} is not)`,
+      lower_element_bounds: () => list && outside(a[0], Infinity) !== undefined && `have every element at least ${arg(0)} (${showScalar(outside(a[0], Infinity), et)} is not)`,
+      upper_element_bounds: () => list && outside(-Infinity, a[0]) !== undefined && `have every element at most ${arg(0)} (${showScalar(outside(-Infinity, a[0]), et)} is not)`,
     }[val.kind];
     const rule = broken ? broken() : false;
     if (rule) return `${who} ${rule}`;
@@ -159,16 +194,16 @@ function violation(name, row, value) {
 
 async function api(path, body) {
   const opts = { headers: {} };
+  const token = sessionStorage.getItem("paramdds-token") || $("#token").value;
+  if (token) opts.headers["Authorization"] = "Bearer " + token;  // reads need it too off loopback
   if (body !== undefined) {
     opts.method = "POST";
     opts.headers["Content-Type"] = "application/json";
-    const token = sessionStorage.getItem("paramdds-token") || $("#token").value;
-    if (token) opts.headers["Authorization"] = "Bearer " + token;
-    opts.body = JSON.stringify(body);
+    opts.body = toJSON(body);
   }
   const res = await fetch(path, opts);
   let data = null;
-  try { data = await res.json(); } catch (e) { data = { error: { code: "HTTP_" + res.status, message: res.statusText } }; }
+  try { data = parseJSON(await res.text()); } catch (e) { data = { error: { code: "HTTP_" + res.status, message: res.statusText } }; }
   if (res.status === 401) $("#token-box").hidden = false;
   return { status: res.status, ok: res.ok, data };
 }
@@ -189,7 +224,8 @@ function scheduleNodes(delay = 250) { clearTimeout(S.listTimer); S.listTimer = s
 
 function nodeItem(n) {
   const li = el("li", { "data-node": n.node, class: (n.online ? "" : "offline ") + (n.node === S.selected ? "selected" : ""), title: `${n.host} pid ${n.pid}` },
-    el("span", { class: "n" }, el("span", { class: "dot" }), n.node),
+    el("span", { class: "n" }, el("span", { class: "dot" }), n.node,
+      n.origin ? el("span", { class: "origin", title: `mirrored from ${n.origin} by the bridge`, text: n.origin }) : null),
     el("span", { class: "m", text: `${n.parameters} params · r${n.revision}` + (n.online ? "" : " · offline") }));
   li.addEventListener("click", () => select(n.node));
   return li;
@@ -218,6 +254,7 @@ function updateNodes(summaries) {
 
 function select(node) {
   if (S.selected !== node) { S.dirty.clear(); S.baseRevision = null; banner(null); }
+  checkNode(node);
   S.selected = node;
   if (location.hash !== "#node=" + encodeURIComponent(node)) history.replaceState(null, "", "#node=" + encodeURIComponent(node));
   document.querySelectorAll("#nodes li").forEach((li) => li.classList.toggle("selected", li.dataset.node === node));
@@ -229,12 +266,37 @@ function select(node) {
   openStream();
 }
 
+// A node id from the link that the console cannot take (not a node name) leaves the node view
+// with the reason; an unknown but valid one stays selected and shows when the node appears.
+async function checkNode(node) {
+  const { status, data } = await api("/api/node?node=" + encodeURIComponent(node));
+  if (node !== S.selected || (status !== 400 && status !== 422)) return;  // 422: INVALID_NAME
+  unselect(`Not a node: ${data.error ? data.error.message : node}`);
+}
+function unselect(why) {
+  S.selected = null; S.summary = null;
+  $("#node-view").hidden = true;
+  $("#empty").hidden = false;
+  $("#empty").textContent = why;
+  history.replaceState(null, "", location.pathname);
+  openStream();
+}
+
 function setSummary(s) {
   S.summary = s;
-  if (!s) { $("#node-meta").textContent = "unknown node"; return; }
+  if (!s) { $("#node-meta").textContent = "unknown to this console: it shows here when it appears"; return; }
   $("#node-view").classList.toggle("offline", !s.online);
-  $("#node-meta").textContent = `${s.online ? "online" : "offline"} · host ${s.host} · pid ${s.pid} · revision ${s.revision} · ${s.parameters} parameters`;
+  $("#node-meta").textContent = `${s.online ? "online" : "offline"} · host ${s.host} · pid ${s.pid} · revision ${s.revision} · ${s.parameters} parameters`
+    + (s.origin ? ` · mirrored from ${s.origin}` : "");
   $("#node-meta").dataset.revision = s.revision;
+  $("#node-meta").dataset.incarnation = s.incarnation;
+}
+// The newer of the summary shown and a write's reply: a reply of another incarnation (a restart)
+// wins, within one incarnation the higher revision does.
+function advance(s, reply) {
+  if (!s || reply.revision == null) return s;
+  if (reply.incarnation !== s.incarnation) return { ...s, incarnation: reply.incarnation, revision: reply.revision };
+  return { ...s, revision: Math.max(s.revision, reply.revision) };
 }
 
 function renderRows(rows) {
@@ -270,7 +332,7 @@ function rowElement(row) {
 function editorText(row) {
   if (row.type === "byte_array") return row.value.map((b) => b.toString(16).padStart(2, "0")).join(" ");
   if (row.type === "double_array" && row.value.every((x) => typeof x === "number")) return showValue(row.value, row.type);
-  if (Array.isArray(row.value)) return JSON.stringify(row.value);
+  if (Array.isArray(row.value)) return toJSON(row.value);
   if (row.type === "double" && typeof row.value === "number") return Number.isInteger(row.value) ? row.value.toFixed(1) : String(row.value);
   return row.value === null ? "" : String(row.value);
 }
@@ -286,6 +348,11 @@ function editorFor(row) {
   } else if (oneOf && !type.endsWith("_array")) {
     input = el("select", { "data-role": "input" }, ...oneOf.args[0].map((c) => el("option", { value: String(c), text: String(c), selected: c === row.value })));
     read = () => { const c = oneOf.args[0].find((x) => String(x) === input.value); return type === "string" ? c : String(c); };
+  } else if (type === "string" && typeof row.value === "string" && /[\n\r]/.test(row.value)) {
+    // a multi-line string: a one-line field would drop its line breaks (Enter adds a line here,
+    // Ctrl+Enter or Set applies)
+    input = el("textarea", { value: row.value, rows: Math.min(8, row.value.split("\n").length + 1), "data-role": "input", spellcheck: false });
+    read = () => input.value;
   } else {
     const r = d.integer_range || d.floating_point_range;
     input = el("input", { type: "text", value: editorText(row), "data-role": "input", spellcheck: false });
@@ -302,7 +369,9 @@ function editorFor(row) {
   set.addEventListener("click", () => applyOne(row.name));
   box.append(set);
   input.addEventListener(type === "bool" || input.tagName === "SELECT" ? "change" : "input", () => markDirty(row.name));
-  input.addEventListener("keydown", (e) => { if (e.key === "Enter") applyOne(row.name); });
+  input.addEventListener("keydown", (e) => {
+    if (e.key === "Enter" && (input.tagName !== "TEXTAREA" || e.ctrlKey || e.metaKey)) { e.preventDefault(); applyOne(row.name); }
+  });
   box.readValue = read;
   return box;
 }
@@ -322,7 +391,7 @@ function editorValue(name) {
 }
 
 function markDirty(name) {
-  if (S.dirty.size === 0) S.baseRevision = S.summary ? S.summary.revision : null;
+  if (S.dirty.size === 0) S.baseRevision = S.summary ? { incarnation: S.summary.incarnation, revision: S.summary.revision } : null;
   S.dirty.set(name, true);
   rowOf(name)?.classList.add("dirty");
   editorValue(name);
@@ -345,7 +414,7 @@ function banner(text, kind = "", items = null) {
   if (!text) { b.hidden = true; return; }
   b.hidden = false;
   b.className = kind;
-  b.replaceChildren(el("div", { text }), items ? el("ul", {}, ...items.map((t) => el("li", { text: t }))) : null);
+  b.replaceChildren(el("div", { text }), ...(items ? [el("ul", {}, ...items.map((t) => el("li", { text: t })))] : []));
 }
 
 function acked(names) {
@@ -371,7 +440,13 @@ async function applyOne(name) {
   const { ok, data } = await api("/api/set", { node, values: { [name]: value } });
   if (node !== S.selected) return;
   showResults(data, [name]);
-  if (ok) { clearDirty([name]); acked([name]); if (data.revision != null && S.summary) setSummary({ ...S.summary, revision: Math.max(S.summary.revision, data.revision) }); }
+  if (!ok) return;
+  // the page's own write moves the base of the other edits: this change is not "the node
+  // changed meanwhile" (it went from the base to base + 1, and nobody else wrote in between)
+  const base = S.baseRevision;
+  if (base && data.incarnation === base.incarnation && data.revision === base.revision + 1) base.revision = data.revision;
+  clearDirty([name]); acked([name]);
+  if (S.summary) setSummary(advance(S.summary, data));
 }
 
 async function applyAll() {
@@ -382,14 +457,20 @@ async function applyAll() {
     values[n] = v;
   }
   const node = S.selected, expected = S.baseRevision;
-  const { ok, status, data } = await api("/api/set", { node, values, atomic: true, if_revision: expected });
+  const if_revision = expected ? `${expected.incarnation}:${expected.revision}` : null;
+  const { ok, status, data } = await api("/api/set", { node, values, atomic: true, if_revision });
   if (node !== S.selected) return;
-  if (ok) { banner(`Applied ${names.length} changes atomically (revision ${data.revision}).`, "ok"); clearDirty(names); acked(names); return; }
+  if (ok) {
+    banner(`Applied ${names.length} changes atomically (revision ${data.revision}).`, "ok"); clearDirty(names); acked(names);
+    if (S.summary) setSummary(advance(S.summary, data));
+    return;
+  }
   if (status === 409 && data.error && data.error.code === "CONFLICT") {
     clearDirty(names);
     if (data.rows) renderRows(data.rows);
     if (data.summary) setSummary(data.summary);
-    banner(`Not applied: node ${node} changed meanwhile (revision ${expected} → ${data.summary ? data.summary.revision : data.revision}). The newer values are shown; edit again.`, "error");
+    const now = data.summary || data, restarted = expected && now.incarnation !== expected.incarnation;
+    banner(`Not applied: node ${node} ${restarted ? "restarted" : "changed"} meanwhile (revision ${expected ? expected.revision : "?"} → ${now.revision}${restarted ? " of its new start" : ""}). The newer values are shown; edit again.`, "error");
     return;
   }
   showResults(data, names);
@@ -424,7 +505,7 @@ function applyRow(row) {
   if (!S.dirty.has(row.name)) {
     const fresh = rowElement(row);
     tr.replaceWith(fresh);
-    if (old && JSON.stringify(old.value) !== JSON.stringify(row.value)) { fresh.classList.add("changed"); }
+    if (old && toJSON(old.value) !== toJSON(row.value)) { fresh.classList.add("changed"); }
   }
   filterRows();
 }
@@ -433,7 +514,7 @@ function log(events, skipped) {
   const list = $("#log");
   for (const e of events) {
     const when = new Date(e.stamp * 1000).toLocaleTimeString();
-    const what = e.name ? `${e.node} ${e.name}` + (e.value !== null && e.value !== undefined ? ` = ${JSON.stringify(e.value)}` : "") : e.node;
+    const what = e.name ? `${e.node} ${e.name}` + (e.value !== null && e.value !== undefined ? ` = ${showValue(e.value, e.type)}` : "") : e.node;
     list.prepend(el("li", { class: "k-" + e.event, text: `${when}  ${e.event.padEnd(8)} r${e.revision}  ${what}` }));
   }
   if (skipped) list.prepend(el("li", { class: "muted", text: `… ${skipped} more events` }));
@@ -450,7 +531,7 @@ function openStream() {
   es.onopen = () => { state.textContent = "live"; state.classList.add("live"); scheduleNodes(0); };
   es.onerror = () => { state.textContent = "reconnecting…"; state.classList.remove("live"); };
   es.addEventListener("node", (m) => {
-    const d = JSON.parse(m.data);
+    const d = parseJSON(m.data);
     if (d.node !== S.selected) return;
     setSummary(d.summary);
     const keep = new Map([...S.dirty.keys()].map((n) => [n, rowOf(n)]));
@@ -458,31 +539,46 @@ function openStream() {
     for (const [n, tr] of keep) if (tr && rowOf(n)) rowOf(n).replaceWith(tr);
   });
   es.addEventListener("params", (m) => {
-    const d = JSON.parse(m.data);
+    const d = parseJSON(m.data);
     if (d.node !== S.selected) return;
     for (const row of d.rows) applyRow(row);
     for (const n of d.deleted) { S.rows.delete(n); rowOf(n)?.remove(); clearDirty([n]); }
     if (d.summary) setSummary(d.summary);
   });
   es.addEventListener("nodes", (m) => {
-    const d = JSON.parse(m.data);
+    const d = parseJSON(m.data);
     if (d.refresh) scheduleNodes(); else updateNodes(d.nodes);
   });
-  es.addEventListener("log", (m) => { const d = JSON.parse(m.data); log(d.events, d.skipped); });
+  es.addEventListener("log", (m) => { const d = parseJSON(m.data); log(d.events, d.skipped); });
   es.addEventListener("resync", () => { scheduleNodes(0); openStream(); });
 }
 
 // -- start ---------------------------------------------------------------------------------------
 
+// Where reads need the token, the event stream and the dump link send it as a cookie (neither
+// can send a header); same-site only, and writes still need the header.
+function tokenCookie(token) {
+  document.cookie = `paramdds-token=${encodeURIComponent(token)}; path=/; SameSite=Strict`;
+}
+
 async function start() {
   const { data } = await api("/api/info");
   S.info = data;
   $("#mode").textContent = data.read_only ? "read-only console" : "domain " + data.domain;
-  $("#token-box").hidden = !data.token_required || !!sessionStorage.getItem("paramdds-token");
+  const saved = sessionStorage.getItem("paramdds-token");
+  $("#token-box").hidden = !data.token_required || !!saved;
+  if (saved) tokenCookie(saved);
   $("#load-label").hidden = data.read_only;
   $("#apply").hidden = data.read_only;
   $("#discard").hidden = data.read_only;
-  $("#token").addEventListener("change", () => sessionStorage.setItem("paramdds-token", $("#token").value.trim()));
+  let gotToken = null;
+  const tokenGiven = new Promise((resolve) => { gotToken = resolve; });
+  $("#token").addEventListener("change", () => {
+    const t = $("#token").value.trim();
+    sessionStorage.setItem("paramdds-token", t);
+    tokenCookie(t);
+    gotToken();
+  });
   $("#token-box").addEventListener("submit", (e) => e.preventDefault());
   let timer = null;
   $("#search").addEventListener("input", () => {
@@ -494,8 +590,25 @@ async function start() {
   $("#apply").addEventListener("click", applyAll);
   $("#discard").addEventListener("click", discard);
   $("#load").addEventListener("change", (e) => { if (e.target.files[0]) loadFile(e.target.files[0]); e.target.value = ""; });
-  const m = location.hash.match(/^#node=(.+)$/);
+  if (data.token_for_reads && !saved) {  // reachable from other machines: reads need the token
+    $("#stream-state").textContent = "needs the token";
+    await tokenGiven;
+  }
   await loadNodes();
-  if (m) select(decodeURIComponent(m[1])); else openStream();
+  fromHash();
+  window.addEventListener("hashchange", fromHash);  // a link or an edited address bar
+}
+
+// The node named by the address's #node= part; a part that does not decode leaves the node
+// view with the reason (it threw here before, and the page stayed "connecting…").
+function fromHash() {
+  const m = location.hash.match(/^#node=(.*)$/);
+  let wanted = null;
+  if (m) {
+    try { wanted = decodeURIComponent(m[1]); } catch (e) { wanted = null; }
+  }
+  if (wanted) { if (wanted !== S.selected) select(wanted); }
+  else if (m) unselect("The link names no node (its #node= part is not valid): select one.");
+  else if (!S.es) openStream();
 }
 start();

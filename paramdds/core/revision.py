@@ -1,0 +1,38 @@
+"""A node's state, exactly: (incarnation, revision). Pure, no DDS (the CLI parses it early)."""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+from ..errors import ParamddsError
+
+__all__ = ["Revision"]
+
+
+class Revision(NamedTuple):
+    """A node's state exactly: its revision within one incarnation (one start of hosting it).
+
+    A revision alone repeats across a server restart; this pair does not. Give one to
+    ``set(..., if_revision=)`` to compare both; a plain ``int`` there compares the
+    revision alone. Written ``INCARNATION:REVISION``, the incarnation in 16 hex digits
+    (``paramdds set --if-revision``, the JSON outputs and the web API use that form).
+    """
+
+    incarnation: int  # random, non-zero; 0: unknown (a peer that has none)
+    revision: int
+
+    def __str__(self) -> str:
+        return f"{self.incarnation:016x}:{self.revision}"
+
+    @classmethod
+    def parse(cls, text: str) -> Revision:
+        """``INCARNATION:REVISION`` (hex, decimal) or a bare revision (incarnation 0)."""
+        head, sep, tail = text.strip().rpartition(":")
+        try:
+            incarnation = int(head, 16) if sep else 0
+            revision = int(tail, 10)
+        except ValueError:
+            raise ParamddsError(f"not a revision (REVISION or INCARNATION:REVISION): {text!r}") from None
+        if not (0 <= incarnation < 2**64 and 0 <= revision < 2**63):
+            raise ParamddsError(f"revision out of range: {text!r}")
+        return cls(incarnation, revision)
