@@ -25,9 +25,11 @@ The rule (:meth:`DiscoveryWatch.settled`): a node with no presence instance is
    to a client that had just found it, held that client's discovery open for those
    10 s (so past any shorter call timeout);
 3. **discovery is quiet**: nothing has changed for ``max(min_quiet, length of the
-   current burst of changes)``: no participant appeared or left (builtin
-   ``DCPSParticipant`` reader), no endpoint matched or unmatched on the presence
-   reader or on the caller-supplied request/reply endpoints, no new ``ParameterEvents``
+   current burst of changes)``: no participant appeared (builtin ``DCPSParticipant``
+   reader), no endpoint matched on the presence reader or on the caller-supplied
+   request/reply endpoints (a participant or endpoint that *leaves* brings nothing
+   new: when it counted, fresh CLI processes running beside each other, each leaving
+   after its call, kept each other's discovery unsettled for 1 to 2 s), no new ``ParameterEvents``
    *instance* arrived (updates of known instances do not count: a busy system, where
    some parameter changes every few milliseconds, still settles). The quiet period
    scales with how slowly discovery has gone: on a healthy link everything is known
@@ -208,6 +210,8 @@ class DiscoveryWatch:
         self._participants = BuiltinDataReader(participant, BuiltinTopicDcpsParticipant)
         self._new_participants = ReadCondition(self._participants, _NEW)
         self._remote: set[Any] = set()
+        self._arrivals = 0  # remote participants and state writers that appeared (leaving is no news)
+        self._writers_seen: set[int] = set()
         self._delivered: set[int] = set()  # publication handles that have delivered a sample
         self._instance_of: dict[int, int] = {}  # a delivering writer -> one instance it delivered
         self._not_alive = 0  # matched writers Cyclone reports not alive
@@ -243,15 +247,17 @@ class DiscoveryWatch:
             matched = {h & _U64 for h in matched_publications(self._reader)}
         except DDSException:
             matched = set()
-        matches = [len(matched)]
+        self._arrivals += len(matched - self._writers_seen)
+        self._writers_seen = matched
+        matches = []
         for entity in self._endpoints:
             status = (
                 entity.get_subscription_matched_status()
                 if hasattr(entity, "get_subscription_matched_status")
                 else entity.get_publication_matched_status()
             )
-            matches += [status.total_count, status.current_count]
-        signature = (len(self._remote), self._instances, *matches)
+            matches.append(status.total_count)
+        signature = (self._arrivals, self._instances, *matches)
         if signature != self._signature:
             burst = self._last_change - self._burst_start
             if now - self._last_change >= quiet_needed(burst, self._min_quiet):
@@ -345,6 +351,7 @@ class DiscoveryWatch:
             if key is None or key in self._own:
                 continue
             if sample.sample_info.instance_state == InstanceState.Alive:
+                self._arrivals += key not in self._remote
                 self._remote.add(key)
             else:
                 self._remote.discard(key)
