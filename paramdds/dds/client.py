@@ -37,7 +37,7 @@ from concurrent.futures import TimeoutError as FutureTimeout
 from dataclasses import dataclass
 from typing import Any
 
-from cyclonedds.core import DDSException, DDSStatus, InstanceState
+from cyclonedds.core import DDSException, InstanceState
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
@@ -209,9 +209,6 @@ class ParameterClient:
                     self._presence,
                     [*self._writers.values(), *self._reply_readers.values()],
                     min_quiet=grace,
-                )
-                self._dispatcher.add_status(
-                    self._presence, DDSStatus.LivelinessChanged, self._discovery.liveliness_changed
                 )
             return self._discovery
 

@@ -68,8 +68,8 @@ ends it), never the other way round; two servers hosting the same node id (warne
 about) could make a dead one look alive, with the same outcome.
 A change of liveliness is not a change of discovery for rule 3 (it says nothing new
 will arrive), but it bumps :attr:`DiscoveryState.liveliness` so a waiting call looks
-at its node's presence at once; the client's dispatch thread reads the status as each
-change happens (:meth:`DiscoveryWatch.liveliness_changed`).
+at its node's presence at once. The counts are read at each poll: nothing depends on
+seeing each change separately.
 
 The watch reads only sample *infos* of new ``ParameterEvents`` samples (never decodes
 them) and only new participant samples, and does its work at most every
@@ -285,13 +285,6 @@ class DiscoveryWatch:
         self._own.add(probe.guid)
         self._probes.append(probe)
 
-    def liveliness_changed(self) -> None:
-        """Read the presence reader's LIVELINESS_CHANGED status now (the client's dispatch
-        thread calls this as each change happens, so changes are rarely read two at a time)."""
-        with self._lock:
-            if not self._closed:
-                self._read_liveliness()
-
     def _read_liveliness(self) -> None:
         """Read the presence reader's LIVELINESS_CHANGED status (which resets its changes)."""
         try:
@@ -307,7 +300,7 @@ class DiscoveryWatch:
         self._not_alive = status.not_alive_count
 
     def _dead(self, matched: set[int], pending: set[int]) -> int:
-        """How many of the ``pending`` writers are certainly not alive (all or none: see the module doc)."""
+        """How many of the ``pending`` writers are certainly not alive (see :func:`owed`)."""
         if not pending or self._not_alive == 0:
             return 0
         unsure = 0

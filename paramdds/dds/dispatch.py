@@ -70,7 +70,6 @@ class Dispatcher:
         self._guard = GuardCondition(participant)
         self._waitset.attach(self._guard)
         self._entries: list[tuple[Take, Any, Handler, str]] = []
-        self._statuses: list[tuple[Any, int, Callable[[], None]]] = []
         self.readers: list[Any] = []  # in the order added
         self._stopping = False
         self._warned: set[str] = set()
@@ -135,17 +134,6 @@ class Dispatcher:
         self.readers.append(reader)
         self._waitset.attach(condition)
 
-    def add_status(self, entity: Any, mask: int, handler: Callable[[], None]) -> None:
-        """Call ``handler()`` on the dispatch thread whenever a status in ``mask`` of ``entity`` changes.
-
-        The entity's status mask becomes ``mask`` (it wakes the loop through the WaitSet;
-        nothing else waits on it). ``handler`` reads the status, which resets it; the loop
-        resets it too, so a failing handler does not spin. May be called while running.
-        """
-        entity.set_status_mask(mask)
-        self._statuses.append((entity, mask, handler))
-        self._waitset.attach(entity)
-
     def start(self) -> None:
         self._thread.start()
 
@@ -157,9 +145,6 @@ class Dispatcher:
         for _, condition, _, _ in self._entries:
             with contextlib.suppress(Exception):  # a condition whose reader is already gone
                 self._waitset.detach(condition)
-        for entity, _, _ in self._statuses:
-            with contextlib.suppress(Exception):
-                self._waitset.detach(entity)
 
     def _run(self) -> None:
         try:
@@ -175,7 +160,6 @@ class Dispatcher:
             if self._stopping:
                 break
             self._run_tick()
-            self._run_statuses()
             for take, _, handler, topic in self._entries:
                 self._drain(take, handler, topic)
 
@@ -190,17 +174,6 @@ class Dispatcher:
             self._tick()
         except Exception:
             log.exception("%s: tick failed", self._thread.name)
-
-    def _run_statuses(self) -> None:
-        for entity, mask, handler in list(self._statuses):
-            try:
-                if entity.read_status(mask):
-                    handler()
-                    entity.take_status(mask)
-            except Exception:
-                log.exception("%s: status handler failed", self._thread.name)
-                with contextlib.suppress(Exception):
-                    entity.take_status(mask)
 
     def _drain(self, take: Take, handler: Handler, topic: str) -> None:
         while True:
