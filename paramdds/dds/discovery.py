@@ -44,13 +44,20 @@ Asking again. A peer answers a *new* participant's announcement (SPDP) with its 
 four times, one second apart, and otherwise announces itself only every 8 s (Cyclone's
 default: lease minus 2 s). On a link that drops 30 % of packets, all four answers
 are lost for about one process in 120, which then learns of nobody for up to 8 s.
-While no remote participant is known and discovery has not settled, the watch
-therefore creates a **probe**: an empty participant in the same domain (so the same
+While no parameter server (state writer) is known and discovery has not settled, the
+watch therefore creates a **probe**: an empty participant in the same domain (so the same
 process and sockets) every :data:`PROBE_AFTER` seconds, at most :data:`MAX_PROBES`
 times. Each probe is new to every peer, so each peer answers it four more times,
 and since Cyclone keeps what it discovers per domain, not per participant, the
 answer serves the client's own participant too. A probe costs a peer what one more
-short-lived CLI process costs it; probes live until the watch is closed.
+short-lived CLI process costs it; probes live until the watch is closed. The test is
+"no server", not "nobody": until issue 24 it was "no remote participant at all", and
+fresh CLI processes running side by side know each other at once (the same host),
+so a process whose four answers from the server were lost never asked again and
+waited for the server's next periodic announcement, 8 s later: that was the rare
+TIMEOUT "no parameter server discovered yet (N remote participant(s) known)" at 30 %
+loss (Cyclone traces of four such processes at 50 % loss: none had received a single
+announcement from the server's address, only from the other clients).
 
 Which writers are not alive. Cyclone reports liveliness per reader, not per writer:
 the reader's LIVELINESS_CHANGED status says how many matched writers are alive and
@@ -106,7 +113,7 @@ __all__ = [
     "quiet_needed",
 ]
 
-PROBE_AFTER = 3.5  # seconds without any remote participant before asking again (4 answers, 1 s apart)
+PROBE_AFTER = 3.5  # seconds without a parameter server before asking again (4 answers, 1 s apart)
 MAX_PROBES = 3
 MIN_QUIET = 0.5  # seconds of unchanged discovery before a node without presence counts as absent
 POLL_INTERVAL = 0.05  # seconds: the watch refreshes at most this often
@@ -267,7 +274,7 @@ class DiscoveryWatch:
         waiting = matched - self._delivered
         dead = self._dead(matched, waiting)
         self._state = self._snapshot(now, len(matched), len(waiting) - dead, dead)
-        if not self._remote and not self._state.settled:
+        if self._state.state_writers == 0 and not self._state.settled:
             self._maybe_probe(now)
 
     def _maybe_probe(self, now: float) -> None:

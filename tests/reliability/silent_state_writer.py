@@ -4,7 +4,9 @@
 with a server's QoS (MANUAL_BY_TOPIC liveliness, 1 s lease) whose liveliness this
 process asserts every 0.25 s, as a server's dispatch loop does, without ever writing
 a sample: to a client it is a parameter server that still owes its state (a slow but
-alive server). Prints ``ready`` once the writer exists, then runs until killed.
+alive server). With ``--no-writer``, only the participant: a peer that is not a
+parameter server (another CLI process, say). Prints ``ready`` once the writer (or
+participant) exists, then runs until killed.
 """
 
 from __future__ import annotations
@@ -26,6 +28,10 @@ def main() -> int:
     from paramdds.dds.qos import QosProfiles
 
     participant = make_participant(int(os.environ["PARAMDDS_DOMAIN"]), localhost=True, app_name="silent")
+    if "--no-writer" in sys.argv:
+        print("ready", flush=True)
+        while True:
+            time.sleep(1.0)
     qos = QosProfiles.load().writer("ParameterEvents") + Qos(
         Policy.Liveliness.ManualByTopic(duration(seconds=1))
     )

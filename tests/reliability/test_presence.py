@@ -211,3 +211,20 @@ def test_a_silent_server_is_waited_for_while_alive_and_not_once_killed(
     state = client.discovery()
     assert (state.state_writers, state.pending_writers, state.dead_writers) == (2, 0, 1), state
     assert client.presence("present") is Presence.ONLINE
+
+
+def test_a_client_that_knows_only_other_clients_asks_again(
+    dds: DDS, domain_id: int, procs: list[Proc]
+) -> None:
+    """Probes are for "no parameter server yet", not "nobody yet": fresh CLI processes side by
+    side know each other at once, and one whose server answers were all lost must still ask
+    again (the rare lossy-link TIMEOUT of issue 24)."""
+    peer = Proc([sys.executable, SILENT_WRITER, "--no-writer"], make_dds_env(domain_id))
+    procs.append(peer)
+    peer.wait_for("ready", timeout=20)
+    client = dds.client(domain_id)
+    assert wait(lambda: client.discovery().participants >= 1, timeout=5.0)  # it knows the peer
+    with pytest.raises(TimeoutError_, match=r"no parameter server discovered yet \(1 remote"):
+        client.wait_for_node("nobody", timeout=PROBE_AFTER + 1.0)
+    watch = client._discovery
+    assert watch is not None and watch.probes == 1
