@@ -508,6 +508,7 @@ class ParameterClient:
         deadline = time.monotonic() + limit
         step = RESEND_AFTER
         next_resend = time.monotonic() + step
+        seen = self._discovery.state() if self._discovery is not None else None
         while True:
             now = time.monotonic()
             if now >= deadline:
@@ -518,7 +519,10 @@ class ParameterClient:
             yield max(0.0, min(deadline, next_resend, now + MATCH_POLL) - now)
             now = time.monotonic()
             if self._discovery is not None:
-                self._discovery.state()  # keeps the time of the last discovery change precise
+                state = self._discovery.state()  # keeps the time of the last discovery change precise
+                if _news(seen, state) and self.presence(pending.node) in (Presence.OFFLINE, Presence.ABSENT):
+                    raise self._not_seen(pending.node, now - (deadline - limit))
+                seen = state
             if now >= next_resend:
                 step = min(2 * step, 1.0)  # a big request that is merely slow is not resent often
                 next_resend = now + step
@@ -643,6 +647,18 @@ class AsyncParameterClient:
 
     async def wait_for_node(self, node: str, timeout: float | None = None) -> NodeInfo:
         return await asyncio.to_thread(self.sync.wait_for_node, node, timeout)
+
+
+def _news(seen: DiscoveryState | None, state: DiscoveryState) -> bool:
+    """Whether discovery has just settled, or a state writer's liveliness changed (a server died).
+
+    A waiting call then looks at its node's presence at once, not at its next resend
+    (up to 1 s later): a node of a server killed while the call waits is UNAVAILABLE
+    about a second after the death (the writer's 1 s lease), whatever the timeout.
+    """
+    if seen is None:
+        return state.settled
+    return (state.settled and not seen.settled) or state.liveliness != seen.liveliness
 
 
 def _node_info(sample: Any) -> NodeInfo | None:

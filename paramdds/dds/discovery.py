@@ -14,14 +14,22 @@ The rule (:meth:`DiscoveryWatch.settled`): a node with no presence instance is
    writer (local or remote: a parameter server) is matched to our presence reader.
    Before that nothing can be concluded, and the caller keeps waiting up to its own
    timeout (then it reports a timeout that says discovery found no server);
-2. **every matched state writer has delivered**: each writer matched to the presence
-   reader has delivered at least one sample to it (every server writes a presence
-   instance per node it serves, so a matched writer that has delivered nothing still
-   owes us its historical data);
+2. **every matched state writer that is alive has delivered**: each writer matched
+   to the presence reader has delivered at least one sample to it (every server writes
+   a presence instance per node it serves, so a matched writer that has delivered
+   nothing still owes us its historical data), unless Cyclone reports it **not
+   alive** (its liveliness lease ran out: a server asserts it every 0.25 s with a 1 s
+   lease, so a killed one is not alive about a second after its death; see "Which
+   writers are not alive" below). A killed process stays *matched* for its 10 s
+   participant lease; before this exception its writer, if it died before delivering
+   to a client that had just found it, held that client's discovery open for those
+   10 s (so past any shorter call timeout);
 3. **discovery is quiet**: nothing has changed for ``max(min_quiet, length of the
-   current burst of changes)``: no participant appeared or left (builtin
-   ``DCPSParticipant`` reader), no endpoint matched or unmatched on the presence
-   reader or on the caller-supplied request/reply endpoints, no new ``ParameterEvents``
+   current burst of changes)``: no participant appeared (builtin ``DCPSParticipant``
+   reader), no endpoint matched on the presence reader or on the caller-supplied
+   request/reply endpoints (a participant or endpoint that *leaves* brings nothing
+   new: when it counted, fresh CLI processes running beside each other, each leaving
+   after its call, kept each other's discovery unsettled for 1 to 2 s), no new ``ParameterEvents``
    *instance* arrived (updates of known instances do not count: a busy system, where
    some parameter changes every few milliseconds, still settles). The quiet period
    scales with how slowly discovery has gone: on a healthy link everything is known
@@ -36,13 +44,39 @@ Asking again. A peer answers a *new* participant's announcement (SPDP) with its 
 four times, one second apart, and otherwise announces itself only every 8 s (Cyclone's
 default: lease minus 2 s). On a link that drops 30 % of packets, all four answers
 are lost for about one process in 120, which then learns of nobody for up to 8 s.
-While no remote participant is known and discovery has not settled, the watch
-therefore creates a **probe**: an empty participant in the same domain (so the same
+While no parameter server (state writer) is known and discovery has not settled, the
+watch therefore creates a **probe**: an empty participant in the same domain (so the same
 process and sockets) every :data:`PROBE_AFTER` seconds, at most :data:`MAX_PROBES`
 times. Each probe is new to every peer, so each peer answers it four more times,
 and since Cyclone keeps what it discovers per domain, not per participant, the
 answer serves the client's own participant too. A probe costs a peer what one more
-short-lived CLI process costs it; probes live until the watch is closed.
+short-lived CLI process costs it; probes live until the watch is closed. The test is
+"no server", not "nobody": until issue 24 it was "no remote participant at all", and
+fresh CLI processes running side by side know each other at once (the same host),
+so a process whose four answers from the server were lost never asked again and
+waited for the server's next periodic announcement, 8 s later: that was the rare
+TIMEOUT "no parameter server discovered yet (N remote participant(s) known)" at 30 %
+loss (Cyclone traces of four such processes at 50 % loss: none had received a single
+announcement from the server's address, only from the other clients).
+
+Which writers are not alive. Cyclone reports liveliness per reader, not per writer:
+the reader's LIVELINESS_CHANGED status says how many matched writers are alive and
+how many not (and only the *last* one to change, which does not identify them when
+several change at once, as when a reader is created and matches every server at
+once). A writer that has delivered is known alive while one of the instances it
+delivered is alive (an instance goes NOT_ALIVE_NO_WRITERS when its writer's lease
+runs out). So if ``not_alive`` writers are not alive and ``unsure`` of the delivered
+writers are not known alive, at least ``not_alive - unsure`` of the pending writers
+are not alive (:func:`owed`); when that covers them all, none is owed. Sound in the
+conservative direction: a delivered server whose node is stalled (its presence
+unregistered while the writer lives) counts as unsure, so a dead pending writer is
+then still waited for (the call's timeout, or the dead participant's 10 s lease,
+ends it), never the other way round; two servers hosting the same node id (warned
+about) could make a dead one look alive, with the same outcome.
+A change of liveliness is not a change of discovery for rule 3 (it says nothing new
+will arrive), but it bumps :attr:`DiscoveryState.liveliness` so a waiting call looks
+at its node's presence at once. The counts are read at each poll: nothing depends on
+seeing each change separately.
 
 The watch reads only sample *infos* of new ``ParameterEvents`` samples (never decodes
 them) and only new participant samples, and does its work at most every
@@ -75,10 +109,11 @@ __all__ = [
     "DiscoveryWatch",
     "Presence",
     "is_settled",
+    "owed",
     "quiet_needed",
 ]
 
-PROBE_AFTER = 3.5  # seconds without any remote participant before asking again (4 answers, 1 s apart)
+PROBE_AFTER = 3.5  # seconds without a parameter server before asking again (4 answers, 1 s apart)
 MAX_PROBES = 3
 MIN_QUIET = 0.5  # seconds of unchanged discovery before a node without presence counts as absent
 POLL_INTERVAL = 0.05  # seconds: the watch refreshes at most this often
@@ -101,6 +136,17 @@ def quiet_needed(burst: float, min_quiet: float) -> float:
     return max(min_quiet, burst)
 
 
+def owed(pending: int, not_alive: int, unsure: int) -> int:
+    """How many of ``pending`` writers (matched, nothing delivered) may still be alive.
+
+    ``not_alive`` is how many matched writers Cyclone reports not alive; ``unsure``
+    how many of the *other* matched writers (those that have delivered) are not known
+    to be alive. At least ``not_alive - unsure`` of the pending writers are therefore
+    not alive, and owe nothing.
+    """
+    return pending - max(0, min(pending, not_alive - unsure))
+
+
 def is_settled(writers: int, pending: int, burst: float, quiet_for: float, min_quiet: float) -> bool:
     """The rule of this module: ``burst`` is first to last change, ``quiet_for`` last change to now."""
     return writers > 0 and pending == 0 and quiet_for >= quiet_needed(burst, min_quiet)
@@ -112,19 +158,26 @@ class DiscoveryState:
 
     participants: int  # remote participants known now
     state_writers: int  # ParameterEvents writers matched to the presence reader
-    pending_writers: int  # ... of which nothing has been delivered yet
+    pending_writers: int  # ... of which nothing has been delivered yet (not counting dead ones)
     last_change: float  # when discovery last changed
     burst: float  # how long the current burst of changes has lasted (first to last change)
     quiet_needed: float  # the silence rule 3 asks for, from last_change
     elapsed: float
     settled: bool
+    dead_writers: int = 0  # writers that delivered nothing and are certainly not alive (see owed())
+    liveliness: int = 0  # counts the liveliness changes seen: a waiting call re-checks its node when it moves
 
     def describe(self) -> str:
         """A short human account, for error messages."""
         if self.settled:
+            done = (
+                f"{self.dead_writers} not alive, the others delivered"
+                if self.dead_writers
+                else "all delivered"
+            )
             return (
                 f"discovery settled: {self.state_writers} parameter server writer(s) "
-                f"from {self.participants} remote participant(s), all delivered"
+                f"from {self.participants} remote participant(s), {done}"
             )
         if self.state_writers == 0:
             return f"no parameter server discovered yet ({self.participants} remote participant(s) known)"
@@ -164,7 +217,12 @@ class DiscoveryWatch:
         self._participants = BuiltinDataReader(participant, BuiltinTopicDcpsParticipant)
         self._new_participants = ReadCondition(self._participants, _NEW)
         self._remote: set[Any] = set()
+        self._arrivals = 0  # remote participants and state writers that appeared (leaving is no news)
+        self._writers_seen: set[int] = set()
         self._delivered: set[int] = set()  # publication handles that have delivered a sample
+        self._instance_of: dict[int, int] = {}  # a delivering writer -> one instance it delivered
+        self._not_alive = 0  # matched writers Cyclone reports not alive
+        self._liveliness_changes = 0
         self._instances = 0
         self._signature: tuple[int, ...] = ()
         self._started = clock()
@@ -190,29 +248,33 @@ class DiscoveryWatch:
         self._polled = now
         self._read_participants()
         self._read_deliveries()
+        self._read_liveliness()
         try:
             # the binding gives these handles signed, sample infos unsigned
             matched = {h & _U64 for h in matched_publications(self._reader)}
         except DDSException:
             matched = set()
-        matches = [len(matched)]
+        self._arrivals += len(matched - self._writers_seen)
+        self._writers_seen = matched
+        matches = []
         for entity in self._endpoints:
             status = (
                 entity.get_subscription_matched_status()
                 if hasattr(entity, "get_subscription_matched_status")
                 else entity.get_publication_matched_status()
             )
-            matches += [status.total_count, status.current_count]
-        signature = (len(self._remote), self._instances, *matches)
+            matches.append(status.total_count)
+        signature = (self._arrivals, self._instances, *matches)
         if signature != self._signature:
             burst = self._last_change - self._burst_start
             if now - self._last_change >= quiet_needed(burst, self._min_quiet):
                 self._burst_start = now  # the first change after a quiet period starts a new burst
             self._signature = signature
             self._last_change = now
-        pending = len(matched - self._delivered)
-        self._state = self._snapshot(now, len(matched), pending)
-        if not self._remote and not self._state.settled:
+        waiting = matched - self._delivered
+        dead = self._dead(matched, waiting)
+        self._state = self._snapshot(now, len(matched), len(waiting) - dead, dead)
+        if self._state.state_writers == 0 and not self._state.settled:
             self._maybe_probe(now)
 
     def _maybe_probe(self, now: float) -> None:
@@ -230,7 +292,45 @@ class DiscoveryWatch:
         self._own.add(probe.guid)
         self._probes.append(probe)
 
-    def _snapshot(self, now: float, writers: int, pending: int) -> DiscoveryState:
+    def _read_liveliness(self) -> None:
+        """Read the presence reader's LIVELINESS_CHANGED status (which resets its changes)."""
+        try:
+            status = self._reader.get_liveliness_changed_status()
+        except DDSException:
+            return
+        if (
+            status.alive_count_change
+            or status.not_alive_count_change
+            or status.not_alive_count != self._not_alive
+        ):
+            self._liveliness_changes += 1
+        self._not_alive = status.not_alive_count
+
+    def _dead(self, matched: set[int], pending: set[int]) -> int:
+        """How many of the ``pending`` writers are certainly not alive (see :func:`owed`)."""
+        if not pending or self._not_alive == 0:
+            return 0
+        unsure = 0
+        for handle in matched - pending:
+            if not self._known_alive(handle):
+                unsure += 1
+                if owed(len(pending), self._not_alive, unsure) == len(pending):
+                    return 0
+        return len(pending) - owed(len(pending), self._not_alive, unsure)
+
+    def _known_alive(self, writer: int) -> bool:
+        """Whether an instance ``writer`` delivered is alive (so the writer is, bar a twin)."""
+        instance = self._instance_of.get(writer)
+        if instance is None:
+            return False
+        try:
+            samples = self._reader.read(N=1, instance_handle=instance)
+        except DDSException:  # the instance is gone
+            return False
+        self._count(s.sample_info for s in samples)
+        return bool(samples) and samples[0].sample_info.instance_state == InstanceState.Alive
+
+    def _snapshot(self, now: float, writers: int, pending: int, dead: int = 0) -> DiscoveryState:
         burst = self._last_change - self._burst_start
         return DiscoveryState(
             participants=len(self._remote),
@@ -241,6 +341,8 @@ class DiscoveryWatch:
             quiet_needed=quiet_needed(burst, self._min_quiet),
             elapsed=now - self._started,
             settled=is_settled(writers, pending, burst, now - self._last_change, self._min_quiet),
+            dead_writers=dead,
+            liveliness=self._liveliness_changes,
         )
 
     def _read_participants(self) -> None:
@@ -249,6 +351,7 @@ class DiscoveryWatch:
             if key is None or key in self._own:
                 continue
             if sample.sample_info.instance_state == InstanceState.Alive:
+                self._arrivals += key not in self._remote
                 self._remote.add(key)
             else:
                 self._remote.discard(key)
@@ -267,7 +370,9 @@ class DiscoveryWatch:
         n = 0
         for info in infos:
             n += 1
-            self._delivered.add(info.publication_handle & _U64)
+            writer = info.publication_handle & _U64
+            self._delivered.add(writer)
+            self._instance_of.setdefault(writer, info.instance_handle)
             if info.sample_state == SampleState.NotRead and info.view_state == ViewState.New:
                 self._instances += 1  # a node or parameter not seen before
         return n

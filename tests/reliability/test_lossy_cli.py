@@ -4,9 +4,11 @@ Two network namespaces joined by a veth pair (``test_lossy_network.Hosts``); the
 server in one, 30 % of the packets arriving in the other dropped at random. Each
 pair is a fresh ``paramdds set`` then a fresh ``paramdds get`` of the same value
 with ``--timeout 10``, so every process discovers the server from nothing, over the
-lossy link. Zero "not present", zero wrong values, and at most
-:data:`MAX_SLOW_DISCOVERY` processes that run out of time in endpoint discovery
-(and say so); every other command succeeds.
+lossy link. Zero "not present", zero wrong values, zero timeouts: every command
+succeeds. (Until issue 24 the test allowed 2 processes in 200 that ended in TIMEOUT
+with "no parameter server discovered yet": the server's four answers to a newcomer
+were all lost, and because the process already knew the other CLI processes beside
+it, it never asked again; it now does, see :mod:`paramdds.dds.discovery`.)
 
 Concurrency: :data:`LANES` pairs run at once, each lane on a parameter of its own
 (so a lane's get can only see its own set). Concurrent processes do not help each
@@ -44,7 +46,6 @@ FRESH_CLIENTS = str(Path(__file__).with_name("netns_fresh_clients.py"))
 PAIRS = 100
 LANES = 4
 TIMEOUT = "10"
-MAX_SLOW_DISCOVERY = 2  # of 2 * PAIRS processes (see the end of the CLI test)
 
 
 def _params(lanes: int) -> str:
@@ -113,16 +114,10 @@ def test_fresh_cli_pairs_on_a_lossy_link_never_report_a_present_node_absent(
     assert hosts.dropped() > 100, "the loss rule dropped (almost) nothing: the test proved nothing"
     absent = [f for f in failures if "not present" in f]
     assert absent == [], absent[:5]
-    # What is left to fix (docs/reliability.md, "What does not hold"): now and then a fresh
-    # process has met the server's participant but not yet its endpoints when its 10 s run
-    # out (Cyclone's endpoint discovery at 30 % loss, not our presence rule). It must say so,
-    # and stay rare; anything else (a wrong value, another error) fails the test.
-    slow = [f for f in failures if "no parameter server discovered yet" in f]
-    assert len(slow) <= MAX_SLOW_DISCOVERY, slow
-    assert [f for f in failures if f not in slow] == [], failures[:5]
-    assert len(times) == 2 * PAIRS - sum(f.startswith("set ") for f in slow)
+    assert failures == [], failures[:5]
+    assert len(times) == 2 * PAIRS
     print(
-        f"lossy CLI: {len(times)} processes, {len(slow)} timed out in endpoint discovery; "
+        f"lossy CLI: {len(times)} processes, none failed; "
         "whole-process seconds: "
         f"median {statistics.median(times):.2f}, p90 {_percentile(times, 0.9):.2f}, "
         f"p99 {_percentile(times, 0.99):.2f}, max {max(times):.2f}"

@@ -9,8 +9,10 @@ UNKNOWN, never "not present", until it closes.
 
 from __future__ import annotations
 
+import sys
 import threading
 import time
+from pathlib import Path
 
 import pytest
 from cyclonedds.core import Entity
@@ -23,7 +25,7 @@ from paramdds.dds.discovery import PROBE_AFTER, Presence, is_settled
 from paramdds.dds.qos import QosProfiles
 from paramdds.errors import TimeoutError_, UnavailableError
 
-from .conftest import DDS, wait
+from .conftest import DDS, Proc, make_dds_env, wait
 
 
 @pytest.mark.parametrize(
@@ -170,3 +172,59 @@ def test_presence_after_close_answers_without_touching_deleted_entities(dds: DDS
     client.close()  # twice is harmless
     assert client.presence("kept") is Presence.ONLINE  # the reader is the participant's, still there
     assert client.discovery().state_writers == 1
+
+
+SILENT_WRITER = str(Path(__file__).with_name("silent_state_writer.py"))
+
+
+@pytest.mark.parametrize("lazy", [False, True], ids=["client", "lazy-client"])
+def test_a_silent_server_is_waited_for_while_alive_and_not_once_killed(
+    dds: DDS, domain_id: int, procs: list[Proc], lazy: bool
+) -> None:
+    """A remote state writer that owes its state holds a ghost UNKNOWN while it is alive
+    (a slow server), and no longer once it is killed: about a second later (its 1 s
+    liveliness lease), not after its 10 s participant lease, whatever the call's timeout.
+    ``lazy``: the client creates its presence reader only after the kill (as the CLI's
+    verbs do), so it matches a writer that is already not alive."""
+    dds.server(domain_id, ParameterTable("present"))
+    silent = Proc([sys.executable, SILENT_WRITER], make_dds_env(domain_id))
+    procs.append(silent)
+    silent.wait_for("ready", timeout=20)
+    client = dds.client(domain_id, lazy_presence=lazy)
+    if not lazy:
+        assert client.wait_for_node("present", timeout=5.0).online  # positive control
+        assert wait(lambda: client.discovery().state_writers == 2, timeout=5.0), client.discovery()
+        time.sleep(1.5)  # past the liveliness lease: the silent writer is alive, it still owes its state
+        state = client.discovery()
+        assert (state.pending_writers, state.dead_writers) == (1, 0), state
+        assert client.presence("ghost") is Presence.UNKNOWN
+        with pytest.raises(TimeoutError_, match="1 of 2 server"):
+            client.get("ghost", ["x"], timeout=0.8)
+    else:
+        assert client._discovery is None  # no presence reader yet
+        time.sleep(0.5)  # the client's participant has met the silent one (loopback: milliseconds)
+
+    killed = silent.kill()
+    with pytest.raises(UnavailableError, match="'ghost' is not present"):
+        client.get("ghost", ["x"], timeout=10.0)
+    assert time.monotonic() - killed < 1.5
+    state = client.discovery()
+    assert (state.state_writers, state.pending_writers, state.dead_writers) == (2, 0, 1), state
+    assert client.presence("present") is Presence.ONLINE
+
+
+def test_a_client_that_knows_only_other_clients_asks_again(
+    dds: DDS, domain_id: int, procs: list[Proc]
+) -> None:
+    """Probes are for "no parameter server yet", not "nobody yet": fresh CLI processes side by
+    side know each other at once, and one whose server answers were all lost must still ask
+    again (the rare lossy-link TIMEOUT of issue 24)."""
+    peer = Proc([sys.executable, SILENT_WRITER, "--no-writer"], make_dds_env(domain_id))
+    procs.append(peer)
+    peer.wait_for("ready", timeout=20)
+    client = dds.client(domain_id)
+    assert wait(lambda: client.discovery().participants >= 1, timeout=5.0)  # it knows the peer
+    with pytest.raises(TimeoutError_, match=r"no parameter server discovered yet \(1 remote"):
+        client.wait_for_node("nobody", timeout=PROBE_AFTER + 1.0)
+    watch = client._discovery
+    assert watch is not None and watch.probes == 1
