@@ -44,6 +44,7 @@ _IMPLEMENTATIONS = {
     "watch": "paramdds.cli._live:run_watch",
     "assign": "paramdds.cli._live:run_assign",
     "web": "paramdds.cli._web:run_web",
+    "ros2": "paramdds.cli._ros2:run_ros2",
 }
 
 

@@ -32,6 +32,7 @@ VERBS = (
     "watch",
     "assign",
     "web",
+    "ros2",
     "bench",
 )
 OUTPUTS = ("table", "yaml", "json")
@@ -167,6 +168,49 @@ def _client(p: Parser) -> None:
     )
 
 
+def _ros2(p: Parser) -> None:
+    p.add_argument(
+        "--mirror",
+        action="append",
+        default=[],
+        metavar="GLOB",
+        help="ROS 2 nodes (/ns/name globs) to mirror on paramdds; repeat (default: every node)",
+    )
+    p.add_argument(
+        "--exclude", action="append", default=[], metavar="GLOB", help="ROS 2 nodes never mirrored; repeat"
+    )
+    p.add_argument(
+        "--no-mirror", action="store_true", help="mirror no ROS 2 node (only expose paramdds nodes)"
+    )
+    p.add_argument(
+        "--expose",
+        action="append",
+        default=[],
+        metavar="GLOB",
+        help="paramdds nodes (globs) to serve to ROS 2 tools; repeat (default: none)",
+    )
+    p.add_argument(
+        "--ros-domain",
+        type=int,
+        metavar="N",
+        help="the ROS 2 domain (default: ROS_DOMAIN_ID, else 0); may differ from -d",
+    )
+    p.add_argument(
+        "--ros-timeout",
+        type=float,
+        default=5.0,
+        metavar="SECONDS",
+        help="how long a forwarded call waits for a ROS 2 node (default %(default)s)",
+    )
+    p.add_argument(
+        "--resync",
+        type=float,
+        default=60.0,
+        metavar="SECONDS",
+        help="re-read each mirrored node this often, 0 never (default %(default)s)",
+    )
+
+
 def _assignment_values(p: Parser) -> None:
     p.add_argument("assignments", nargs="*", metavar="NAME=VALUE", help="values typed as YAML scalars")
 
@@ -236,6 +280,8 @@ def build_parser(*, with_bench: bool = False) -> Parser:
         help="a bearer token (one word, 16+ characters) required for writes; "
         "needed to allow writes on a non-loopback --bind",
     )
+
+    _ros2(_verb(sub, "ros2", "mirror ROS 2 nodes on paramdds, expose paramdds nodes to ROS 2 (ros2 extra)"))
 
     if with_bench:
         _register_bench(sub)

@@ -69,6 +69,7 @@ def run_nodes(args: argparse.Namespace) -> int:
             "revision": st.revision,
             "also_hosted_by": list(st.duplicates),  # other processes hosting the same node id
             "request_filter": st.request_filter,  # "native", "handler", or None: the server does not say
+            "origin": st.origin,  # "ros2": a ROS 2 node mirrored by `paramdds ros2`; None: a paramdds node
         }
         for st in sorted(states.values(), key=lambda st: st.node)
         if st.online

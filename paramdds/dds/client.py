@@ -60,7 +60,7 @@ from .cdr import is_malformed
 from .convert import descriptor_from_wire, parameter_to_wire, value_from_wire
 from .discovery import MIN_QUIET, DiscoveryState, DiscoveryWatch, Presence
 from .dispatch import Dispatcher
-from .filters import NativeFilter, filtered_topic, request_filter_of
+from .filters import NativeFilter, filtered_topic, origin_of, request_filter_of
 from .participant import peer_mismatches
 from .qos import QosProfiles
 
@@ -85,6 +85,7 @@ class NodeInfo:
     revision: int
     parameters: int
     request_filter: str | None = None  # how the server filters requests: "native", "handler", or unsaid
+    origin: str | None = None  # "ros2": a ROS 2 node mirrored by `paramdds ros2`; None: a paramdds node
 
 
 @dataclass(frozen=True)
@@ -596,4 +597,5 @@ def _node_info(sample: Any) -> NodeInfo | None:
         sample.revision,
         sample.parameter_count,
         request_filter_of(tags),
+        origin_of(tags),
     )

@@ -45,6 +45,8 @@ __all__ = [
     "disable_native",
     "filter_tag",
     "filtered_topic",
+    "origin_of",
+    "origin_tag",
     "request_filter_of",
     "status",
 ]
@@ -78,6 +80,23 @@ def request_filter_of(tags: Iterable[object]) -> str | None:
     for tag in tags:
         if isinstance(tag, str) and tag.startswith(_TAG):
             return tag[len(_TAG) :]
+    return None
+
+
+_ORIGIN = "origin="
+
+
+def origin_tag(origin: str) -> str:
+    """The presence tag of a node hosted for another system (``origin=ros2``: a mirrored ROS 2 node)."""
+    return _ORIGIN + origin
+
+
+def origin_of(tags: Iterable[object]) -> str | None:
+    """Where a node comes from, from a presence value's tags: ``"ros2"`` for a ROS 2 node
+    mirrored by ``paramdds ros2``; None for a native paramdds node (no such tag)."""
+    for tag in tags:
+        if isinstance(tag, str) and tag.startswith(_ORIGIN):
+            return tag[len(_ORIGIN) :]
     return None
 
 

@@ -35,7 +35,7 @@ from ..core.names import canonical_node_id
 from ..core.values import ParameterValue
 from . import types as wire
 from .dispatch import Dispatcher
-from .filters import request_filter_of
+from .filters import origin_of, request_filter_of
 from .participant import poll_peers
 from .qos import QosProfiles
 from .state import StateKey, StateSample, decode_key, decode_state
@@ -78,6 +78,7 @@ class NodeState:
     duplicates: list[str] = field(default_factory=list)
     writer: int = 0  # the publication handle of the last presence sample
     request_filter: str | None = None  # "native" or "handler" as the server says; None if it does not
+    origin: str | None = None  # "ros2": a ROS 2 node mirrored by `paramdds ros2`; None: a paramdds node
     parameters: dict[str, tuple[ParameterValue, ParameterDescriptor]] = field(default_factory=dict)
 
     @property
@@ -241,6 +242,7 @@ class ParameterMonitor:
         state.revision, state.announced = s.revision, s.parameter_count
         tags = s.value.value  # a string array of the server's tags, or NOT_SET
         state.request_filter = request_filter_of(tags) if isinstance(tags, tuple) else None
+        state.origin = origin_of(tags) if isinstance(tags, tuple) else None
         return self._set_online(state, info.instance_state == InstanceState.Alive)
 
     def _set_online(self, state: NodeState, online: bool) -> MonitorEvent | None:
