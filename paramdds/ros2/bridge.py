@@ -106,11 +106,10 @@ class Bridge:
         """One look at both graphs (the loop's body)."""
         graph = self.ros.graph()
         writers = self.ros.event_publishers()
-        ours = (self.server._host, self.server._pid)
-        on_paramdds: dict[str, Any] = {}
-        for info in self.client.nodes():
-            if info.online and (info.host, info.pid) != ours:
-                on_paramdds[info.node] = info
+        ours = self.server.nodes  # the mirrors this bridge hosts
+        on_paramdds = {
+            info.node: info for info in self.client.nodes() if info.online and info.node not in ours
+        }
         wanted: dict[str, frozenset[bytes]] = {}
         for fqn, enclave in graph.items():
             if enclave == ENCLAVE or not matches(fqn, self.options.mirror, self.options.exclude):
