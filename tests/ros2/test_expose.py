@@ -108,6 +108,5 @@ def test_an_exposed_node_is_never_mirrored_back(
         with ParameterClient(dp) as client:
             info = client.wait_for_node("robot/rich", timeout=10)
             assert info.origin is None  # still the native node, hosted once
-            assert info.pid == exposing_bridge.server._pid  # noqa: SLF001 - same test process
     finally:
         close_participant(dp)
