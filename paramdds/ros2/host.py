@@ -121,9 +121,7 @@ def main(argv: list[str] | None = None) -> int:
             wanted.append((ns or "/", name))
     nodes: dict[str, Any] = {}
     for ns, name in wanted:
-        node = rclpy.create_node(
-            name, namespace=ns, automatically_declare_parameters_from_overrides=True, enable_rosout=False
-        )
+        node = rclpy.create_node(name, namespace=ns, automatically_declare_parameters_from_overrides=True)
         nodes[node.get_fully_qualified_name()] = node
     for fqn in args.rich:
         _rich(nodes[fqn])

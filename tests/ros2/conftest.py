@@ -22,12 +22,11 @@ from typing import Any
 
 import pytest
 
+from paramdds.bench.ros2 import find_realworld
 from paramdds.ros2 import missing
 from tests.conftest import make_dds_env
 
-REALWORLD = Path(__file__).resolve().parents[3] / "shared" / "realworld"
-if not REALWORLD.is_dir():
-    REALWORLD = Path("/work/shared/realworld")
+REALWORLD = find_realworld()
 ORACLE = Path(__file__).with_name("ros_oracle.py")
 
 

@@ -87,6 +87,8 @@ def mirrored(monitor: ParameterMonitor, fqn: str) -> dict[str, Any] | None:
 def test_mirrored_state_equals_the_rclpy_nodes_for_the_realworld_files(
     ros_env: dict[str, str], ros_hosts: Any, bridge: Any, paramdds_side: Any
 ) -> None:
+    if REALWORLD is None:
+        pytest.skip("the real parameter files (shared/realworld) are not beside this checkout")
     # the parameter files (the others are generate_parameter_library specs, not for rcl)
     files = sorted(str(p) for p in REALWORLD.glob("*.yaml") if "ros__parameters" in p.read_text())
     assert len(files) >= 5
