@@ -70,7 +70,7 @@ def realworld_sets(where: Path) -> list[dict[str, Any]]:
         if isinstance(doc, dict):
             for key, sub in doc.items():
                 if key == "ros__parameters" and isinstance(sub, dict) and sub:
-                    sets.append(sub)
+                    sets.append(_valid(sub))
                 else:
                     walk(sub)
 
@@ -79,6 +79,18 @@ def realworld_sets(where: Path) -> list[dict[str, Any]]:
         if "ros__parameters" in text:
             walk(yaml.safe_load(text))
     return sets
+
+
+def _valid(params: dict[str, Any]) -> dict[str, Any]:
+    """``params`` without the names paramdds refuses (both systems get the same set): in
+    these files only ``$(var tf_prefix)…``, a launch substitution left in a file."""
+    from ..core.names import is_valid_name
+
+    return {
+        k: _valid(v) if isinstance(v, dict) else v
+        for k, v in params.items()
+        if is_valid_name(str(k)) and (not isinstance(v, dict) or _valid(v))
+    }
 
 
 def host_files(tmp: Path, n: int, hosts: int, sets: list[dict[str, Any]]) -> list[tuple[Path, list[str]]]:
@@ -91,9 +103,14 @@ def host_files(tmp: Path, n: int, hosts: int, sets: list[dict[str, Any]]) -> lis
             for node, i in zip(nodes, range(h, n, hosts), strict=True)
         }
         path = tmp / f"n{n}_host{h}.yaml"
-        path.write_text(yaml.safe_dump(doc, sort_keys=False))
+        path.write_text(yaml.dump(doc, Dumper=_NoAliases, sort_keys=False))  # rcl refuses aliases
         out.append((path, nodes))
     return out
+
+
+class _NoAliases(yaml.SafeDumper):
+    def ignore_aliases(self, data: Any) -> bool:
+        return True
 
 
 class Host:

@@ -140,8 +140,8 @@ _REASONS: tuple[tuple[re.Pattern[str], ErrorCode], ...] = tuple(
     (re.compile(pattern), code)
     for pattern, code in (
         (r"read[- ]only", ErrorCode.READ_ONLY),
-        (r"undeclared|not (been )?declared|not found", ErrorCode.NOT_FOUND),
         (r"wrong parameter type|static parameter|statically typed|cannot undeclare", ErrorCode.TYPE_MISMATCH),
+        (r"undeclared|not (been )?declared|not found", ErrorCode.NOT_FOUND),
         (r"out of range|valid step", ErrorCode.OUT_OF_RANGE),
     )
 )

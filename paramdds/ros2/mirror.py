@@ -153,7 +153,8 @@ class MirrorTable(ParameterTable):
         results: list[SetResult | None] = [None] * len(request)
         send: list[tuple[int, Parameter]] = []
         for i, p in enumerate(request):
-            if not isinstance(p, Parameter) or not is_valid_name(p.name):
+            # a name paramdds refuses but the node has (ROS 2 allows more) is forwarded
+            if not isinstance(p, Parameter) or not (is_valid_name(p.name) or self.has(p.name)):
                 name = getattr(p, "name", "")
                 results[i] = SetResult(
                     str(name), False, f"invalid parameter name {name!r}", ErrorCode.INVALID_NAME
