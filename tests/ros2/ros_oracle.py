@@ -130,6 +130,39 @@ class Oracle:
         typed(["anything"])
         return out
 
+    def events(self, fqn: str) -> list[Any]:
+        """Print ``listening`` once subscribed, then the first /parameter_events message of
+        ``fqn`` (new, changed and deleted names with raw values)."""
+        from rcl_interfaces.msg import ParameterEvent
+        from rclpy.qos import qos_profile_parameter_events
+
+        got: list[Any] = []
+
+        def on_event(msg: Any) -> None:
+            if msg.node == fqn and not got:
+                got.append(
+                    {
+                        "new": [[p.name, raw_value(p.value)] for p in msg.new_parameters],
+                        "changed": [[p.name, raw_value(p.value)] for p in msg.changed_parameters],
+                        "deleted": [p.name for p in msg.deleted_parameters],
+                    }
+                )
+
+        self.node.create_subscription(
+            ParameterEvent, "/parameter_events", on_event, qos_profile_parameter_events
+        )
+        import time
+
+        deadline = time.monotonic() + TIMEOUT
+        while not self.node.get_publishers_info_by_topic("/parameter_events") and time.monotonic() < deadline:
+            self.rclpy.spin_once(self.node, timeout_sec=0.05)
+        for _ in range(10):  # let the match settle both ways
+            self.rclpy.spin_once(self.node, timeout_sec=0.05)
+        print("listening", flush=True)
+        while not got and time.monotonic() < deadline + TIMEOUT:
+            self.rclpy.spin_once(self.node, timeout_sec=0.05)
+        return got
+
     def close(self) -> None:
         self.node.destroy_node()
         self.rclpy.try_shutdown()
@@ -138,7 +171,9 @@ class Oracle:
 def main() -> int:
     oracle = Oracle()
     try:
-        if sys.argv[1] == "dump":
+        if sys.argv[1] == "events":
+            print(json.dumps(oracle.events(sys.argv[2])))
+        elif sys.argv[1] == "dump":
             print(json.dumps({fqn: oracle.dump(fqn) for fqn in sys.argv[2:]}))
         else:
             print(json.dumps(oracle.scenario(sys.argv[2])))

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
 from collections.abc import Iterator
 from typing import Any
 
@@ -15,7 +18,7 @@ from paramdds.dds.client import ParameterClient
 from paramdds.dds.participant import close_participant, make_participant
 from paramdds.dds.server import ParameterServer
 
-from .conftest import oracle
+from .conftest import ORACLE, oracle
 from .test_mirror import wait_for
 
 pytestmark = pytest.mark.timeout(180)
@@ -110,3 +113,30 @@ def test_an_exposed_node_is_never_mirrored_back(
             assert info.origin is None  # still the native node, hosted once
     finally:
         close_participant(dp)
+
+
+def test_an_exposed_nodes_changes_reach_ros2_parameter_events(
+    ros_env: dict[str, str], exposing_bridge: Any, domain_id: int
+) -> None:
+    wait_for(lambda: "robot/rich" in exposing_bridge.exposer.nodes, 20, "the node exposed")
+    listener = subprocess.Popen(
+        [sys.executable, str(ORACLE), "events", "/robot/rich"],
+        env=ros_env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+    )
+    dp = make_participant(domain_id, localhost=True)
+    try:
+        assert listener.stdout is not None
+        assert listener.stdout.readline().strip() == "listening"
+        with ParameterClient(dp) as client:
+            assert client.set("robot/rich", {"limits.speed": 4.5}).successful
+        out, _ = listener.communicate(timeout=30)
+    finally:
+        close_participant(dp)
+        if listener.poll() is None:
+            listener.kill()
+            listener.communicate()
+    (event,) = json.loads(out)
+    assert event == {"new": [], "changed": [["limits.speed", {"type": 3, "value": 4.5}]], "deleted": []}

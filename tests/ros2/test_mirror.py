@@ -275,3 +275,38 @@ def test_a_hanging_callback_delays_only_its_node(
     # once the bridge gave up on the call, the node is online again and answers
     client.wait_for_node("hanger", timeout=10)
     assert client.get("hanger", ["hang"]).values()["hang"] == ParameterValue.from_python(0)
+
+
+SHORT_LEASE = """<?xml version="1.0" encoding="UTF-8" ?>
+<profiles xmlns="http://www.eprosima.com">
+  <participant profile_name="short_lease" is_default_profile="true">
+    <rtps>
+      <builtin>
+        <discovery_config>
+          <leaseDuration><sec>3</sec></leaseDuration>
+          <leaseAnnouncement><sec>1</sec></leaseAnnouncement>
+        </discovery_config>
+      </builtin>
+    </rtps>
+  </participant>
+</profiles>
+"""
+
+
+def test_a_killed_node_goes_offline_within_the_lease_its_process_announced(
+    ros_env: dict[str, str], bridge: Any, paramdds_side: Any, tmp_path: Any
+) -> None:
+    """docs/ros2.md: a Fast DDS profile with a 3 s lease in the ROS 2 process (not the bridge)
+    makes a kill -9 show offline within about that, instead of the default 20 s."""
+    profile = tmp_path / "short_lease.xml"
+    profile.write_text(SHORT_LEASE)
+    host = RosHost({**ros_env, "FASTDDS_DEFAULT_PROFILES_FILE": str(profile)}, "--node", "/arm/brief")
+    client, monitor = paramdds_side
+    try:
+        client.wait_for_node("arm/brief", timeout=30)
+        killed = time.monotonic()
+        host.kill()
+        wait_for(lambda: monitor.snapshot()["arm/brief"].online is False, 10, "offline after the lease")
+        assert time.monotonic() - killed < 8.0  # 3 s lease, the bridge's 0.5 s look, margin for load
+    finally:
+        host.close()
