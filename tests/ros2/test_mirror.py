@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import signal
 import subprocess
 import sys
 import threading
@@ -310,3 +311,30 @@ def test_a_killed_node_goes_offline_within_the_lease_its_process_announced(
         assert time.monotonic() - killed < 8.0  # 3 s lease, the bridge's 0.5 s look, margin for load
     finally:
         host.close()
+
+
+def test_the_cli_verb_bridges_and_nodes_shows_the_origin(ros_env: dict[str, str], ros_hosts: Any) -> None:
+    ros_hosts("--rich", "/robot/rich")
+    bridge = subprocess.Popen(
+        [sys.executable, "-m", "paramdds.cli", "ros2", "--exclude", "/other/*"],
+        env=ros_env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert bridge.stdout is not None
+        banner = bridge.stdout.readline()
+        assert (
+            f"ROS 2 domain {ros_env['ROS_DOMAIN_ID']} and paramdds domain {ros_env['PARAMDDS_DOMAIN']}"
+            in banner
+        )
+        got = paramdds_cli(ros_env, "get", "/robot/rich", "mode", "-o", "json")
+        assert got.returncode == 0, got.stderr
+        assert json.loads(got.stdout) == {"mode": "auto"}
+        nodes = json.loads(paramdds_cli(ros_env, "nodes", "-o", "json").stdout)
+        assert [(n["node"], n["origin"]) for n in nodes] == [("robot/rich", "ros2")]
+    finally:
+        bridge.send_signal(signal.SIGINT)
+        _, err = bridge.communicate(timeout=30)
+    assert bridge.returncode == 130, err
