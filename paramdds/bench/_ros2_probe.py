@@ -13,6 +13,7 @@ Modes (each prints one JSON line and exits):
 * ``dds-dump N PREFIX TIMEOUT``: a paramdds monitor until every node ``PREFIX####`` is
   complete or offline (a node of a killed host goes offline within the lease).
 * ``dds-warm NODE NAME COUNT``: the same as ros-warm with a paramdds client.
+* ``dds-graph``: topics, endpoints and participants of the paramdds system.
 """
 
 from __future__ import annotations
@@ -221,6 +222,27 @@ def dds_warm(node: str, name: str, count: int) -> dict[str, Any]:
     return {"get_ms": gets, "set_ms": sets}
 
 
+def dds_graph() -> dict[str, int]:
+    """Topics, endpoints and participants of the paramdds system, from the builtin topics
+    (endpoints of user topics, this counting participant's own left out)."""
+    from paramdds.bench._dds import _builtin_reader, _rows
+    from paramdds.dds.participant import make_participant
+
+    dp = make_participant(int(sys.argv[-1]), localhost=True)
+    time.sleep(1.0)  # discovery of every endpoint
+    rows = [
+        s
+        for which in ("publication", "subscription")
+        for s in _rows(_builtin_reader(dp, which))
+        if not s.topic_name.startswith("DCPS") and s.participant_key != dp.guid
+    ]
+    return {
+        "topics": len({s.topic_name for s in rows}),
+        "endpoints": len(rows),
+        "participants": len({s.participant_key for s in rows}),
+    }
+
+
 def main() -> int:
     mode, args = sys.argv[1], sys.argv[2:]
     if mode == "ros-dump":
@@ -231,6 +253,8 @@ def main() -> int:
         out = ros_warm(args[0], args[1], int(args[2]))
     elif mode == "dds-dump":
         out = dds_dump(int(args[0]), args[1], float(args[2]))
+    elif mode == "dds-graph":
+        out = dds_graph()
     elif mode == "dds-warm":
         out = dds_warm(args[0], args[1], int(args[2]))
     else:

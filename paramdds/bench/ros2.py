@@ -322,7 +322,7 @@ def measure(
         row["dds_get_ms"] = median(gets)
         warm = probe("dds-warm", node0, "bench_gain", requests, domain, env=env)[1]
         row["dds_warm_get"], row["dds_warm_set"] = stats(warm["get_ms"]), stats(warm["set_ms"])
-        row["dds_graph"] = dds_graph(args.domain)
+        row["dds_graph"] = probe("dds-graph", domain, env=env)[1]
         ms, out = killed_during("dds-dump", servers[0], n, f"{ROS_NS}/{PREFIX}", 60, domain, env=env)
         row["dds_kill_ms"], row["dds_kill_complete"] = ms, out["complete"]
     finally:
@@ -364,30 +364,6 @@ def bridge_time(n: int, env: dict[str, str], args: argparse.Namespace, domain: i
         except subprocess.TimeoutExpired:
             bridge.kill()
             bridge.wait()
-
-
-def dds_graph(domain: int) -> dict[str, int]:
-    """Topics, endpoints and participants of the paramdds system, from the builtin topics
-    (endpoints of user topics other than this counting participant's)."""
-    from ..dds.participant import close_participant, make_participant
-    from ._dds import _builtin_reader, _rows
-
-    dp = make_participant(domain, localhost=True)
-    try:
-        time.sleep(1.0)  # discovery of every endpoint
-        rows = [
-            s
-            for which in ("publication", "subscription")
-            for s in _rows(_builtin_reader(dp, which))
-            if not s.topic_name.startswith("DCPS") and s.participant_key != dp.guid
-        ]
-    finally:
-        close_participant(dp)
-    return {
-        "topics": len({s.topic_name for s in rows}),
-        "endpoints": len(rows),
-        "participants": len({s.participant_key for s in rows}),
-    }
 
 
 def table(rows: list[dict[str, Any]], hosts: int, sets: int) -> str:

@@ -52,7 +52,7 @@ class RosLink:
         self._clients: dict[str, Any] = {}
         self._lock = threading.Lock()
 
-    def _call(self, service: str, request: Any) -> Any:
+    def _client(self, service: str) -> Any:
         from rcl_interfaces import srv
 
         kinds = {
@@ -66,12 +66,17 @@ class RosLink:
             client = self._clients.get(service)
             if client is None:
                 client = self._clients[service] = self.ros.client(kinds[service], f"{self.fqn}/{service}")
-        return self.ros.call(client, request, self.timeout)
+        return client
+
+    def _call(self, service: str, request: Any) -> Any:
+        return self.ros.call(self._client(service), request, self.timeout)
 
     def fetch(self) -> dict[str, Entry]:
         """Every parameter of the node with its value and descriptor (list, get, describe)."""
         from rcl_interfaces import srv
 
+        for service in ("get_parameters", "describe_parameters"):
+            self._client(service)  # created now, they match the node's services while we list
         listed = self._call("list_parameters", srv.ListParameters.Request(depth=0))
         names = sorted(set(listed.result.names))
         return self.entries(names)
@@ -278,7 +283,7 @@ class Mirror:
         *,
         timeout: float,
         resync: float,
-        sync_threads: int = 8,
+        sync_threads: int = 16,
     ) -> None:
         self.ros = ros
         self._host, self._unhost, self._forget = host, unhost, forget
