@@ -2,10 +2,11 @@
 
 Modes (each prints one JSON line and exits):
 
-* ``ros-dump N PREFIX TIMEOUT``: an rclpy process that learns the whole system as a good
-  tool would: waits for the N nodes in the graph, then lists, gets and describes every
-  node concurrently (every request in flight at once), each node bounded by TIMEOUT;
-  then counts the ROS 2 graph (topics, services, endpoints, participants; not timed).
+* ``ros-dump N PREFIX TIMEOUT QUIET``: an rclpy process that learns the whole system as a
+  good tool would: waits for the N nodes in the graph (or, QUIET > 0, until no new one
+  appeared for QUIET seconds), then lists, gets and describes every node concurrently
+  (every request in flight at once), each node bounded by TIMEOUT; then counts the
+  ROS 2 graph (topics, services, endpoints, participants; not timed).
 * ``ros-get NODE NAME``: one get through ``AsyncParameterClient`` (whole-process time
   is measured by the caller).
 * ``ros-warm NODE NAME COUNT``: COUNT gets then COUNT sets of NAME (a double), one at a
@@ -24,7 +25,6 @@ import time
 from typing import Any
 
 T0 = time.perf_counter()
-QUIET = 2.0  # seconds without a new node before an rclpy dump stops waiting for more
 
 
 def _ms(t: float) -> float:
@@ -45,7 +45,7 @@ def _ros() -> Any:
     return rclpy, rclpy.create_node("paramdds_bench_probe", enable_rosout=False)
 
 
-def ros_dump(n: int, prefix: str, timeout: float) -> dict[str, Any]:
+def ros_dump(n: int, prefix: str, timeout: float, quiet: float) -> dict[str, Any]:
     from rclpy.parameter_client import AsyncParameterClient
 
     rclpy, node = _ros()
@@ -58,8 +58,9 @@ def ros_dump(n: int, prefix: str, timeout: float) -> dict[str, Any]:
         present = {f"{ns.rstrip('/')}/{name}" for name, ns in node.get_node_names_and_namespaces()} & wanted
         if present != seen:
             seen, changed = present, time.perf_counter()
-        # all there, or (as a tool that does not know N would) the graph quiet for QUIET s
-        if seen == wanted or (seen and time.perf_counter() - changed > QUIET):
+        # all there, or (``quiet`` > 0: a tool that cannot know a host died) no new node for
+        # ``quiet`` seconds
+        if seen == wanted or (quiet > 0 and seen and time.perf_counter() - changed > quiet):
             break
         rclpy.spin_once(node, timeout_sec=0.01)
     discovered = _ms(t_start)
@@ -246,7 +247,7 @@ def dds_graph() -> dict[str, int]:
 def main() -> int:
     mode, args = sys.argv[1], sys.argv[2:]
     if mode == "ros-dump":
-        out = ros_dump(int(args[0]), args[1], float(args[2]))
+        out = ros_dump(int(args[0]), args[1], float(args[2]), float(args[3]))
     elif mode == "ros-get":
         out = ros_get(args[0], args[1])
     elif mode == "ros-warm":

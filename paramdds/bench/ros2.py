@@ -7,16 +7,18 @@ paramdds.ros2.host`` (rclpy nodes, single-threaded executor) and ``paramdds serv
 For each N of ``--nodes`` (default 10, 100, 300):
 
 * ``state``: whole-process time of a fresh process that holds every node's parameters
-  and descriptors: rclpy waits for the N nodes in its graph, then lists, gets and
-  describes all of them concurrently; paramdds starts a monitor until all are complete;
+  and descriptors: rclpy waits for the N nodes in its graph (it is told N), then lists,
+  gets and describes all of them concurrently; paramdds starts a monitor until all
+  are complete;
 * ``get``: whole-process time of one fresh get (an rclpy AsyncParameterClient; ``paramdds
   get``), median of ``--rounds``;
 * ``warm get / set``: p50 and p99 over ``--requests`` calls to one node from one process;
 * ``graph``: topics (+ services for ROS 2), endpoints, DDS participants;
 * ``kill -9``: a host killed 0.3 s after a fresh state process started: how long that
-  process takes (rclpy waits for each dead node's timeout, 5 s here; paramdds sees the
-  dead host's nodes offline within its 1 s lease, or never sees them) and how many
-  nodes it got;
+  process takes and how many nodes it got. The rclpy process cannot know a host died:
+  it waits until no new node appeared for 2 s, then for each node in its graph (the
+  dead host's stay there for Fast DDS's 20 s lease) up to its 5 s timeout; paramdds
+  sees the dead host's nodes offline within its 1 s lease, or never sees them;
 * ``bridge``: ``paramdds ros2`` started beside the rclpy system: time from its start
   until a fresh paramdds process holds all N mirrored nodes.
 
@@ -45,6 +47,7 @@ PREFIX = "bench_n"
 ROS_NS = "bench"
 KILL_AFTER = 0.3  # seconds after the state process starts
 ROS_NODE_TIMEOUT = 5.0  # the rclpy dump's timeout per node
+QUIET = 2.0  # with a host killed, the rclpy dump stops waiting for nodes after this long without a new one
 
 
 def find_realworld() -> Path | None:
@@ -256,7 +259,7 @@ def measure(
     ]
     try:
         dumps = [
-            probe("ros-dump", n, f"/{ROS_NS}/{PREFIX}", ROS_NODE_TIMEOUT, env=env) for _ in range(rounds)
+            probe("ros-dump", n, f"/{ROS_NS}/{PREFIX}", ROS_NODE_TIMEOUT, 0, env=env) for _ in range(rounds)
         ]
         row["params"] = dumps[0][1]["params"]
         row["ros_state_ms"] = median([d[0] for d in dumps])
@@ -270,7 +273,9 @@ def measure(
         note(f"N={n}: the bridge")
         row["bridge_ms"] = bridge_time(n, env, args, bridge_domain)
         note(f"N={n}: ROS 2 state with a host killed")
-        ms, out = killed_during("ros-dump", ros[0], n, f"/{ROS_NS}/{PREFIX}", ROS_NODE_TIMEOUT, env=env)
+        ms, out = killed_during(
+            "ros-dump", ros[0], n, f"/{ROS_NS}/{PREFIX}", ROS_NODE_TIMEOUT, QUIET, env=env
+        )
         row["ros_kill_ms"], row["ros_kill_complete"] = ms, out["complete"]
     finally:
         for h in ros:
