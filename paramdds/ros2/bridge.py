@@ -122,7 +122,9 @@ class Bridge:
             wanted[fqn] = writers.get(fqn, frozenset())
         self.mirror.update(wanted, time.monotonic())
         if self.exposer is not None:
-            ros_nodes = {f.lstrip("/") for f, e in graph.items() if e != ENCLAVE}
+            # a name taken in ROS 2 by anyone but this bridge's own exposed nodes (a ROS 2
+            # node, or another bridge's exposure of the same paramdds node) is not exposed
+            ros_nodes = {f.lstrip("/") for f in graph} - set(self.exposer.nodes)
             exposed = {
                 node: info
                 for node, info in on_paramdds.items()

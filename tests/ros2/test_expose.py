@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import time
 from collections.abc import Iterator
 from typing import Any
 
@@ -140,3 +141,25 @@ def test_an_exposed_nodes_changes_reach_ros2_parameter_events(
             listener.communicate()
     (event,) = json.loads(out)
     assert event == {"new": [], "changed": [["limits.speed", {"type": 3, "value": 4.5}]], "deleted": []}
+
+
+def test_two_bridges_never_loop_a_node(
+    ros_env: dict[str, str], ros_hosts: Any, exposing_bridge: Any, domain_id: int
+) -> None:
+    """Bridge A exposes the paramdds node robot/rich and mirrors /twin/rich; bridge B mirrors
+    and exposes everything it may: it mirrors neither A's exposed node (bridge enclave) nor
+    what is already on paramdds, and exposes none of A's mirrors (origin ros2)."""
+    from paramdds.ros2.bridge import Bridge, BridgeOptions
+
+    ros_hosts("--rich", "/twin/rich")
+    wait_for(lambda: "robot/rich" in exposing_bridge.exposer.nodes, 20, "robot/rich exposed by A")
+    wait_for(lambda: "twin/rich" in exposing_bridge.server.nodes, 20, "/twin/rich mirrored by A")
+    dp = make_participant(domain_id, localhost=True)
+    other = Bridge(dp, None, BridgeOptions(expose=("*",), resync=0)).start()
+    try:
+        time.sleep(4.0)  # B's discovery wait (up to 3 s) and a few looks at both graphs
+        assert other.server.nodes == {}  # nothing mirrored twice, nothing mirrored back
+        assert other.exposer.nodes == {}  # robot/rich is a ROS 2 node already (A's); twin/rich is a mirror
+    finally:
+        other.close()
+        close_participant(dp)

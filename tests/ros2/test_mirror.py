@@ -338,3 +338,27 @@ def test_the_cli_verb_bridges_and_nodes_shows_the_origin(ros_env: dict[str, str]
         bridge.send_signal(signal.SIGINT)
         _, err = bridge.communicate(timeout=30)
     assert bridge.returncode == 130, err
+
+
+def test_the_periodic_resync_repairs_a_mirror_that_missed_a_change(
+    ros_env: dict[str, str], ros_hosts: Any, domain_id: int, paramdds_side: Any
+) -> None:
+    from paramdds.ros2.bridge import Bridge, BridgeOptions
+
+    ros_hosts("--rich", "/robot/rich")
+    dp = make_participant(domain_id, localhost=True)
+    bridge = Bridge(dp, None, BridgeOptions(timeout=2.0, resync=1.0)).start()
+    try:
+        client, _ = paramdds_side
+        client.wait_for_node("robot/rich", timeout=30)
+        mirrored = wait_for(lambda: bridge.mirror.nodes.get("/robot/rich"), 10, "the mirror")
+        # as if a /parameter_events sample had been lost: the mirror holds a stale value
+        value, desc = mirrored.table.snapshot()[[n for n, *_ in mirrored.table.snapshot()].index("mode")][1:]
+        mirrored.table.mirror({"mode": (ParameterValue.from_python("stale"), desc)})
+        assert client.get("robot/rich", ["mode"]).values()["mode"] == ParameterValue.from_python("stale")
+        wait_for(
+            lambda: client.get("robot/rich", ["mode"]).values()["mode"] == value, 10, "the resync's repair"
+        )
+    finally:
+        bridge.close()
+        close_participant(dp)
