@@ -191,8 +191,10 @@ def test_nodes_json_lists_every_live_node(c: Cluster) -> None:
         "revision",
         "also_hosted_by",
         "request_filter",
+        "origin",
     }
     assert by_name["robot1"]["also_hosted_by"] == []
+    assert by_name["robot1"]["origin"] is None  # a paramdds node (a ROS 2 mirror says "ros2")
     assert by_name["robot1"]["request_filter"] == ("native" if filters.NATIVE else "handler")
     assert by_name["robot1"]["online"] is True and by_name["robot1"]["parameters"] == 18
     assert by_name["robot1"]["pid"] == by_name["robot2"]["pid"] == c.procs[0].popen.pid
