@@ -25,7 +25,10 @@ def test_mirror_commits_as_given_in_one_revision_without_callbacks() -> None:
     wide = ParameterDescriptor("count", ParameterType.INTEGER, integer_range=IntegerRange(0, 10, 2))
     change = t.mirror({"count": (_v(13), wide), "gone": None, "keep": (_v(1), t.describe_one("keep"))})
     assert change is not None and change.revision == before + 1 == t.revision
-    assert {(c.kind, c.name) for c in change.changes} == {(ChangeKind.NEW, "count"), (ChangeKind.DELETED, "gone")}
+    assert {(c.kind, c.name) for c in change.changes} == {
+        (ChangeKind.NEW, "count"),
+        (ChangeKind.DELETED, "gone"),
+    }
     assert seen == [change] and vetoed == []
     assert t.get("count") == _v(13) and t.describe_one("count") == wide and not t.has("gone")
 
