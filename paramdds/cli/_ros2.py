@@ -15,7 +15,7 @@ def run_ros2(args: argparse.Namespace) -> int:
 
     reason = missing()
     if reason:
-        raise UsageError(f"'paramdds ros2' needs {reason}")
+        raise UsageError(f"'paramdds ros2' cannot run: {reason}")
     if args.ros_timeout <= 0:
         raise UsageError(f"--ros-timeout must be a positive number of seconds, got {args.ros_timeout}")
     if args.ros_domain is not None and not 0 <= args.ros_domain <= 232:

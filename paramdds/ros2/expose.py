@@ -46,6 +46,7 @@ class Exposer:
         self.timeout = timeout
         self.client = ParameterClient(participant, qos, timeout=timeout)
         self.nodes: dict[str, Exposed] = {}
+        self._refused: set[str] = set()  # node ids ROS 2 does not accept as names
         self._lock = threading.Lock()
         self._publisher = ros.node.create_publisher(
             ParameterEvent, "/parameter_events", qos_profile_parameter_events
@@ -57,7 +58,7 @@ class Exposer:
             current = set(self.nodes)
         for node_id in current - wanted.keys():
             self._remove(node_id)
-        for node_id in wanted.keys() - current:
+        for node_id in wanted.keys() - current - self._refused:
             self._add(node_id)
 
     def _add(self, node_id: str) -> None:
@@ -66,6 +67,7 @@ class Exposer:
             ros_node = self.ros.create_node(name, ns or "/")
         except Exception as exc:  # a paramdds node id that is no valid ROS 2 name
             log.warning("cannot expose %r to ROS 2: %s", node_id, exc)
+            self._refused.add(node_id)  # said once, not tried again every look
             return
         self._services(ros_node, node_id)
         with self._lock:

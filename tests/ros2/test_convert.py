@@ -89,3 +89,29 @@ def test_descriptors_survive_the_rcl_interfaces_message() -> None:
         ParameterDescriptor("c", ParameterType.STRING, dynamic_typing=True),
     ):
         assert descriptor_from_ros(descriptor_to_ros(d), d.name) == d
+
+
+def test_bench_ros2_skips_with_the_reason_without_the_extra(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import argparse
+
+    import paramdds.ros2
+    from paramdds.bench import ros2 as bench
+
+    monkeypatch.setattr(paramdds.ros2, "missing", lambda: "the ros2 extra is not installed (rclpy missing)")
+    assert bench.run(argparse.Namespace(output="json")) == 0
+    out = capsys.readouterr()
+    assert '"skipped": "the ros2 extra is not installed (rclpy missing)"' in out.out
+    assert "skipped" in out.err
+
+
+def test_the_ros2_verb_says_what_to_install_without_the_extra(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import paramdds.ros2
+    from paramdds.cli import main
+
+    monkeypatch.setattr(paramdds.ros2, "missing", lambda: "the ros2 extra is not installed (rclpy missing)")
+    assert main(["ros2"]) == 2
+    assert "'paramdds ros2' cannot run: the ros2 extra is not installed (rclpy missing)" in capsys.readouterr().err
