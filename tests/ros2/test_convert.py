@@ -114,4 +114,7 @@ def test_the_ros2_verb_says_what_to_install_without_the_extra(
 
     monkeypatch.setattr(paramdds.ros2, "missing", lambda: "the ros2 extra is not installed (rclpy missing)")
     assert main(["ros2"]) == 2
-    assert "'paramdds ros2' cannot run: the ros2 extra is not installed (rclpy missing)" in capsys.readouterr().err
+    assert (
+        "'paramdds ros2' cannot run: the ros2 extra is not installed (rclpy missing)"
+        in capsys.readouterr().err
+    )
