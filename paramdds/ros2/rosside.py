@@ -29,7 +29,7 @@ ENCLAVE = "/paramdds_bridge"  # the enclave of every node a bridge creates
 class RosSide:
     """An rclpy context, one node named ``name`` and a multi-threaded executor spinning them."""
 
-    def __init__(self, domain: int | None, name: str = "paramdds_bridge", threads: int = 4) -> None:
+    def __init__(self, domain: int | None, name: str = "paramdds_bridge", threads: int = 8) -> None:
         quiet_imports()
         import rclpy
         from rclpy.callback_groups import ReentrantCallbackGroup
