@@ -45,6 +45,7 @@ _IMPLEMENTATIONS = {
     "assign": "paramdds.cli._live:run_assign",
     "web": "paramdds.cli._web:run_web",
     "keystore": "paramdds.secure.cli:run_keystore",
+    "ros2": "paramdds.cli._ros2:run_ros2",
 }
 
 

@@ -33,6 +33,7 @@ VERBS = (
     "assign",
     "web",
     "keystore",
+    "ros2",
     "bench",
 )
 OUTPUTS = ("table", "yaml", "json")
@@ -189,6 +190,47 @@ def _keystore(p: Parser) -> None:
     a = actions.add_parser("install", help="build Cyclone DDS C with security and rebuild the binding on it")
     a.add_argument("--source", metavar="TARBALL|DIR", help="Cyclone DDS C 11.0.1 sources (default: upstream)")
     a.add_argument("--prefix", metavar="DIR", required=True, help="where to install the secure build")
+def _ros2(p: Parser) -> None:
+    p.add_argument(
+        "--mirror",
+        action="append",
+        default=[],
+        metavar="GLOB",
+        help="ROS 2 nodes (/ns/name globs) to mirror on paramdds; repeat (default: every node)",
+    )
+    p.add_argument(
+        "--exclude", action="append", default=[], metavar="GLOB", help="ROS 2 nodes never mirrored; repeat"
+    )
+    p.add_argument(
+        "--no-mirror", action="store_true", help="mirror no ROS 2 node (only expose paramdds nodes)"
+    )
+    p.add_argument(
+        "--expose",
+        action="append",
+        default=[],
+        metavar="GLOB",
+        help="paramdds nodes (globs) to serve to ROS 2 tools; repeat (default: none)",
+    )
+    p.add_argument(
+        "--ros-domain",
+        type=int,
+        metavar="N",
+        help="the ROS 2 domain (default: ROS_DOMAIN_ID, else 0); may differ from -d",
+    )
+    p.add_argument(
+        "--ros-timeout",
+        type=float,
+        default=5.0,
+        metavar="SECONDS",
+        help="how long a forwarded call waits for a ROS 2 node (default %(default)s)",
+    )
+    p.add_argument(
+        "--resync",
+        type=float,
+        default=60.0,
+        metavar="SECONDS",
+        help="re-read each mirrored node this often, 0 never (default %(default)s)",
+    )
 
 
 def _assignment_values(p: Parser) -> None:
@@ -274,6 +316,8 @@ def build_parser(*, with_bench: bool = False) -> Parser:
     )
 
     _keystore(_verb(sub, "keystore", "secure mode: CAs, governance and identities; the secure Cyclone build"))
+
+    _ros2(_verb(sub, "ros2", "mirror ROS 2 nodes on paramdds, expose paramdds nodes to ROS 2 (ros2 extra)"))
 
     if with_bench:
         _register_bench(sub)

@@ -456,6 +456,21 @@ class ParameterTable:
             stage.pending[name] = None
             self._commit(stage, [], post_set=False)
 
+    def mirror(self, entries: Mapping[str, _Entry | None]) -> ChangeSet | None:
+        """Commit ``entries`` as they are (None deletes), in one revision, without validation
+        or callbacks: for a table that mirrors a node whose own server already validated
+        them (the ROS 2 bridge). Entries equal to what the table holds change nothing;
+        the change listeners get the ChangeSet (None when nothing changed)."""
+        with self._lock:
+            self._guard("mirror parameters")
+            stage = _Stage(self._params)
+            for name, entry in entries.items():
+                before = self._params.get(name)
+                if entry != before:
+                    stage.pending[name] = entry
+            change, _ = self._commit(stage, [], post_set=False)
+            return change
+
     # --- setting ---------------------------------------------------------------------------
 
     def set(self, params: Sequence[Parameter], *, expected_revision: int | None = None) -> SetOutcome:

@@ -45,6 +45,8 @@ __all__ = [
     "disable_native",
     "filter_tag",
     "filtered_topic",
+    "origin_of",
+    "origin_tag",
     "request_filter_of",
     "status",
 ]
@@ -83,6 +85,11 @@ def request_filter_of(tags: Iterable[object]) -> str | None:
         if isinstance(tag, str) and tag.startswith(_TAG):
             return tag[len(_TAG) :]
     return None
+
+
+def origin_tag(origin: str) -> str:
+    """The presence tag of a node hosted for another system (``origin=ros2``: a mirrored ROS 2 node)."""
+    return ORIGIN_TAG + origin
 
 
 def origin_of(tags: Iterable[object]) -> str | None:

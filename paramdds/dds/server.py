@@ -110,10 +110,16 @@ class ParameterServer:
     """Serves the tables it hosts. ``start()`` begins serving, ``close()`` stops gracefully."""
 
     def __init__(
-        self, participant: Any, qos: QosProfiles | None = None, *, nodes: Iterable[str] | None = None
+        self,
+        participant: Any,
+        qos: QosProfiles | None = None,
+        *,
+        nodes: Iterable[str] | None = None,
+        tags: Sequence[str] = (),
     ) -> None:
         """``nodes``: the node ids this server will host; needed in secure mode only, where
-        its writers are created in those nodes' partitions (see :mod:`paramdds.secure.scope`)."""
+        its writers are created in those nodes' partitions (see :mod:`paramdds.secure.scope`).
+        ``tags``: more ``name=value`` items for its presence value (``origin=ros2``)."""
         self._dp = participant
         self._qos = qos or QosProfiles.load()
         self._tables: dict[str, ParameterTable] = {}
@@ -133,8 +139,9 @@ class ParameterServer:
         self._closed = False
         self._filter = NativeFilter("nodes")  # the request readers' filter: the nodes hosted here
         self._twins = NativeFilter("presence")  # other processes' presence of the nodes hosted here
-        # what the presence value says about this server (a string array of name=value tags)
-        tags = [filter_tag(self._filter.native)]
+        # what the presence value says about this server (a string array of name=value tags):
+        # how it filters, and the caller's (``origin=ros2`` for the ROS 2 bridge's mirrors)
+        tags = [filter_tag(self._filter.native), *tags]
         self._presence_tags = wire.ParameterValue(
             type=int(ParameterType.STRING_ARRAY), string_array_value=tags
         )
@@ -221,6 +228,16 @@ class ParameterServer:
         for name in [*table.names(), ""]:
             unregister_serialized(self._state_writer, encode_key(node_id, name))
         self._incarnations.pop(node_id, None)
+
+    def forget(self, node_id: str, names: Sequence[str]) -> None:
+        """Dispose the state of ``names``, which hosted ``node_id`` no longer has: for a node
+        hosted again with fewer parameters than readers remember from its last time (its
+        old instances were unregistered, so readers still hold them)."""
+        if node_id not in self._tables:
+            return
+        for name in names:
+            if name and not self._tables[node_id].has(name):
+                self._state_writer.dispose(wire.ParameterEvent(node_id=node_id, name=name))
 
     @property
     def nodes(self) -> dict[str, ParameterTable]:

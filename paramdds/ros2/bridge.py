@@ -1,0 +1,152 @@
+"""``paramdds ros2``: the long-lived bridge between a ROS 2 graph and a paramdds domain.
+
+One loop, every :data:`POLL` seconds, reads the ROS 2 graph (node names and enclaves,
+``/parameter_events`` writers) and the paramdds presence, and decides:
+
+* **mirrored**: a ROS 2 node matching the mirror globs, not of the bridge enclave
+  (the bridge itself, the nodes any bridge exposes) and not already on paramdds from
+  another process. It is hosted by the bridge's ParameterServer with the presence
+  tag ``origin=ros2``; it goes offline when it leaves the ROS 2 graph.
+* **exposed**: a paramdds node matching the expose globs that is not a mirror
+  (``origin`` unset) and not a ROS 2 node. See :mod:`.expose`.
+
+A node is never both: a mirror carries ``origin=ros2`` and is never exposed, an exposed
+node lives in the bridge enclave and is never mirrored, and a ROS 2 node that some
+process already hosts on paramdds is left alone. So two bridges never loop a node.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import logging
+import threading
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..core.names import canonical_node_id
+from ..dds.client import ParameterClient
+from ..dds.filters import origin_tag
+from ..dds.qos import QosProfiles
+from ..dds.server import ParameterServer
+from ..errors import ParamddsError
+from .mirror import Mirror
+from .rosside import ENCLAVE, RosSide
+
+log = logging.getLogger(__name__)
+
+POLL = 0.5  # seconds between looks at the ROS 2 graph and the paramdds presence
+ORIGIN = "ros2"
+
+
+@dataclass
+class BridgeOptions:
+    mirror: Sequence[str] = ("*",)  # fqn globs of ROS 2 nodes to mirror
+    exclude: Sequence[str] = ()  # fqn globs never mirrored
+    expose: Sequence[str] = ()  # paramdds node globs to expose to ROS 2 (none by default)
+    timeout: float = 5.0  # seconds a forwarded call waits for the ROS 2 node
+    resync: float = 60.0  # seconds between full re-reads of each mirrored node (0: never)
+    ros_domain: int | None = None  # ROS_DOMAIN_ID when None
+    name: str = "paramdds_bridge"
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def matches(fqn: str, include: Sequence[str], exclude: Sequence[str]) -> bool:
+    """Whether a node (``/ns/name``) is selected by the globs (``*`` matches ``/`` too)."""
+    forms = (fqn, fqn.lstrip("/"))
+    hit = any(fnmatch.fnmatchcase(f, g) for g in include for f in forms)
+    return hit and not any(fnmatch.fnmatchcase(f, g) for g in exclude for f in forms)
+
+
+class Bridge:
+    """Mirror ROS 2 nodes on paramdds and expose paramdds nodes to ROS 2 until :meth:`close`."""
+
+    def __init__(self, participant: Any, qos: QosProfiles | None, options: BridgeOptions) -> None:
+        self.options = options
+        self._qos = qos or QosProfiles.load()
+        self.ros = RosSide(options.ros_domain, options.name)
+        self.server = ParameterServer(participant, self._qos, tags=[origin_tag(ORIGIN)])
+        self.client = ParameterClient(participant, self._qos)
+        self.mirror = Mirror(
+            self.ros,
+            self.server.add_node,
+            self.server.remove_node,
+            self.server.forget,
+            timeout=options.timeout,
+            resync=options.resync,
+        )
+        self.exposer: Any = None
+        if options.expose:
+            from .expose import Exposer
+
+            self.exposer = Exposer(self.ros, participant, self._qos, options.timeout)
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    def start(self) -> Bridge:
+        self.server.start()
+        self._thread = threading.Thread(target=self._run, name="paramdds-ros2-bridge", daemon=True)
+        self._thread.start()
+        return self
+
+    def _run(self) -> None:
+        # learn what paramdds already holds before mirroring anything (never host a node twice)
+        deadline = time.monotonic() + 3.0
+        while not self._stop.is_set() and not self.client.discovery().settled and time.monotonic() < deadline:
+            self._stop.wait(0.05)
+        while not self._stop.is_set():
+            try:
+                self.step()
+            except Exception:
+                log.exception("the bridge loop failed; trying again")
+            self._stop.wait(POLL)
+
+    def step(self) -> None:
+        """One look at both graphs (the loop's body)."""
+        graph = self.ros.graph()
+        writers = self.ros.event_publishers()
+        ours = self.server.nodes  # the mirrors this bridge hosts
+        on_paramdds = {
+            info.node: info for info in self.client.nodes() if info.online and info.node not in ours
+        }
+        wanted: dict[str, frozenset[bytes]] = {}
+        for fqn, enclave in graph.items():
+            if enclave == ENCLAVE or not matches(fqn, self.options.mirror, self.options.exclude):
+                continue
+            try:
+                if canonical_node_id(fqn) in on_paramdds:
+                    continue
+            except ParamddsError:
+                continue
+            wanted[fqn] = writers.get(fqn, frozenset())
+        self.mirror.update(wanted, time.monotonic())
+        if self.exposer is not None:
+            # a name taken in ROS 2 by anyone but this bridge's own exposed nodes (a ROS 2
+            # node, or another bridge's exposure of the same paramdds node) is not exposed
+            ros_nodes = {f.lstrip("/") for f in graph} - set(self.exposer.nodes)
+            exposed = {
+                node: info
+                for node, info in on_paramdds.items()
+                if info.origin is None
+                and node not in ros_nodes
+                and matches("/" + node, self.options.expose, ())
+            }
+            self.exposer.update(exposed)
+
+    def close(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5.0)
+        if self.exposer is not None:
+            self.exposer.close()
+        self.mirror.close()
+        self.server.close()
+        self.client.close()
+        self.ros.close()
+
+    def __enter__(self) -> Bridge:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -1,0 +1,434 @@
+"""ROS 2 nodes mirrored on paramdds: each one a :class:`MirrorTable` hosted by a ParameterServer.
+
+The server does everything it does for a native node (state and presence samples,
+requests, dedup of retries, per-node workers, stall detection); only the table is
+different. Reads (get, list, describe) are answered from what the table holds. A set
+or atomic set goes through the server's commit path to :meth:`MirrorTable.set`, which
+forwards it to the ROS 2 node's own service (from the node's worker, bounded by a
+timeout: a node hanging in a callback delays only its own requests) and commits what
+the node accepted with :meth:`ParameterTable.mirror`, so the server publishes it like
+any change. Changes made in ROS 2 arrive on ``/parameter_events`` and are committed
+the same way.
+
+Compare-and-set is refused: ROS 2 has no revision, so the check and the set could
+never be one step (another ROS 2 client may set in between).
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+from ..core.descriptors import ParameterDescriptor
+from ..core.limits import MAX_PARAMETERS_PER_REQUEST
+from ..core.names import canonical_node_id, is_valid_name
+from ..core.results import SetOutcome, SetResult
+from ..core.table import ParameterTable
+from ..core.values import Parameter, ParameterType, ParameterValue
+from ..errors import ErrorCode, ParamddsError
+from .convert import descriptor_from_ros, parameter_to_ros, result_from_ros, value_from_ros
+from .rosside import RosSide
+
+log = logging.getLogger(__name__)
+
+Entry = tuple[ParameterValue, ParameterDescriptor]
+CAS_REFUSED = (
+    "compare-and-set is not available on a mirrored ROS 2 node: ROS 2 has no revision, so the "
+    "check and the set could not be one step; set without an expected revision"
+)
+
+
+class RosLink:
+    """The parameter services of one ROS 2 node, called with a bounded timeout."""
+
+    def __init__(self, ros: RosSide, fqn: str, timeout: float) -> None:
+        self.ros = ros
+        self.fqn = fqn
+        self.timeout = timeout
+        self._clients: dict[str, Any] = {}
+        self._lock = threading.Lock()
+
+    def _client(self, service: str) -> Any:
+        from rcl_interfaces import srv
+
+        kinds = {
+            "list_parameters": srv.ListParameters,
+            "get_parameters": srv.GetParameters,
+            "describe_parameters": srv.DescribeParameters,
+            "set_parameters": srv.SetParameters,
+            "set_parameters_atomically": srv.SetParametersAtomically,
+        }
+        with self._lock:
+            client = self._clients.get(service)
+            if client is None:
+                client = self._clients[service] = self.ros.client(kinds[service], f"{self.fqn}/{service}")
+        return client
+
+    def _call(self, service: str, request: Any) -> Any:
+        return self.ros.call(self._client(service), request, self.timeout)
+
+    def fetch(self) -> dict[str, Entry]:
+        """Every parameter of the node with its value and descriptor (list, get, describe)."""
+        from rcl_interfaces import srv
+
+        for service in ("get_parameters", "describe_parameters"):
+            self._client(service)  # created now, they match the node's services while we list
+        listed = self._call("list_parameters", srv.ListParameters.Request(depth=0))
+        names = sorted(set(listed.result.names))
+        return self.entries(names)
+
+    def entries(self, names: Sequence[str]) -> dict[str, Entry]:
+        """Value and descriptor of ``names`` (those the node no longer has are left out)."""
+        from rcl_interfaces import srv
+
+        if not names:
+            return {}
+        got = self._call("get_parameters", srv.GetParameters.Request(names=list(names)))
+        described = self._call("describe_parameters", srv.DescribeParameters.Request(names=list(names)))
+        if len(got.values) != len(names) or len(described.descriptors) != len(names):
+            raise ParamddsError(
+                f"{self.fqn} answered {len(got.values)} values and {len(described.descriptors)} "
+                f"descriptors for {len(names)} names (a parameter went away meanwhile?)",
+                code=ErrorCode.CONFLICT,
+            )
+        return {
+            name: (value_from_ros(v), descriptor_from_ros(d, name))
+            for name, v, d in zip(names, got.values, described.descriptors, strict=True)
+        }
+
+    def set(self, params: Sequence[Parameter], atomic: bool) -> list[SetResult]:
+        """Forward a set; one result per parameter, in order, with ROS 2's reasons and our codes."""
+        from rcl_interfaces import srv
+
+        msgs = [parameter_to_ros(p.name, p.value) for p in params]  # type: ignore[arg-type]
+        if atomic:
+            reply = self._call(
+                "set_parameters_atomically", srv.SetParametersAtomically.Request(parameters=msgs)
+            )
+            one = reply.result
+            return [result_from_ros(p.name, one) for p in params]
+        reply = self._call("set_parameters", srv.SetParameters.Request(parameters=msgs))
+        if len(reply.results) != len(params):
+            raise ParamddsError(
+                f"{self.fqn} answered {len(reply.results)} results for {len(params)} parameters",
+                code=ErrorCode.INTERNAL,
+            )
+        return [result_from_ros(p.name, r) for p, r in zip(params, reply.results, strict=True)]
+
+    def close(self) -> None:
+        with self._lock:
+            clients, self._clients = list(self._clients.values()), {}
+        for client in clients:
+            try:
+                self.ros.node.destroy_client(client)
+            except Exception:
+                log.debug("destroying a client of %s failed", self.fqn, exc_info=True)
+
+
+class MirrorTable(ParameterTable):
+    """The table of a mirrored ROS 2 node: reads are local, sets go to the node first."""
+
+    def __init__(self, node_id: str, link: RosLink) -> None:
+        super().__init__(node_id)
+        self.link = link
+
+    def set(self, params: Sequence[Parameter], *, expected_revision: int | None = None) -> SetOutcome:
+        return self._forward(params, expected_revision, atomic=False)
+
+    def set_atomically(
+        self, params: Sequence[Parameter], *, expected_revision: int | None = None
+    ) -> SetOutcome:
+        return self._forward(params, expected_revision, atomic=True)
+
+    def _forward(
+        self, params: Sequence[Parameter], expected_revision: int | None, atomic: bool
+    ) -> SetOutcome:
+        request = self._request(params)
+        if expected_revision is not None:
+            raise ParamddsError(CAS_REFUSED, code=ErrorCode.INVALID_VALUE)
+        if len(request) > MAX_PARAMETERS_PER_REQUEST:
+            raise ParamddsError(
+                f"a set of {len(request)} parameters exceeds the limit of {MAX_PARAMETERS_PER_REQUEST}",
+                code=ErrorCode.TOO_LARGE,
+            )
+        results: list[SetResult | None] = [None] * len(request)
+        send: list[tuple[int, Parameter]] = []
+        for i, p in enumerate(request):
+            # a name paramdds refuses but the node has (ROS 2 allows more) is forwarded
+            if not isinstance(p, Parameter) or not (is_valid_name(p.name) or self.has(p.name)):
+                name = getattr(p, "name", "")
+                results[i] = SetResult(
+                    str(name), False, f"invalid parameter name {name!r}", ErrorCode.INVALID_NAME
+                )
+            else:
+                send.append((i, self._widened(p)))
+        if atomic and len(send) < len(request):
+            return SetOutcome(tuple(_all_failed(request, results)), self.revision, None)
+        try:
+            answers = self.link.set([p for _, p in send], atomic) if send else []
+        except ParamddsError as exc:
+            answers = [SetResult(p.name, False, exc.message, exc.code) for _, p in send]
+        entries: dict[str, Entry | None] = {}
+        for (i, p), answer in zip(send, answers, strict=True):
+            results[i] = answer
+            if answer.successful:
+                entries[p.name] = self._entry_after(p)
+        change = self.mirror(entries) if entries else None
+        done = tuple(r for r in results if r is not None)
+        return SetOutcome(done, change.revision if change is not None else self.revision, change)
+
+    def _widened(self, p: Parameter) -> Parameter:
+        """paramdds widens an integer to a double; ROS 2 refuses it: widen before forwarding."""
+        with self._lock:
+            current = self._params.get(p.name)
+        value = p.value if isinstance(p.value, ParameterValue) else ParameterValue.from_python(p.value)
+        if current is not None and not current[1].dynamic_typing:
+            want = current[1].type
+            if (value.type, want) in (
+                (ParameterType.INTEGER, ParameterType.DOUBLE),
+                (ParameterType.INTEGER_ARRAY, ParameterType.DOUBLE_ARRAY),
+            ):
+                value = value.coerce(want)
+        return Parameter(p.name, value)
+
+    def _entry_after(self, p: Parameter) -> Entry | None:
+        """What the table holds once the node accepted ``p`` (None: deleted)."""
+        value = p.value
+        assert isinstance(value, ParameterValue)
+        with self._lock:
+            current = self._params.get(p.name)
+        if value.type is ParameterType.NOT_SET:
+            return None
+        if current is None:
+            return value, ParameterDescriptor(p.name, value.type, dynamic_typing=True)
+        desc = current[1]
+        if desc.dynamic_typing and desc.type is not value.type:
+            desc = replace(desc, type=value.type)
+        return value, desc
+
+    def apply_event(self, new: Sequence[Any], changed: Sequence[Any], deleted: Sequence[Any]) -> list[str]:
+        """Commit one ``/parameter_events`` message; the names that still need a descriptor."""
+        entries: dict[str, Entry | None] = {}
+        fresh: list[str] = []
+        with self._lock:
+            for p in [*new, *changed]:
+                value = value_from_ros(p.value)
+                current = self._params.get(p.name)
+                if current is None:
+                    entries[p.name] = (value, ParameterDescriptor(p.name, value.type))
+                    fresh.append(p.name)
+                    continue
+                desc = current[1]
+                if desc.dynamic_typing and desc.type is not value.type:
+                    desc = replace(desc, type=value.type)
+                entries[p.name] = (value, desc)
+            for p in deleted:
+                entries[p.name] = None
+            self.mirror(entries)
+        return fresh
+
+    def resync(self, entries: Mapping[str, Entry]) -> None:
+        """Make the table hold exactly ``entries`` (a fresh fetch of the node)."""
+        with self._lock:
+            gone: dict[str, Entry | None] = {n: None for n in self._params if n not in entries}
+            self.mirror({**entries, **gone})
+
+
+def _all_failed(request: Sequence[object], results: Sequence[SetResult | None]) -> list[SetResult]:
+    bad = next(r for r in results if r is not None)
+    return [
+        r
+        if r is not None
+        else SetResult(
+            str(getattr(p, "name", "")),
+            False,
+            f"not applied: the atomic set failed on {bad.name!r}",
+            ErrorCode.INVALID_VALUE,
+        )
+        for p, r in zip(request, results, strict=True)
+    ]
+
+
+@dataclass
+class Mirrored:
+    """One ROS 2 node the bridge mirrors."""
+
+    fqn: str
+    node_id: str
+    link: RosLink
+    table: MirrorTable
+    writers: frozenset[bytes] = frozenset()  # its /parameter_events writers, to see a restart
+    hosted: bool = False
+    syncing: bool = False
+    dirty: bool = False  # events came while a sync ran: sync again
+    synced_at: float = 0.0
+    failures: int = 0
+    retry_at: float = 0.0
+    lock: threading.Lock = field(default_factory=threading.Lock)
+
+
+class Mirror:
+    """Every mirrored node: added, synced, resynced and removed as the ROS 2 graph changes."""
+
+    def __init__(
+        self,
+        ros: RosSide,
+        host: Callable[[ParameterTable], None],
+        unhost: Callable[[str], None],
+        forget: Callable[[str, Sequence[str]], None],
+        *,
+        timeout: float,
+        resync: float,
+        sync_threads: int = 16,
+    ) -> None:
+        self.ros = ros
+        self._host, self._unhost, self._forget = host, unhost, forget
+        self._departed: dict[str, list[str]] = {}  # node id -> the names it had when it left
+        self.timeout = timeout
+        self.resync_period = resync
+        self.nodes: dict[str, Mirrored] = {}  # by fqn
+        self._lock = threading.Lock()
+        self._pool = ThreadPoolExecutor(max_workers=sync_threads, thread_name_prefix="paramdds-ros2-sync")
+        self._closed = False
+        self.lost = 0  # /parameter_events samples DDS reported lost
+        self._subscription = ros.subscribe_events(self._on_event, self._on_lost)
+
+    # -- the graph ----------------------------------------------------------------
+
+    def update(self, wanted: Mapping[str, frozenset[bytes]], now: float) -> None:
+        """Mirror exactly the nodes of ``wanted`` (fqn -> its /parameter_events writers)."""
+        with self._lock:
+            current = dict(self.nodes)
+        for fqn in current.keys() - wanted.keys():
+            self._remove(fqn)
+        for fqn, writers in wanted.items():
+            m = current.get(fqn)
+            if m is None:
+                m = self._add(fqn, writers)
+                if m is None:
+                    continue
+                self._submit(m)
+            elif writers - m.writers:  # a writer we did not know: the node restarted
+                log.info("%s restarted: resynchronizing", fqn)
+                m.writers = writers
+                self._submit(m)
+            else:
+                m.writers = writers
+                due = m.failures and now >= m.retry_at
+                if due or (m.hosted and self.resync_period > 0 and now - m.synced_at >= self.resync_period):
+                    self._submit(m)
+
+    def _add(self, fqn: str, writers: frozenset[bytes]) -> Mirrored | None:
+        try:
+            node_id = canonical_node_id(fqn)
+        except ParamddsError as exc:
+            log.warning("cannot mirror the ROS 2 node %s: %s", fqn, exc)
+            return None
+        link = RosLink(self.ros, fqn, self.timeout)
+        m = Mirrored(fqn, node_id, link, MirrorTable(node_id, link), writers)
+        with self._lock:
+            self.nodes[fqn] = m
+        return m
+
+    def _remove(self, fqn: str) -> None:
+        with self._lock:
+            m = self.nodes.pop(fqn, None)
+        if m is None:
+            return
+        with m.lock:
+            hosted, m.hosted = m.hosted, False
+        if hosted:
+            log.info("%s left the ROS 2 graph: offline", fqn)
+            self._departed[m.node_id] = m.table.names()
+            self._unhost(m.node_id)
+        m.link.close()
+
+    def _submit(self, m: Mirrored) -> None:
+        with m.lock:
+            if m.syncing:
+                m.dirty = True
+                return
+            m.syncing = True
+        if not self._closed:
+            self._pool.submit(self._sync, m)
+
+    def _sync(self, m: Mirrored) -> None:
+        import time
+
+        while True:
+            with m.lock:
+                m.dirty = False
+            try:
+                entries = m.link.fetch()
+            except ParamddsError as exc:
+                with m.lock:
+                    m.syncing = False
+                    m.failures += 1
+                    m.retry_at = time.monotonic() + min(30.0, 1.0 * 2 ** min(m.failures, 5))
+                log.log(
+                    logging.WARNING if m.failures == 3 else logging.DEBUG,
+                    "cannot read the parameters of %s (%s); retrying",
+                    m.fqn,
+                    exc.message,
+                )
+                return
+            m.table.resync(entries)
+            with self._lock:
+                still = self.nodes.get(m.fqn) is m
+            with m.lock:
+                host = still and not m.hosted
+                m.hosted = m.hosted or host
+                m.failures = 0
+                m.synced_at = time.monotonic()
+                again = m.dirty
+                if not again:
+                    m.syncing = False
+            if host:
+                self._host(m.table)
+                # readers still hold what it had last time: what it no longer has is deleted
+                self._forget(m.node_id, self._departed.pop(m.node_id, []))
+            if not again:
+                return
+
+    # -- /parameter_events --------------------------------------------------------
+
+    def _on_event(self, msg: Any) -> None:
+        with self._lock:
+            m = self.nodes.get(msg.node)
+        if m is None:
+            return
+        with m.lock:
+            if m.syncing:
+                m.dirty = True  # a sync is reading the node: read it again after
+        fresh = m.table.apply_event(msg.new_parameters, msg.changed_parameters, msg.deleted_parameters)
+        if fresh and not self._closed:
+            self._pool.submit(self._describe, m, fresh)
+
+    def _describe(self, m: Mirrored, names: list[str]) -> None:
+        """Descriptors of parameters an event declared (events carry values only)."""
+        try:
+            entries = m.link.entries(names)
+        except ParamddsError as exc:
+            log.debug("describing %s on %s failed: %s", names, m.fqn, exc.message)
+            self._submit(m)
+            return
+        m.table.mirror({n: e for n, e in entries.items() if m.table.has(n)})
+
+    def _on_lost(self) -> None:
+        """DDS lost /parameter_events samples: every mirrored node may be stale."""
+        self.lost += 1
+        log.warning("/parameter_events samples were lost: resynchronizing every mirrored node")
+        with self._lock:
+            nodes = list(self.nodes.values())
+        for m in nodes:
+            self._submit(m)
+
+    def close(self) -> None:
+        self._closed = True
+        self._pool.shutdown(wait=False, cancel_futures=True)
+        for fqn in list(self.nodes):
+            self._remove(fqn)

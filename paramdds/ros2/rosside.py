@@ -1,0 +1,189 @@
+"""The bridge's side of the ROS 2 graph: one rclpy context, node and executor of its own.
+
+The context is private (``rclpy.init(context=...)``), so the bridge coexists with any
+other rclpy use in the process, and it joins ROS 2 domain ``domain`` (``ROS_DOMAIN_ID``
+when None), which may differ from the paramdds domain. Its nodes carry the enclave
+:data:`ENCLAVE`: a bridge never mirrors a node of that enclave (itself, the nodes it
+exposes, another bridge's), which is what keeps two bridges from looping a node.
+
+Service calls are made from any thread (a mirrored node's worker, the sync pool) and
+wait on their future with a bounded timeout; the executor's threads only ever run
+short callbacks, so a ROS 2 node that never answers holds only the caller that asked.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+from ..errors import ErrorCode, ParamddsError
+
+log = logging.getLogger(__name__)
+
+ENCLAVE = "/paramdds_bridge"  # the enclave of every node a bridge creates
+
+
+class RosSide:
+    """An rclpy context, one node named ``name`` and a multi-threaded executor spinning them."""
+
+    def __init__(self, domain: int | None, name: str = "paramdds_bridge", threads: int = 8) -> None:
+        quiet_imports()
+        import rclpy
+        from rclpy.callback_groups import ReentrantCallbackGroup
+        from rclpy.context import Context
+        from rclpy.executors import MultiThreadedExecutor
+
+        self._rclpy = rclpy
+        self.context = Context()
+        rclpy.init(args=["--ros-args", "--enclave", ENCLAVE], context=self.context, domain_id=domain)
+        self.domain = self.context.get_domain_id()
+        self.node = rclpy.create_node(
+            name,
+            context=self.context,
+            start_parameter_services=False,
+            enable_rosout=False,
+        )
+        self.clients_group = ReentrantCallbackGroup()  # responses are handled concurrently
+        self.executor = MultiThreadedExecutor(num_threads=threads, context=self.context)
+        self.executor.add_node(self.node)
+        self._thread = threading.Thread(target=self._spin, name="paramdds-ros2-executor", daemon=True)
+        self._thread.start()
+
+    def _spin(self) -> None:
+        try:
+            self.executor.spin()
+        except Exception:  # the context was shut down under it: closing
+            log.debug("the ROS 2 executor stopped", exc_info=True)
+
+    @property
+    def fqn(self) -> str:
+        return str(self.node.get_fully_qualified_name())
+
+    def add_node(self, node: Any) -> None:
+        self.executor.add_node(node)
+
+    def create_node(self, name: str, namespace: str) -> Any:
+        """Another node of this context (an exposed paramdds node), spun by the executor."""
+        node = self._rclpy.create_node(
+            name,
+            namespace=namespace,
+            context=self.context,
+            start_parameter_services=False,
+            enable_rosout=False,
+        )
+        self.executor.add_node(node)
+        return node
+
+    def destroy_node(self, node: Any) -> None:
+        self.executor.remove_node(node)
+        node.destroy_node()
+
+    def graph(self) -> dict[str, str]:
+        """Every ROS 2 node in the graph: fully qualified name -> enclave."""
+        out: dict[str, str] = {}
+        for name, ns, enclave in self.node.get_node_names_and_namespaces_with_enclaves():
+            out[fqn_of(name, ns)] = enclave
+        return out
+
+    def event_publishers(self) -> dict[str, frozenset[bytes]]:
+        """Each node's ``/parameter_events`` writers (their GIDs): a new one means a restart."""
+        out: dict[str, set[bytes]] = {}
+        for info in self.node.get_publishers_info_by_topic("/parameter_events"):
+            out.setdefault(fqn_of(info.node_name, info.node_namespace), set()).add(bytes(info.endpoint_gid))
+        return {k: frozenset(v) for k, v in out.items()}
+
+    def client(self, srv_type: Any, service: str) -> Any:
+        return self.node.create_client(srv_type, service, callback_group=self.clients_group)
+
+    def call(self, client: Any, request: Any, timeout: float) -> Any:
+        """Call a service and wait at most ``timeout`` seconds: TIMEOUT or UNAVAILABLE otherwise."""
+        if not self._ready(client, min(timeout, 2.0)):
+            raise ParamddsError(
+                f"the ROS 2 service {client.srv_name} is not available", code=ErrorCode.UNAVAILABLE
+            )
+        done = threading.Event()
+        future = client.call_async(request)
+        future.add_done_callback(lambda _f: done.set())
+        if not done.wait(timeout):
+            client.remove_pending_request(future)
+            raise ParamddsError(
+                f"the ROS 2 node did not answer {client.srv_name} within {timeout:g} s "
+                "(busy in a callback, or gone)",
+                code=ErrorCode.TIMEOUT,
+            )
+        exc = future.exception()
+        if exc is not None:
+            raise ParamddsError(f"{client.srv_name} failed: {exc}", code=ErrorCode.UNAVAILABLE)
+        return future.result()
+
+    @staticmethod
+    def _ready(client: Any, timeout: float) -> bool:
+        """Whether the client matched its service within ``timeout`` (rclpy's own
+        ``wait_for_service`` sleeps in steps of 0.25 s: a bridge syncing 300 nodes
+        would spend most of its time there)."""
+        deadline = time.monotonic() + timeout
+        while not client.service_is_ready():
+            if time.monotonic() >= deadline:
+                return False
+            time.sleep(0.005)
+        return True
+
+    def subscribe_events(self, callback: Callable[[Any], None], on_lost: Callable[[], None]) -> Any:
+        """Follow ``/parameter_events`` (one callback at a time, in order); ``on_lost`` runs when
+        DDS reports lost samples, where the middleware can tell."""
+        from rcl_interfaces.msg import ParameterEvent
+        from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+        from rclpy.event_handler import SubscriptionEventCallbacks
+        from rclpy.qos import qos_profile_parameter_events
+
+        group = MutuallyExclusiveCallbackGroup()
+        events = SubscriptionEventCallbacks(message_lost=lambda _info: on_lost())
+        try:
+            return self.node.create_subscription(
+                ParameterEvent,
+                "/parameter_events",
+                callback,
+                qos_profile_parameter_events,
+                callback_group=group,
+                event_callbacks=events,
+            )
+        except Exception as exc:  # the middleware cannot report lost samples: periodic resync only
+            log.info("lost /parameter_events samples cannot be detected here (%s)", exc)
+            return self.node.create_subscription(
+                ParameterEvent,
+                "/parameter_events",
+                callback,
+                qos_profile_parameter_events,
+                callback_group=group,
+            )
+
+    def close(self) -> None:
+        try:
+            self.executor.shutdown(timeout_sec=2.0)
+        except Exception:
+            log.debug("the ROS 2 executor did not shut down cleanly", exc_info=True)
+        try:
+            self.node.destroy_node()
+        finally:
+            if self.context.ok():
+                self._rclpy.shutdown(context=self.context)
+        self._thread.join(timeout=2.0)
+
+
+def quiet_imports() -> None:
+    """Import rclpy's type support now, without the DeprecationWarning its parser's ``lark``
+    raises on import (``sre_parse``): under ``-W error`` it would fail the first message."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        import rosidl_generator_py  # noqa: F401
+
+
+def fqn_of(name: str, namespace: str) -> str:
+    """``/ns/name`` from a node's name and namespace."""
+    ns = namespace.rstrip("/")
+    return f"{ns}/{name}" if ns.startswith("/") else f"/{ns}/{name}" if ns else f"/{name}"

@@ -1,0 +1,364 @@
+"""The bridge mirrors real rclpy nodes (in subprocesses) on paramdds."""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+
+from paramdds.core.values import ParameterType, ParameterValue
+from paramdds.dds.client import ParameterClient
+from paramdds.dds.monitor import ParameterMonitor
+from paramdds.dds.participant import close_participant, make_participant
+from paramdds.errors import ErrorCode, UnavailableError
+
+from .conftest import REALWORLD, RosHost, oracle
+
+pytestmark = pytest.mark.timeout(180)
+
+
+@pytest.fixture
+def bridge(ros_env: dict[str, str], domain_id: int) -> Iterator[Any]:
+    from paramdds.ros2.bridge import Bridge, BridgeOptions
+
+    dp = make_participant(domain_id, localhost=True)
+    b = Bridge(dp, None, BridgeOptions(timeout=2.0, resync=0)).start()
+    yield b
+    b.close()
+    close_participant(dp)
+
+
+@pytest.fixture
+def paramdds_side(domain_id: int) -> Iterator[tuple[ParameterClient, ParameterMonitor]]:
+    """A paramdds client and monitor of their own (a process that only speaks paramdds)."""
+    dp = make_participant(domain_id, localhost=True)
+    client = ParameterClient(dp, timeout=10.0)
+    monitor = ParameterMonitor(dp)
+    yield client, monitor
+    monitor.close()
+    client.close()
+    close_participant(dp)
+
+
+def wait_for(check: Any, timeout: float, what: str) -> Any:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        got = check()
+        if got:
+            return got
+        time.sleep(0.05)
+    raise AssertionError(f"timed out waiting for {what}")
+
+
+def raw(value: ParameterValue) -> dict[str, Any]:
+    """A core value in the oracle's raw shape."""
+    if value.type is ParameterType.NOT_SET:
+        return {"type": 0}
+    v = value.value
+    return {"type": int(value.type), "value": list(v) if isinstance(v, (tuple, bytes)) else v}
+
+
+def raw_descriptor(d: Any) -> dict[str, Any]:
+    ir, fr = d.integer_range, d.floating_point_range
+    return {
+        "type": int(d.type),
+        "description": d.description,
+        "additional_constraints": d.additional_constraints,
+        "read_only": d.read_only,
+        "dynamic_typing": d.dynamic_typing,
+        "integer_range": [] if ir is None else [[ir.from_value, ir.to_value, ir.step]],
+        "floating_point_range": [] if fr is None else [[fr.from_value, fr.to_value, fr.step]],
+    }
+
+
+def mirrored(monitor: ParameterMonitor, fqn: str) -> dict[str, Any] | None:
+    st = monitor.snapshot().get(fqn.lstrip("/"))
+    if st is None or not st.online or not st.complete:
+        return None
+    return {n: {"value": raw(v), "descriptor": raw_descriptor(d)} for n, (v, d) in st.parameters.items()}
+
+
+def test_mirrored_state_equals_the_rclpy_nodes_for_the_realworld_files(
+    ros_env: dict[str, str], ros_hosts: Any, bridge: Any, paramdds_side: Any
+) -> None:
+    if REALWORLD is None:
+        pytest.skip("the real parameter files (shared/realworld) are not beside this checkout")
+    # the parameter files (the others are generate_parameter_library specs, not for rcl)
+    files = sorted(str(p) for p in REALWORLD.glob("*.yaml") if "ros__parameters" in p.read_text())
+    assert len(files) >= 5
+    args = [a for f in files for a in ("--params-file", f)]
+    host: RosHost = ros_hosts(*args, "--rich", "/robot/rich", "--threads", "2")
+    assert len(host.nodes) >= 30
+    truth = oracle(ros_env, "dump", *host.nodes)
+    _, monitor = paramdds_side
+    wait_for(lambda: all(mirrored(monitor, n) is not None for n in host.nodes), 60, "every node mirrored")
+    for fqn in host.nodes:
+        assert mirrored(monitor, fqn) == truth[fqn], fqn
+    # every kind of descriptor field came through (the rich node has them all)
+    rich = truth["/robot/rich"]
+    assert rich["limits.count"]["descriptor"]["integer_range"] == [[0, 10, 2]]
+    assert rich["frozen"]["descriptor"]["read_only"] is True
+    assert rich["anything"]["descriptor"]["dynamic_typing"] is True
+    states = monitor.snapshot()
+    assert all(states[n.lstrip("/")].origin == "ros2" for n in host.nodes)
+
+
+def paramdds_cli(env: dict[str, str], *args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "paramdds.cli", *args, "--timeout", "10"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+
+
+def test_paramdds_set_changes_the_rclpy_node_with_refusals_per_parameter(
+    ros_env: dict[str, str], ros_hosts: Any, bridge: Any, paramdds_side: Any
+) -> None:
+    host: RosHost = ros_hosts("--rich", "/robot/rich")
+    client, _ = paramdds_side
+    client.wait_for_node("robot/rich", timeout=30)
+    out = paramdds_cli(
+        ros_env,
+        "set",
+        "/robot/rich",
+        "mode=bad",
+        "limits.speed=2",  # an integer: widened to a double, as paramdds does (rclpy would refuse it)
+        "limits.count=3",
+        "frozen=x",
+        "nope=1",
+        "-o",
+        "json",
+    )
+    assert out.returncode == 1, out.stderr
+    results = json.loads(out.stdout)
+    assert results["limits.speed"]["successful"] is True
+    assert not any(results[n]["successful"] for n in ("mode", "limits.count", "frozen", "nope"))
+    assert "mode must be auto or manual" in results["mode"]["reason"]  # the node's own reason
+    assert "read-only" in results["frozen"]["reason"]
+    assert host.command("get /robot/rich limits.speed") == "value 2.0"
+    # the codes, per parameter, mapped from ROS 2's reasons
+    reply = client.set("robot/rich", {"mode": "bad", "limits.count": 3, "frozen": "x", "nope": 1, "ids": [4]})
+    codes = {r.name: r.code for r in reply.results}
+    assert codes == {
+        "mode": ErrorCode.INVALID_VALUE,
+        "limits.count": ErrorCode.OUT_OF_RANGE,
+        "frozen": ErrorCode.READ_ONLY,
+        "nope": ErrorCode.NOT_FOUND,
+        "ids": None,
+    }
+    assert host.command("get /robot/rich ids") == "value [4]"
+    assert client.get("robot/rich", ["limits.speed"]).values()["limits.speed"] == ParameterValue.from_python(
+        2.0
+    )
+
+    # atomic: nothing applied, every parameter says why
+    atomic = client.set("robot/rich", {"limits.speed": 3.0, "mode": "bad"}, atomic=True)
+    assert not any(r.successful for r in atomic.results)
+    assert host.command("get /robot/rich limits.speed") == "value 2.0"
+    # compare-and-set is refused clearly, and changes nothing
+    out = paramdds_cli(ros_env, "set", "/robot/rich", "limits.speed=4.0", "--if-revision", "1")
+    assert out.returncode == 1 and "compare-and-set is not available" in out.stderr
+    # delete a dynamically typed parameter: gone from the rclpy node and the mirror
+    deleted = client.delete("robot/rich", ["anything"])
+    assert all(r.successful for r in deleted.results)
+    assert client.get("robot/rich", ["anything"]).missing()[0].code is ErrorCode.NOT_FOUND
+    listed = oracle(ros_env, "dump", "/robot/rich")["/robot/rich"]
+    assert "anything" not in listed and listed["limits.speed"]["value"] == {"type": 3, "value": 2.0}
+
+
+def test_a_change_made_in_rclpy_reaches_paramdds_watch(
+    ros_env: dict[str, str], ros_hosts: Any, bridge: Any, paramdds_side: Any
+) -> None:
+    host: RosHost = ros_hosts("--rich", "/robot/rich")
+    client, _ = paramdds_side
+    client.wait_for_node("robot/rich", timeout=30)
+    watch = subprocess.Popen(
+        [sys.executable, "-m", "paramdds.cli", "watch", "robot/rich"],
+        env=ros_env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+    )
+    lines: list[str] = []
+    reader = threading.Thread(target=lambda: lines.extend(watch.stdout or []), daemon=True)
+    try:
+        reader.start()
+        wait_for(lambda: any("limits.speed" in line for line in lines), 20, "the watch's initial state")
+        assert host.command("set /robot/rich limits.speed 4.25") == "set ok"
+        wait_for(lambda: any("4.25" in line for line in lines), 20, "the change in the watch")
+    finally:
+        watch.terminate()
+        watch.wait(timeout=10)
+        reader.join(timeout=5)
+        if watch.stdout is not None:
+            watch.stdout.close()
+
+
+def test_a_node_killed_and_restarted_goes_offline_and_comes_back_resynced(
+    ros_env: dict[str, str], ros_hosts: Any, bridge: Any, paramdds_side: Any, tmp_path: Any
+) -> None:
+    first = tmp_path / "first.yaml"
+    first.write_text("/arm/driver:\n  ros__parameters:\n    gain: 1.0\n    port: /dev/a\n")
+    second = tmp_path / "second.yaml"
+    second.write_text("/arm/driver:\n  ros__parameters:\n    gain: 2.0\n    baud: 9600\n")
+    client, monitor = paramdds_side
+    host: RosHost = ros_hosts("--params-file", str(first))
+    client.wait_for_node("arm/driver", timeout=30)
+
+    def values() -> dict[str, Any] | None:
+        st = monitor.snapshot().get("arm/driver")
+        return {n: v.value for n, (v, _) in st.parameters.items()} if st and st.online else None
+
+    wait_for(lambda: (values() or {}).get("gain") == 1.0, 10, "the first values")
+    host.close()  # a clean shutdown: the node leaves the graph at once
+    wait_for(lambda: monitor.snapshot()["arm/driver"].online is False, 10, "offline after a clean stop")
+
+    # a restart with other parameters comes back with exactly those
+    host = ros_hosts("--params-file", str(second))
+    expected = {"gain": 2.0, "baud": 9600, "use_sim_time": False, "start_type_description_service": True}
+    try:
+        wait_for(lambda: values() == expected, 20, "resynced after a restart")
+    except AssertionError:
+        raise AssertionError(f"{values()} != {expected}") from None
+
+    # kill -9 and restart at once: the dead participant stays in the ROS 2 graph for
+    # Fast DDS's lease, but the new /parameter_events writer says it restarted
+    host.kill()
+    host = ros_hosts("--params-file", str(first))
+    wait_for(
+        lambda: (values() or {}).get("gain") == 1.0 and "baud" not in (values() or {}),
+        20,
+        "resynced after kill -9 and restart",
+    )
+
+
+def test_a_hanging_callback_delays_only_its_node(
+    ros_env: dict[str, str], ros_hosts: Any, bridge: Any, paramdds_side: Any
+) -> None:
+    ros_hosts("--hang", "/hanger", "--rich", "/robot/rich")
+    client, _ = paramdds_side
+    client.wait_for_node("hanger", timeout=30)
+    client.wait_for_node("robot/rich", timeout=30)
+    outcome: dict[str, Any] = {}
+
+    def hang() -> None:
+        started = time.monotonic()
+        try:
+            outcome["reply"] = client.set("hanger", {"hang": 1})
+        except UnavailableError as exc:  # the node showed offline (stalled) while its call hung
+            outcome["error"] = exc
+        outcome["took"] = time.monotonic() - started
+
+    thread = threading.Thread(target=hang)
+    thread.start()
+    time.sleep(0.3)
+    started = time.monotonic()
+    reply = client.set("robot/rich", {"limits.speed": 3.5})
+    assert reply.results[0].successful
+    assert time.monotonic() - started < 1.5  # not behind the hanging node (its timeout is 2 s)
+    thread.join(timeout=15)
+    assert outcome["took"] < 6.0  # bounded: the stall shows at the 1 s lease, the call ends at 2 s
+    if "reply" in outcome:
+        result = outcome["reply"].results[0]
+        assert not result.successful and result.code is ErrorCode.TIMEOUT
+    else:
+        assert "offline" in str(outcome["error"])
+    # once the bridge gave up on the call, the node is online again and answers
+    client.wait_for_node("hanger", timeout=10)
+    assert client.get("hanger", ["hang"]).values()["hang"] == ParameterValue.from_python(0)
+
+
+SHORT_LEASE = """<?xml version="1.0" encoding="UTF-8" ?>
+<profiles xmlns="http://www.eprosima.com">
+  <participant profile_name="short_lease" is_default_profile="true">
+    <rtps>
+      <builtin>
+        <discovery_config>
+          <leaseDuration><sec>3</sec></leaseDuration>
+          <leaseAnnouncement><sec>1</sec></leaseAnnouncement>
+        </discovery_config>
+      </builtin>
+    </rtps>
+  </participant>
+</profiles>
+"""
+
+
+def test_a_killed_node_goes_offline_within_the_lease_its_process_announced(
+    ros_env: dict[str, str], bridge: Any, paramdds_side: Any, tmp_path: Any
+) -> None:
+    """docs/ros2.md: a Fast DDS profile with a 3 s lease in the ROS 2 process (not the bridge)
+    makes a kill -9 show offline within about that, instead of the default 20 s."""
+    profile = tmp_path / "short_lease.xml"
+    profile.write_text(SHORT_LEASE)
+    host = RosHost({**ros_env, "FASTDDS_DEFAULT_PROFILES_FILE": str(profile)}, "--node", "/arm/brief")
+    client, monitor = paramdds_side
+    try:
+        client.wait_for_node("arm/brief", timeout=30)
+        killed = time.monotonic()
+        host.kill()
+        wait_for(lambda: monitor.snapshot()["arm/brief"].online is False, 10, "offline after the lease")
+        assert time.monotonic() - killed < 8.0  # 3 s lease, the bridge's 0.5 s look, margin for load
+    finally:
+        host.close()
+
+
+def test_the_cli_verb_bridges_and_nodes_shows_the_origin(ros_env: dict[str, str], ros_hosts: Any) -> None:
+    ros_hosts("--rich", "/robot/rich")
+    bridge = subprocess.Popen(
+        [sys.executable, "-m", "paramdds.cli", "ros2", "--exclude", "/other/*"],
+        env=ros_env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert bridge.stdout is not None
+        banner = bridge.stdout.readline()
+        assert (
+            f"ROS 2 domain {ros_env['ROS_DOMAIN_ID']} and paramdds domain {ros_env['PARAMDDS_DOMAIN']}"
+            in banner
+        )
+        got = paramdds_cli(ros_env, "get", "/robot/rich", "mode", "-o", "json")
+        assert got.returncode == 0, got.stderr
+        assert json.loads(got.stdout) == {"mode": "auto"}
+        nodes = json.loads(paramdds_cli(ros_env, "nodes", "-o", "json").stdout)
+        assert [(n["node"], n["origin"]) for n in nodes] == [("robot/rich", "ros2")]
+    finally:
+        bridge.send_signal(signal.SIGINT)
+        _, err = bridge.communicate(timeout=30)
+    assert bridge.returncode == 130, err
+
+
+def test_the_periodic_resync_repairs_a_mirror_that_missed_a_change(
+    ros_env: dict[str, str], ros_hosts: Any, domain_id: int, paramdds_side: Any
+) -> None:
+    from paramdds.ros2.bridge import Bridge, BridgeOptions
+
+    ros_hosts("--rich", "/robot/rich")
+    dp = make_participant(domain_id, localhost=True)
+    bridge = Bridge(dp, None, BridgeOptions(timeout=2.0, resync=1.0)).start()
+    try:
+        client, _ = paramdds_side
+        client.wait_for_node("robot/rich", timeout=30)
+        mirrored = wait_for(lambda: bridge.mirror.nodes.get("/robot/rich"), 10, "the mirror")
+        # as if a /parameter_events sample had been lost: the mirror holds a stale value
+        value, desc = mirrored.table.snapshot()[[n for n, *_ in mirrored.table.snapshot()].index("mode")][1:]
+        mirrored.table.mirror({"mode": (ParameterValue.from_python("stale"), desc)})
+        assert client.get("robot/rich", ["mode"]).values()["mode"] == ParameterValue.from_python("stale")
+        wait_for(
+            lambda: client.get("robot/rich", ["mode"]).values()["mode"] == value, 10, "the resync's repair"
+        )
+    finally:
+        bridge.close()
+        close_participant(dp)
