@@ -304,20 +304,27 @@ class ParameterClient:
         return _node_info(samples[-1]) if samples else None
 
     def _believed(self, samples: list[Any]) -> list[Any]:
-        """Secure mode: the presence samples whose writers may write their node's partition."""
+        """Secure mode: the presence samples whose writers may write their node's partition
+        (a sample without data, which names no node, says nothing and is dropped)."""
         scope = self._scope
         if scope is None:
             return samples
-        return [s for s in samples if scope.allows(self._presence, s.node_id, s.sample_info)]
+        return [
+            s
+            for s in samples
+            if s.sample_info.valid_data and scope.allows(self._presence, s.node_id, s.sample_info)
+        ]
 
     def nodes(self) -> list[NodeInfo]:
         """Every node whose presence this client holds (alive or not), sorted by name."""
         watch = self._watch()
         samples: list[Any] = self._presence.read(N=_READ_ALL)
         watch.note_read(s.sample_info for s in samples)
-        latest = {s.node_id: s for s in self._believed(samples)}  # oldest first: the last one wins
-        found = [_node_info(s) for s in latest.values()]
-        return sorted((n for n in found if n is not None), key=lambda n: n.node)
+        # a node's samples come oldest first, so its last presence wins; samples without data
+        # (a node its server stopped hosting) and parameter samples give None
+        found = (_node_info(s) for s in self._believed(samples))
+        latest = {n.node: n for n in found if n is not None}
+        return sorted(latest.values(), key=lambda n: n.node)
 
     def node_info(self, node: str) -> NodeInfo | None:
         return self._presence_of(canonical_node_id(node))

@@ -370,3 +370,20 @@ def test_a_lazy_client_is_sent_no_state_until_a_call_needs_presence(dds: DdsSess
     assert state_readers() == 1  # ... created the reader
     dds.client(timeout=5.0)  # positive control: an eager client's reader matches at once
     assert wait_until(lambda: state_readers() == 2, timeout=5.0)
+
+
+def test_nodes_lists_a_node_its_server_stopped_hosting_as_offline(dds: DdsSession) -> None:
+    """A node whose server stops hosting it (the ROS 2 bridge does so when a mirrored node
+    leaves) leaves an invalid sample, with no data, beside the presence already read: the
+    listing shows the node offline instead of failing on that sample."""
+    gone, stays = ParameterTable("gone"), ParameterTable("stays")
+    gone.declare("a", 1)
+    stays.declare("b", 2)
+    server = dds.server(gone, stays)
+    client = dds.client()
+    client.wait_for_node("gone", timeout=10)
+    client.wait_for_node("stays", timeout=10)
+    assert {n.node: n.online for n in client.nodes()} == {"gone": True, "stays": True}
+    server.remove_node("gone")
+    assert wait_until(lambda: client.presence("gone").value == "offline", 10), "'gone' never seen offline"
+    assert {n.node: n.online for n in client.nodes()} == {"gone": False, "stays": True}
