@@ -20,6 +20,8 @@ command keeps running (a server, a watch), the runner goes on once it has printe
 what the block shows, and stops it with Ctrl-C when the page ends; ``vary=A,B``:
 values that differ from run to run, replaced by a placeholder in both the expected
 and the actual output before they are compared (:data:`VARY` lists them);
+``env=NAME``: the block runs in another Python environment than the test's (one of
+:data:`ENVIRONMENTS`; the test provides it, or skips the page from that block on);
 ``skip`` (with a reason after it): not run, said so on purpose.
 
 A whole session may sit inside the comment itself (the lines after
@@ -43,7 +45,7 @@ import subprocess
 import threading
 import time
 import uuid
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -56,12 +58,16 @@ SCRIPT_LANGS = SHELL_LANGS | {"python", "console"}
 VARY: dict[str, list[str]] = {
     "pid": [r'(?<="pid": )\d+', r"(?<=\bpid )\d+"],
     "host": [r'(?<="host": )"[^"]*"', r"(?<=\bon host )'[^']*'", r"(?<=\bon )\S+(?= \(pid)"],
+    "library": [r"(?<!\S)/\S*/lib[\w+-]+\.so(?:\.\d+)*(?!\S)"],
     "stamp": [r'(?<="stamp": )[-0-9.e+]+'],
     "revision": [r'(?<="revision": )\d+', r"(?<=\brevision: )\d+", r"(?<=\(rev )\d+"],
     "domain": [r"(?<=\bon domain )\d+"],
     "incarnation": [r'(?<="incarnation": ")[0-9a-f]{16}', r"\b[0-9a-f]{16}(?=:\d)"],
     "seconds": [r"\b\d+(?:\.\d+)? ?(?:s|ms)\b"],
 }
+
+# Python environments other than the test's own that a block may ask for with env=NAME.
+ENVIRONMENTS = {"secure": "Cyclone DDS built with DDS Security (tests/secure/conftest.py finds it)"}
 
 
 RUNNING_GRACE = 0.3  # s a command marked `running` must go on after showing its output
@@ -89,6 +95,7 @@ class Example:
     running: bool = False
     vary: tuple[str, ...] = ()
     skip: str | None = None
+    env: str | None = None  # another Python environment (ENVIRONMENTS), else the test's
     steps: list[Step] = field(default_factory=list)
 
     @property
@@ -104,12 +111,14 @@ def _options(text: str, path: Path, line: int) -> dict[str, str]:
         if key == "skip":
             out["skip"] = " ".join(words[i + 1 :]) or "(no reason given)"
             break
-        if key not in ("terminal", "running", "vary"):
+        if key not in ("terminal", "running", "vary", "env"):
             raise ValueError(f"{path}:{line}: unknown example option {word!r}")
         if key == "vary":
             unknown = [v for v in value.split(",") if v not in VARY]
             if unknown:
                 raise ValueError(f"{path}:{line}: unknown vary {unknown} (known: {sorted(VARY)})")
+        if key == "env" and value not in ENVIRONMENTS:
+            raise ValueError(f"{path}:{line}: unknown env {value!r} (known: {sorted(ENVIRONMENTS)})")
         out[key] = value
     return out
 
@@ -167,7 +176,7 @@ def parse(path: Path, text: str | None = None) -> list[Example]:
         opts = _options(m["opts"] or "", path, i + 1)
         ex = Example(
             path, i + 1, "console", opts.get("terminal", "main"), "running" in opts,
-            tuple(v for v in opts.get("vary", "").split(",") if v), opts.get("skip"),
+            tuple(v for v in opts.get("vary", "").split(",") if v), opts.get("skip"), opts.get("env"),
         )
         if not m["close"]:  # a hidden session inside the comment
             end = next((j for j in range(i + 1, len(lines)) if lines[j].strip() == "-->"), None)
@@ -358,17 +367,39 @@ def _diff(expected: str, actual: str, vary: tuple[str, ...]) -> str:
     return f"--- expected\n{normalise(expected, vary)}\n--- printed\n{normalise(actual, vary)}\n---"
 
 
-def run_page(examples: list[Example], cwd: Path, env: dict[str, str], timeout: float = 30.0) -> int:
-    """Runs a page's examples in order; returns how many ran. Raises ExampleError."""
+Environments = Mapping[str, Callable[[dict[str, str]], dict[str, str]]]
+
+
+def run_page(
+    examples: list[Example], cwd: Path, env: dict[str, str], timeout: float = 30.0,
+    environments: Environments | None = None,
+) -> int:
+    """Runs a page's examples in order; returns how many ran. Raises ExampleError.
+
+    ``environments`` makes, from ``env``, the environment of a block's ``env=NAME``; it
+    is called at the first block that names it (it may skip the test from there on).
+    """
     terminals: dict[str, Terminal] = {}
+    term_env: dict[str, str | None] = {}
+    made: dict[str, dict[str, str]] = {}
     ran = 0
     try:
         for n, ex in enumerate(examples):
             if ex.skip is not None:
                 continue
+            if ex.env is not None and ex.env not in made:
+                if ex.env not in (environments or {}):
+                    raise ExampleError(f"{ex.where}: this test provides no environment {ex.env!r}")
+                made[ex.env] = (environments or {})[ex.env](env)
             term = terminals.get(ex.terminal)
             if term is None:
-                term = terminals[ex.terminal] = Terminal(ex.terminal, cwd, env)
+                term = terminals[ex.terminal] = Terminal(ex.terminal, cwd, made[ex.env] if ex.env else env)
+                term_env[ex.terminal] = ex.env
+            elif term_env[ex.terminal] != ex.env:
+                raise ExampleError(
+                    f"{ex.where}: terminal {ex.terminal!r} runs in env={term_env[ex.terminal]}: "
+                    "every block of a terminal names the same env"
+                )
             for step in ex.steps:
                 if step.script:
                     if term.busy is not None:

@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 
 from ..conftest import make_dds_env
+from ..secure.conftest import require_secure_bin
 from .examples import parse, run_page, unmarked_sessions
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -27,11 +28,16 @@ def _page_env(domain_id: int) -> dict[str, str]:
     return env
 
 
+def _secure_env(env: dict[str, str]) -> dict[str, str]:
+    """``env=secure``: the secure Cyclone environment's commands first on PATH (skips without it)."""
+    return {**env, "PATH": f"{require_secure_bin()}{os.pathsep}{env['PATH']}"}
+
+
 @pytest.mark.timeout(180)
 @pytest.mark.parametrize("page", WITH_EXAMPLES, ids=lambda p: str(p.relative_to(ROOT)))
 def test_page_examples_print_what_the_page_shows(page: Path, domain_id: int, tmp_path: Path) -> None:
     (tmp_path / "examples").symlink_to(ROOT / "examples")
-    ran = run_page(parse(page), tmp_path, _page_env(domain_id))
+    ran = run_page(parse(page), tmp_path, _page_env(domain_id), environments={"secure": _secure_env})
     assert ran > 0
 
 

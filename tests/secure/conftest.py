@@ -51,14 +51,19 @@ def _secure_bin() -> Path | None:
     return venv / "bin" if done.returncode == 0 else None
 
 
-@pytest.fixture(scope="session")
-def secure_bin() -> Path:
+def require_secure_bin() -> Path:
+    """The secure environment's ``bin``; without one the test skips, or fails under CI=true."""
     found = _secure_bin()
     if found is None:
         if os.environ.get("CI", "").lower() == "true":
             pytest.fail(MISSING)
         pytest.skip(MISSING)
     return found
+
+
+@pytest.fixture(scope="session")
+def secure_bin() -> Path:
+    return require_secure_bin()
 
 
 @pytest.fixture(scope="session")
