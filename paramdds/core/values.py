@@ -213,7 +213,8 @@ class ParameterValue:
         return list(self.value) if isinstance(self.value, tuple) else self.value
 
     def same_as(self, other: ParameterValue) -> bool:
-        """Equality in which NaN equals NaN (for comparing tables and round trips)."""
+        """The same value exactly (for comparing tables and round trips, and whether a write
+        changes anything): NaN equals NaN, and -0.0 is not 0.0 (a change of sign is a change)."""
         if self.type is not other.type:
             return False
         a, b = self.value, other.value
@@ -223,9 +224,9 @@ class ParameterValue:
 
 
 def _same(a: object, b: object) -> bool:
-    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
-        return True
-    return a == b
+    if isinstance(a, float) and isinstance(b, float):
+        return (math.isnan(a) and math.isnan(b)) or (a == b and math.copysign(1, a) == math.copysign(1, b))
+    return type(a) is type(b) and a == b
 
 
 def _show_scalar(v: object) -> str:

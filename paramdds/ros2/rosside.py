@@ -141,24 +141,22 @@ class RosSide:
 
         group = MutuallyExclusiveCallbackGroup()
         events = SubscriptionEventCallbacks(message_lost=lambda _info: on_lost())
-        try:
+
+        def subscribe(**extra: Any) -> Any:
             return self.node.create_subscription(
                 ParameterEvent,
                 "/parameter_events",
                 callback,
                 qos_profile_parameter_events,
                 callback_group=group,
-                event_callbacks=events,
+                **extra,
             )
+
+        try:
+            return subscribe(event_callbacks=events)
         except Exception as exc:  # the middleware cannot report lost samples: periodic resync only
             log.info("lost /parameter_events samples cannot be detected here (%s)", exc)
-            return self.node.create_subscription(
-                ParameterEvent,
-                "/parameter_events",
-                callback,
-                qos_profile_parameter_events,
-                callback_group=group,
-            )
+            return subscribe()
 
     def close(self) -> None:
         try:

@@ -54,7 +54,6 @@ from .model import (
     incarnation_text,
     parameter_row,
     result_row,
-    same_value,
     summary_json,
     typed_values,
 )
@@ -370,7 +369,7 @@ class Console:
         unchanged: list[Row] = []
         for name, value, _ in entries:
             described = detail.parameters.get(name)
-            if described is not None and same_value(described[0], value):
+            if described is not None and described[0].same_as(value):
                 # not a change (a node's own dump holds its read-only parameters too): not sent
                 unchanged.append({"name": name, "successful": True, "reason": "unchanged", "code": None})
                 continue

@@ -60,23 +60,6 @@ def parameter_row(name: str, value: ParameterValue, descriptor: ParameterDescrip
     }
 
 
-def same_value(held: ParameterValue, given: ParameterValue) -> bool:
-    """Whether ``given`` is the value held: same type, same value (NaN equals NaN, and
-    -0.0 is not 0.0: a change of sign is a change)."""
-    if held.type is not given.type:
-        return False
-    a, b = held.value, given.value
-    if isinstance(a, tuple) and isinstance(b, tuple):
-        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
-    return _same(a, b)
-
-
-def _same(a: object, b: object) -> bool:
-    if isinstance(a, float) and isinstance(b, float):
-        return (math.isnan(a) and math.isnan(b)) or (a == b and math.copysign(1, a) == math.copysign(1, b))
-    return type(a) is type(b) and a == b
-
-
 def result_row(r: SetResult) -> Row:
     return {
         "name": r.name,

@@ -204,3 +204,14 @@ def test_check_value_names_the_parameter_and_the_limit() -> None:
         check_value("blob", ParameterValue.from_python(b"x" * (MAX_VALUE_BYTES + 1)))
     assert "'blob'" in info.value.message
     assert str(MAX_VALUE_BYTES) in info.value.message
+
+
+def test_same_as_is_exact_nan_equals_nan_and_a_sign_is_a_change() -> None:
+    """What a round trip must keep, and what the web console's load counts as no change."""
+    d = ParameterType.DOUBLE
+    assert ParameterValue.of(d, math.nan).same_as(ParameterValue.of(d, math.nan))
+    assert not ParameterValue.of(d, -0.0).same_as(ParameterValue.of(d, 0.0))
+    arrays = ParameterType.DOUBLE_ARRAY
+    assert not ParameterValue.of(arrays, [1.0, -0.0]).same_as(ParameterValue.of(arrays, [1.0, 0.0]))
+    assert ParameterValue.of(arrays, [math.nan]).same_as(ParameterValue.of(arrays, [math.nan]))
+    assert not ParameterValue.of(ParameterType.INTEGER, 1).same_as(ParameterValue.of(d, 1.0))
