@@ -21,6 +21,14 @@ from rclpy.parameter_client import AsyncParameterClient
 TIMEOUT = 10.0  # seconds to wait for the node's services, then for each answer
 
 
+def call(node: Any, future: Any) -> Any:
+    """The answer of a service call, or a TimeoutError after TIMEOUT seconds."""
+    rclpy.spin_until_future_complete(node, future, timeout_sec=TIMEOUT)
+    if not future.done():
+        raise TimeoutError(f"no answer in {TIMEOUT:g} s")
+    return future.result()
+
+
 def main(argv: list[str]) -> int:
     if len(argv) < 2:
         print(__doc__, file=sys.stderr)
@@ -37,15 +45,12 @@ def main(argv: list[str]) -> int:
         for request in requests:
             name, sep, text = request.partition(":=")
             if sep:
-                future: Any = client.set_parameters([Parameter(name, value=yaml.safe_load(text))])
-                rclpy.spin_until_future_complete(node, future, timeout_sec=TIMEOUT)
-                result = future.result().results[0]
+                answer = call(node, client.set_parameters([Parameter(name, value=yaml.safe_load(text))]))
+                result = answer.results[0]
                 print(f"{name}: {'set' if result.successful else 'refused: ' + result.reason}")
                 status = status or (0 if result.successful else 1)
             else:
-                future = client.get_parameters([name])
-                rclpy.spin_until_future_complete(node, future, timeout_sec=TIMEOUT)
-                values = future.result().values
+                values = call(node, client.get_parameters([name])).values
                 print(f"{name} = {parameter_value_to_python(values[0])!r}" if values else f"{name}: unknown")
     finally:
         node.destroy_node()

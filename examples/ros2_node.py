@@ -44,7 +44,9 @@ def make_node() -> Node:
         "mode", "position", ParameterDescriptor(additional_constraints="one of: " + ", ".join(MODES))
     )
     node.declare_parameter(
-        "joints", ["shoulder", "elbow", "wrist"], ParameterDescriptor(read_only=True, description="joint names")
+        "joints",
+        ["shoulder", "elbow", "wrist"],
+        ParameterDescriptor(read_only=True, description="joint names"),
     )
 
     def check(params: list[Any]) -> SetParametersResult:
