@@ -315,9 +315,6 @@ class ParameterClient:
         watch = self._watch()
         samples: list[Any] = self._presence.read(N=_READ_ALL)
         watch.note_read(s.sample_info for s in samples)
-        # a sample without data carries no presence: the dispose of a parameter the reader's
-        # filter keeps out arrives as one (key only, nothing to filter on)
-        samples = [s for s in samples if s.sample_info.valid_data]
         latest = {s.node_id: s for s in self._believed(samples)}  # oldest first: the last one wins
         found = [_node_info(s) for s in latest.values()]
         return sorted((n for n in found if n is not None), key=lambda n: n.node)
