@@ -112,6 +112,20 @@ def test_node_with_zero_parameters_is_visible(dds: DdsSession) -> None:
     assert listed.names == () and listed.prefixes == ()
 
 
+def test_nodes_survive_the_dispose_of_a_parameter_the_presence_reader_filters_out(dds: DdsSession) -> None:
+    """A delete disposes a parameter's instance: the client's presence reader (which filters
+    parameter samples out) gets it as a sample without data, which ``nodes()`` must skip."""
+    dds.server(ParameterTable("scratch", allow_undeclared=True))
+    client = dds.client()
+    client.wait_for_node("scratch", timeout=5.0)
+    assert client.set("scratch", [Parameter("tmp", ParameterValue.from_python(1))]).successful
+    deleted = client.delete("scratch", ["tmp"])
+    assert deleted.successful
+    assert wait_until(lambda: getattr(client.node_info("scratch"), "revision", 0) == deleted.revision, 5.0)
+    nodes = client.nodes()
+    assert [(n.node, n.online, n.parameters) for n in nodes] == [("scratch", True, 0)]
+
+
 def test_unknown_node_fails_fast_with_unavailable(dds: DdsSession) -> None:
     dds.server(ParameterTable("present"))
     fresh = dds.client()  # still inside its presence grace period

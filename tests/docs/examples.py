@@ -61,7 +61,7 @@ VARY: dict[str, list[str]] = {
     "library": [r"(?<!\S)/\S*/lib[\w+-]+\.so(?:\.\d+)*(?!\S)"],
     "stamp": [r'(?<="stamp": )[-0-9.e+]+'],
     "revision": [r'(?<="revision": )\d+', r"(?<=\brevision: )\d+", r"(?<=\(rev )\d+"],
-    "domain": [r"(?<=\bon domain )\d+"],
+    "domain": [r"(?<=\bdomain )\d+"],
     "incarnation": [r'(?<="incarnation": ")[0-9a-f]{16}', r"\b[0-9a-f]{16}(?=:\d)"],
     "seconds": [r"\b\d+(?:\.\d+)? ?(?:s|ms)\b"],
 }

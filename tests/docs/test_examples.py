@@ -55,3 +55,28 @@ def test_the_readme_and_the_cli_page_have_examples() -> None:
     """The pages a newcomer reads first are run, not only parsed."""
     assert ROOT / "README.md" in WITH_EXAMPLES
     assert ROOT / "docs" / "cli.md" in WITH_EXAMPLES
+
+
+# -- pages that need more than DDS ------------------------------------------------------------
+
+
+def _ros2_page_env(tmp_path: Path) -> dict[str, str]:
+    """docs/ros2.md runs real ROS 2 (rclpy) beside paramdds, on a ROS 2 domain of its own;
+    skipped with the reason without the ros2 extra, failed under CI=true (as tests/ros2)."""
+    from ..ros2.conftest import require_ros2, ros_vars
+
+    require_ros2()
+    return ros_vars(tmp_path)
+
+
+PAGE_ENV = {"ros2.md": _ros2_page_env}  # a page's file name -> the variables it needs more
+
+
+@pytest.fixture(autouse=True)
+def _page_needs(request: pytest.FixtureRequest, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Before a page of PAGE_ENV runs: its variables, in the environment its terminals inherit."""
+    page = getattr(getattr(request.node, "callspec", None), "params", {}).get("page")
+    if request.function is not test_page_examples_print_what_the_page_shows or page is None:
+        return
+    for key, value in PAGE_ENV.get(page.name, lambda _: {})(tmp_path).items():
+        monkeypatch.setenv(key, value)

@@ -38,18 +38,24 @@ def require_ros2() -> None:
         pytest.skip(reason)
 
 
-@pytest.fixture
-def ros_env(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, domain_id: int) -> dict[str, str]:
-    """ROS 2's environment, set in this process too (for an in-process bridge); returns the
-    environment for subprocesses (ROS 2 and paramdds on ``domain_id``)."""
-    require_ros2()
-    ros = {
+def ros_vars(tmp_path: Path) -> dict[str, str]:
+    """The variables ROS 2 processes need here: a random domain, loopback discovery over
+    UDP only (no Fast DDS shared memory), logs under ``tmp_path``."""
+    return {
         "ROS_DOMAIN_ID": str(random.randint(1, 99)),
         "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
         "FASTDDS_BUILTIN_TRANSPORTS": "UDPv4",
         "ROS_LOG_DIR": str(tmp_path / "roslog"),
         "RCUTILS_LOGGING_BUFFERED_STREAM": "0",
     }
+
+
+@pytest.fixture
+def ros_env(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, domain_id: int) -> dict[str, str]:
+    """ROS 2's environment, set in this process too (for an in-process bridge); returns the
+    environment for subprocesses (ROS 2 and paramdds on ``domain_id``)."""
+    require_ros2()
+    ros = ros_vars(tmp_path)
     for k, v in ros.items():
         monkeypatch.setenv(k, v)
     return make_dds_env(domain_id, **ros)
