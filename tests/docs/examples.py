@@ -67,7 +67,10 @@ VARY: dict[str, list[str]] = {
 }
 
 # Python environments other than the test's own that a block may ask for with env=NAME.
-ENVIRONMENTS = {"secure": "Cyclone DDS built with DDS Security (tests/secure/conftest.py finds it)"}
+ENVIRONMENTS = {
+    "secure": "Cyclone DDS built with DDS Security (tests/secure/conftest.py finds it)",
+    "ros2": "real ROS 2 beside paramdds (rclpy; the variables of tests/ros2/conftest.py)",
+}
 
 
 RUNNING_GRACE = 0.3  # s a command marked `running` must go on after showing its output

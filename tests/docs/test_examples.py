@@ -9,11 +9,13 @@ from __future__ import annotations
 
 import os
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 
 from ..conftest import make_dds_env
+from ..ros2.conftest import require_ros2, ros_vars
 from ..secure.conftest import require_secure_bin
 from .examples import parse, run_page, unmarked_sessions
 
@@ -33,11 +35,24 @@ def _secure_env(env: dict[str, str]) -> dict[str, str]:
     return {**env, "PATH": f"{require_secure_bin()}{os.pathsep}{env['PATH']}"}
 
 
+def _ros2_env(tmp_path: Path) -> Callable[[dict[str, str]], dict[str, str]]:
+    """``env=ros2``: real ROS 2 beside paramdds, on a ROS 2 domain of the page's own (the
+    variables of tests/ros2); skipped with the reason without the ros2 extra, failed under
+    CI=true, as tests/ros2 is."""
+
+    def make(env: dict[str, str]) -> dict[str, str]:
+        require_ros2()
+        return {**env, **ros_vars(tmp_path)}
+
+    return make
+
+
 @pytest.mark.timeout(180)
 @pytest.mark.parametrize("page", WITH_EXAMPLES, ids=lambda p: str(p.relative_to(ROOT)))
 def test_page_examples_print_what_the_page_shows(page: Path, domain_id: int, tmp_path: Path) -> None:
     (tmp_path / "examples").symlink_to(ROOT / "examples")
-    ran = run_page(parse(page), tmp_path, _page_env(domain_id), environments={"secure": _secure_env})
+    environments = {"secure": _secure_env, "ros2": _ros2_env(tmp_path)}
+    ran = run_page(parse(page), tmp_path, _page_env(domain_id), environments=environments)
     assert ran > 0
 
 
@@ -55,28 +70,3 @@ def test_the_readme_and_the_cli_page_have_examples() -> None:
     """The pages a newcomer reads first are run, not only parsed."""
     assert ROOT / "README.md" in WITH_EXAMPLES
     assert ROOT / "docs" / "cli.md" in WITH_EXAMPLES
-
-
-# -- pages that need more than DDS ------------------------------------------------------------
-
-
-def _ros2_page_env(tmp_path: Path) -> dict[str, str]:
-    """docs/ros2.md runs real ROS 2 (rclpy) beside paramdds, on a ROS 2 domain of its own;
-    skipped with the reason without the ros2 extra, failed under CI=true (as tests/ros2)."""
-    from ..ros2.conftest import require_ros2, ros_vars
-
-    require_ros2()
-    return ros_vars(tmp_path)
-
-
-PAGE_ENV = {"ros2.md": _ros2_page_env}  # a page's file name -> the variables it needs more
-
-
-@pytest.fixture(autouse=True)
-def _page_needs(request: pytest.FixtureRequest, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """Before a page of PAGE_ENV runs: its variables, in the environment its terminals inherit."""
-    page = getattr(getattr(request.node, "callspec", None), "params", {}).get("page")
-    if request.function is not test_page_examples_print_what_the_page_shows or page is None:
-        return
-    for key, value in PAGE_ENV.get(page.name, lambda _: {})(tmp_path).items():
-        monkeypatch.setenv(key, value)
