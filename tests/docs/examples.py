@@ -70,6 +70,7 @@ VARY: dict[str, list[str]] = {
 ENVIRONMENTS = {
     "secure": "Cyclone DDS built with DDS Security (tests/secure/conftest.py finds it)",
     "ros2": "real ROS 2 beside paramdds (rclpy; the variables of tests/ros2/conftest.py)",
+    "interop": "the C and C++ programs of examples/ at build/<vendor>/, no discovery tag (tests/interop)",
 }
 
 

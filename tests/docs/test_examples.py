@@ -14,7 +14,10 @@ from pathlib import Path
 
 import pytest
 
+from paramdds.dds.participant import domain_config
+
 from ..conftest import make_dds_env
+from ..interop.conftest import build_programs, require_program
 from ..ros2.conftest import require_ros2, ros_vars
 from ..secure.conftest import require_secure_bin
 from .examples import parse, run_page, unmarked_sessions
@@ -47,11 +50,30 @@ def _ros2_env(tmp_path: Path) -> Callable[[dict[str, str]], dict[str, str]]:
     return make
 
 
+def _interop_env(tmp_path: Path) -> Callable[[dict[str, str]], dict[str, str]]:
+    """``env=interop``: the C and C++ programs of examples/ built (as tests/interop builds
+    them, once, into its cache) at ``build/<vendor>/paramdds_peer`` of the page's directory,
+    and no discovery tag (Fast DDS knows none): Cyclone's loopback settings in
+    CYCLONEDDS_URI, for Cyclone C and paramdds alike. Skipped with the reason without the
+    toolchains, failed under CI=true, as tests/interop is."""
+
+    def make(env: dict[str, str]) -> dict[str, str]:
+        for name, built in build_programs().items():
+            program = tmp_path / "build" / name / "paramdds_peer"
+            program.parent.mkdir(parents=True, exist_ok=True)
+            program.symlink_to(require_program(name, built))
+        with pytest.MonkeyPatch.context() as untagged:  # paramdds's loopback settings alone
+            untagged.delenv("CYCLONEDDS_URI", raising=False)
+            return {**env, "CYCLONEDDS_URI": domain_config(localhost=True) or ""}
+
+    return make
+
+
 @pytest.mark.timeout(180)
 @pytest.mark.parametrize("page", WITH_EXAMPLES, ids=lambda p: str(p.relative_to(ROOT)))
 def test_page_examples_print_what_the_page_shows(page: Path, domain_id: int, tmp_path: Path) -> None:
     (tmp_path / "examples").symlink_to(ROOT / "examples")
-    environments = {"secure": _secure_env, "ros2": _ros2_env(tmp_path)}
+    environments = {"secure": _secure_env, "ros2": _ros2_env(tmp_path), "interop": _interop_env(tmp_path)}
     ran = run_page(parse(page), tmp_path, _page_env(domain_id), environments=environments)
     assert ran > 0
 

@@ -91,9 +91,8 @@ def _build(vendor: Vendor, cache: Path) -> Path | str:
     return program
 
 
-@pytest.fixture(scope="session")
-def foreign_programs() -> dict[str, Path | str]:
-    """Vendor name -> built program (or the reason it is missing), built once per session."""
+def build_programs() -> dict[str, Path | str]:
+    """Vendor name -> built program (or the reason it is missing), from the cache when built."""
     cache = Path(os.environ.get("PARAMDDS_INTEROP_CACHE", Path.home() / ".cache" / "paramdds" / "interop"))
     cache.mkdir(parents=True, exist_ok=True)
     with ThreadPoolExecutor(len(VENDORS)) as pool:
@@ -101,12 +100,22 @@ def foreign_programs() -> dict[str, Path | str]:
         return {name: future.result() for name, future in futures.items()}
 
 
+def require_program(name: str, built: Path | str) -> Path:
+    """The program, or skip naming what is missing (fail in CI, and for a broken build)."""
+    if isinstance(built, str):
+        if _in_ci() or "failed" in built:  # a broken build is a failure everywhere
+            pytest.fail(f"{name}: {built}")
+        pytest.skip(f"{name}: {built}")
+    return built
+
+
+@pytest.fixture(scope="session")
+def foreign_programs() -> dict[str, Path | str]:
+    """Vendor name -> built program (or the reason it is missing), built once per session."""
+    return build_programs()
+
+
 @pytest.fixture(params=sorted(VENDORS))
 def vendor(request: pytest.FixtureRequest, foreign_programs: dict[str, Path | str]) -> tuple[Vendor, Path]:
     """Each interop test runs once per vendor, with that vendor's program."""
-    built = foreign_programs[request.param]
-    if isinstance(built, str):
-        if _in_ci() or "failed" in built:  # a broken build is a failure everywhere
-            pytest.fail(f"{request.param}: {built}")
-        pytest.skip(f"{request.param}: {built}")
-    return VENDORS[request.param], built
+    return VENDORS[request.param], require_program(request.param, foreign_programs[request.param])
