@@ -45,8 +45,11 @@ __all__ = [
     "disable_native",
     "filter_tag",
     "filtered_topic",
+    "gone_of",
+    "gone_tag",
     "origin_of",
     "origin_tag",
+    "process_label",
     "request_filter_of",
     "status",
 ]
@@ -101,8 +104,18 @@ def origin_of(tags: Iterable[object]) -> str | None:
     return None
 
 
+def process_label(host: str, pid: int) -> str:
+    """A process hosting a node, as a ``gone=`` tag and a monitor's duplicates name it."""
+    return f"pid {pid} on {host}"
+
+
+def gone_tag(host: str, pid: int) -> str:
+    """The presence tag that says this process stopped hosting the node (see :func:`gone_of`)."""
+    return GONE_TAG + process_label(host, pid)
+
+
 def gone_of(tags: Iterable[object]) -> list[str]:
-    """The processes a presence says stopped hosting the node ("pid N on HOST")."""
+    """The processes a presence says stopped hosting the node (:func:`process_label`)."""
     return [t[len(GONE_TAG) :] for t in tags if isinstance(t, str) and t.startswith(GONE_TAG)]
 
 

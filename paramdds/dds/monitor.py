@@ -36,7 +36,7 @@ from ..core.values import ParameterValue
 from ..secure.scope import guard_raw, scope_of
 from . import types as wire
 from .dispatch import Dispatcher
-from .filters import gone_of, origin_of, request_filter_of
+from .filters import gone_of, origin_of, process_label, request_filter_of
 from .participant import poll_peers
 from .qos import QosProfiles
 from .state import StateKey, StateSample, decode_key, decode_state
@@ -247,10 +247,10 @@ class ParameterMonitor:
             and state.writer
             and writer != state.writer
             and (s.host, s.pid) != (state.host, state.pid)
-            and f"pid {state.pid} on {state.host}" not in gone
+            and process_label(state.host, state.pid) not in gone
         ):
             # a second live writer of this node's presence: two processes host one node id
-            previous, new = f"pid {state.pid} on {state.host}", f"pid {s.pid} on {s.host}"
+            previous, new = process_label(state.host, state.pid), process_label(s.host, s.pid)
             state.duplicates = [d for d in state.duplicates if d != new]  # host and pid show the new one
             if previous not in state.duplicates:
                 state.duplicates.append(previous)

@@ -78,7 +78,7 @@ from ._binding import assert_liveliness, take_serialized, unregister_serialized,
 from .cdr import MalformedSample, encode
 from .convert import descriptor_to_wire, parameter_from_wire, state_descriptor_to_wire, value_to_wire
 from .dispatch import SERIALIZED, Dispatcher
-from .filters import GONE_TAG, NativeFilter, filter_tag, filtered_topic
+from .filters import NativeFilter, filter_tag, filtered_topic, gone_tag
 from .node_worker import NodeWorker
 from .participant import poll_peers
 from .qos import QosProfiles
@@ -298,8 +298,7 @@ class ParameterServer:
             if isinstance(sample, StateKey):
                 twin = self._twin_of.pop(sample.node_id, None)
                 if twin is not None and info.instance_state != InstanceState.Alive:
-                    gone = f"{GONE_TAG}pid {twin[1]} on {twin[0]}"
-                    job = partial(self._write_presence, worker.table, gone)
+                    job = partial(self._write_presence, worker.table, gone_tag(*twin))
                     if worker.idle():
                         job()
                     else:
