@@ -84,10 +84,7 @@ def filter_tag(native: bool) -> str:
 def request_filter_of(tags: Iterable[object]) -> str | None:
     """``"native"`` or ``"handler"`` from a presence value's tags; None if the node does not say
     (a foreign or older server: its presence carries no value)."""
-    for tag in tags:
-        if isinstance(tag, str) and tag.startswith(_TAG):
-            return tag[len(_TAG) :]
-    return None
+    return _tag_value(tags, _TAG)
 
 
 def origin_tag(origin: str) -> str:
@@ -98,9 +95,14 @@ def origin_tag(origin: str) -> str:
 def origin_of(tags: Iterable[object]) -> str | None:
     """The presence tag ``origin`` (``"ros2"`` for a node mirrored from ROS 2 by the bridge);
     None when the node does not say (a node served here, or an older server)."""
+    return _tag_value(tags, ORIGIN_TAG)
+
+
+def _tag_value(tags: Iterable[object], prefix: str) -> str | None:
+    """What follows ``prefix`` in the first tag that starts with it; None if none does."""
     for tag in tags:
-        if isinstance(tag, str) and tag.startswith(ORIGIN_TAG):
-            return tag[len(ORIGIN_TAG) :]
+        if isinstance(tag, str) and tag.startswith(prefix):
+            return tag[len(prefix) :]
     return None
 
 

@@ -239,7 +239,9 @@ class ParameterMonitor:
     def _apply_presence(self, state: NodeState, s: StateSample, info: Any) -> MonitorEvent | None:
         writer = int(getattr(info, "publication_handle", 0))
         tags = s.value.value  # a string array of the server's tags, or NOT_SET
-        gone = gone_of(tags) if isinstance(tags, tuple) else []
+        if not isinstance(tags, tuple):
+            tags = ()
+        gone = gone_of(tags)
         if gone:  # the other host of this node stopped: it is neither shown nor a second host
             state.duplicates = [d for d in state.duplicates if d not in gone]
         if (
@@ -264,8 +266,8 @@ class ParameterMonitor:
         state.host, state.pid = s.host, s.pid
         state.revision, state.announced = s.revision, s.parameter_count
         state.incarnation = s.incarnation
-        state.request_filter = request_filter_of(tags) if isinstance(tags, tuple) else None
-        state.origin = origin_of(tags) if isinstance(tags, tuple) else None
+        state.request_filter = request_filter_of(tags)
+        state.origin = origin_of(tags)
         return self._set_online(state, info.instance_state == InstanceState.Alive)
 
     def _set_online(self, state: NodeState, online: bool) -> MonitorEvent | None:
