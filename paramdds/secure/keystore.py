@@ -101,6 +101,12 @@ def _write_private(path: Path, data: bytes) -> None:
     os.chmod(path, 0o600)
 
 
+def _private_dir(path: Path) -> None:
+    """Create ``path`` (and its parents) with mode 0700, whatever the umask."""
+    path.mkdir(parents=True, mode=0o700)
+    os.chmod(path, 0o700)
+
+
 def _new_key() -> Any:
     from cryptography.hazmat.primitives.asymmetric import ec
 
@@ -241,8 +247,7 @@ def init_keystore(root: Path, *, days: int = 3650) -> Path:
     if (root / "ca").exists():
         raise KeystoreError(f"{root} already holds a keystore (ca/ exists)")
     ca_dir = root / "ca"
-    ca_dir.mkdir(parents=True, mode=0o700)
-    os.chmod(ca_dir, 0o700)
+    _private_dir(ca_dir)
     for which, name in (
         ("identity_ca", "paramdds identity CA"),
         ("permissions_ca", "paramdds permissions CA"),
@@ -283,8 +288,7 @@ def add_identity(root: Path, name: str, role: str, globs: list[str], *, days: in
     perm_cert, perm_key = _load_ca(root, "permissions_ca")
     out = root / "identities" / name
     shutil.rmtree(out, ignore_errors=True)
-    out.mkdir(parents=True, mode=0o700)
-    os.chmod(out, 0o700)
+    _private_dir(out)
     key = _new_key()
     subject = _subject(name)
     cert = _certificate(subject, key, id_cert.subject, id_key, days, ca=False)
