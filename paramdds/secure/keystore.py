@@ -39,15 +39,16 @@ import json
 import os
 import re
 import shutil
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 from xml.sax.saxutils import escape
+
+if TYPE_CHECKING:
+    from .identity import Identity
 
 __all__ = [
     "GOVERNANCE_MAX_DOMAIN",
     "ROLES",
-    "IdentityInfo",
     "add_identity",
     "governance_xml",
     "init_keystore",
@@ -74,14 +75,6 @@ META = "paramdds.json"
 
 class KeystoreError(Exception):
     """Bad keystore input or state; the message says what to fix."""
-
-
-@dataclass(frozen=True)
-class IdentityInfo:
-    name: str
-    role: str
-    nodes: tuple[str, ...]
-    path: Path
 
 
 def _crypto() -> Any:
@@ -277,8 +270,9 @@ def check_globs(globs: list[str]) -> tuple[str, ...]:
     return tuple(dict.fromkeys(globs))
 
 
-def add_identity(root: Path, name: str, role: str, globs: list[str], *, days: int = 825) -> IdentityInfo:
+def add_identity(root: Path, name: str, role: str, globs: list[str], *, days: int = 825) -> Identity:
     """Issue identity ``name`` with ``role`` for the node ids matching ``globs`` (replaces one)."""
+    from .identity import Identity  # it imports this module
     if not _NAME.fullmatch(name):
         raise KeystoreError(f"identity name {name!r}: use 1-64 letters, digits, '_', '.', '-'")
     if role not in ROLES:
@@ -302,4 +296,4 @@ def add_identity(root: Path, name: str, role: str, globs: list[str], *, days: in
     (out / "permissions.p7s").write_bytes(_sign(document, perm_cert, perm_key))
     meta = {"name": name, "role": role, "nodes": list(nodes), "subject": subject.rfc4514_string()}
     (out / META).write_text(json.dumps(meta, indent=2) + "\n")
-    return IdentityInfo(name, role, nodes, out)
+    return Identity(out, name, role, nodes)
