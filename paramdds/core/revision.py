@@ -6,7 +6,13 @@ from typing import NamedTuple
 
 from ..errors import ParamddsError
 
-__all__ = ["Revision"]
+__all__ = ["Revision", "incarnation_text"]
+
+
+def incarnation_text(incarnation: int) -> str:
+    """An incarnation as it is written everywhere: 16 hex digits (a JSON number would lose
+    digits above 2**53 in a browser)."""
+    return f"{incarnation:016x}"
 
 
 class Revision(NamedTuple):
@@ -22,7 +28,7 @@ class Revision(NamedTuple):
     revision: int
 
     def __str__(self) -> str:
-        return f"{self.incarnation:016x}:{self.revision}"
+        return f"{incarnation_text(self.incarnation)}:{self.revision}"
 
     @classmethod
     def parse(cls, text: str) -> Revision:

@@ -69,6 +69,7 @@ from cyclonedds.util import duration
 from ..core.limits import MAX_PARAMETERS_PER_REQUEST
 from ..core.names import canonical_node_id
 from ..core.results import ChangeKind, ChangeSet, SetResult
+from ..core.revision import incarnation_text
 from ..core.table import ParameterTable
 from ..core.values import Parameter, ParameterType
 from ..errors import ErrorCode, NotPermittedError, ParamddsError
@@ -585,8 +586,8 @@ class ParameterServer:
         if request.expected_incarnation and request.expected_incarnation != incarnation:
             reason = (
                 f"not applied: node {table.node_id!r} is at revision {table.revision} of incarnation "
-                f"{incarnation:016x} (restarted since), not the expected revision "
-                f"{request.expected_revision} of incarnation {request.expected_incarnation:016x}"
+                f"{incarnation_text(incarnation)} (restarted since), not the expected revision "
+                f"{request.expected_revision} of incarnation {incarnation_text(request.expected_incarnation)}"
             )
             refused = [SetResult(p.name, False, reason, ErrorCode.CONFLICT) for p in request.parameters]
             return [_result_to_wire(r) for r in refused], table.revision
