@@ -39,6 +39,11 @@ class Revision(NamedTuple):
             revision = int(tail, 10)
         except ValueError:
             raise ParamddsError(f"not a revision (REVISION or INCARNATION:REVISION): {text!r}") from None
-        if not (0 <= incarnation < 2**64 and 0 <= revision < 2**63):
+        parsed = cls(incarnation, revision)
+        if not parsed.on_wire():
             raise ParamddsError(f"revision out of range: {text!r}")
-        return cls(incarnation, revision)
+        return parsed
+
+    def on_wire(self) -> bool:
+        """Whether a set request can carry it (a uint64 incarnation, a non-negative int64 revision)."""
+        return 0 <= self.incarnation < 2**64 and 0 <= self.revision < 2**63

@@ -695,6 +695,6 @@ def _expected(if_revision: int | Revision | None) -> Revision:
     incarnation, revision = expected
     if not (isinstance(incarnation, int) and isinstance(revision, int)):
         raise ParamddsError(f"if_revision must be an int or a Revision, got {if_revision!r}")
-    if not (0 <= incarnation < 2**64 and 0 <= revision < 2**63):
+    if not expected.on_wire():
         raise ParamddsError(f"if_revision out of range: {if_revision!r}")
     return expected
