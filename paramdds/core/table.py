@@ -589,12 +589,12 @@ class ParameterTable:
             raise ReadOnlyError(f"parameter {name!r} is read-only")
 
     def _plan_set(self, p: object, stage: _Stage) -> tuple[str, _Entry | None]:
-        """Step 3 for one parameter: the entry it would leave (None: deleted), or raise."""
+        """Step 3 for one parameter: the entry it would leave (None: deleted), or raise.
+        Read-only nodes and parameters were refused by :meth:`_check_access`; a name is
+        checked for being declared again, as an earlier entry of the unit may delete it."""
         if not isinstance(p, Parameter):
             raise InvalidValueError(f"expected a Parameter, got {type(p).__name__}")
         name = validate_name(p.name)
-        if self.read_only:
-            raise ReadOnlyError(f"node {self.node_id!r} is read-only")
         value = p.value if isinstance(p.value, ParameterValue) else ParameterValue.from_python(p.value)
         check_value(name, value)
         current = stage.get(name)
@@ -607,8 +607,6 @@ class ParameterTable:
             # rclcpp declares it, dynamically typed (a NOT_SET value: declared without a value)
             return name, (value, ParameterDescriptor(name, value.type, dynamic_typing=True))
         desc = current[1]
-        if desc.read_only:
-            raise ReadOnlyError(f"parameter {name!r} is read-only")
         if value.type is ParameterType.NOT_SET:
             if not desc.dynamic_typing:
                 raise TypeMismatchError(
