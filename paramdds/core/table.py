@@ -181,6 +181,13 @@ def _check_names(names: object) -> None:
         raise InvalidValueError(f"expected a list of parameter names, got {type(names).__name__}")
 
 
+def _not_declared(name: str) -> NotFoundError:
+    """A set of a name the table does not have, on a table that accepts no new names."""
+    return NotFoundError(
+        f"parameter {name!r} is not declared (start the node with --allow-undeclared to accept new names)"
+    )
+
+
 def _callback_error(stage: str, exc: Exception) -> ParamddsError:
     if isinstance(exc, ParamddsError):
         return error_for(exc.code, f"{stage} callback failed: {exc.message}")
@@ -581,10 +588,7 @@ class ParameterTable:
             raise ReadOnlyError(f"node {self.node_id!r} is read-only")
         current = stage.get(name)
         if current is None and not self.allow_undeclared:
-            raise NotFoundError(
-                f"parameter {name!r} is not declared (start the node with --allow-undeclared "
-                "to accept new names)"
-            )
+            raise _not_declared(name)
         if current is not None and current[1].read_only:
             raise ReadOnlyError(f"parameter {name!r} is read-only")
 
@@ -600,10 +604,7 @@ class ParameterTable:
         current = stage.get(name)
         if current is None:
             if not self.allow_undeclared:
-                raise NotFoundError(
-                    f"parameter {name!r} is not declared (start the node with --allow-undeclared "
-                    "to accept new names)"
-                )
+                raise _not_declared(name)
             # rclcpp declares it, dynamically typed (a NOT_SET value: declared without a value)
             return name, (value, ParameterDescriptor(name, value.type, dynamic_typing=True))
         desc = current[1]
