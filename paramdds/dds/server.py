@@ -299,11 +299,7 @@ class ParameterServer:
             if isinstance(sample, StateKey):
                 twin = self._twin_of.pop(sample.node_id, None)
                 if twin is not None and info.instance_state != InstanceState.Alive:
-                    job = partial(self._write_presence, worker.table, gone_tag(*twin))
-                    if worker.idle():
-                        job()
-                    else:
-                        worker.submit(job)
+                    self._presence_again(worker, gone_tag(*twin))
             elif (sample.host, sample.pid) != (self._host, self._pid):
                 self._twin_of[sample.node_id] = (sample.host, sample.pid)
                 self._warn_twin(sample.node_id, sample.host, sample.pid)
@@ -401,10 +397,14 @@ class ParameterServer:
         """
         log.warning("the server did not run for %.1f s (stopped or starved): writing presence again", late)
         for worker in list(self._workers.values()):
-            if worker.idle():
-                self._write_presence(worker.table)
-            else:
-                worker.submit(partial(self._write_presence, worker.table))
+            self._presence_again(worker)
+
+    def _presence_again(self, worker: NodeWorker, *tags: str) -> None:
+        """Write a node's presence again: now when its worker is idle, else after its jobs."""
+        if worker.idle():
+            self._write_presence(worker.table, *tags)
+        else:
+            worker.submit(partial(self._write_presence, worker.table, *tags))
 
     # -- state publication ---------------------------------------------------------
 
