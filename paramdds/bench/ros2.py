@@ -160,20 +160,28 @@ class Host:
         self.proc.wait()
 
 
+def _probe_cmd(mode: str, args: tuple[object, ...]) -> list[str]:
+    return [sys.executable, "-m", "paramdds.bench._ros2_probe", mode, *map(str, args)]
+
+
+def _probe_result(out: str) -> dict[str, Any]:
+    """A probe's result: the JSON object on its last line of output."""
+    result: dict[str, Any] = json.loads(out.strip().splitlines()[-1])
+    return result
+
+
 def probe(
     mode: str, *args: object, env: dict[str, str], timeout: float = 180.0
 ) -> tuple[float, dict[str, Any]]:
-    ms, out = run_timed(
-        [sys.executable, "-m", "paramdds.bench._ros2_probe", mode, *map(str, args)], env=env, timeout=timeout
-    )
-    return ms, json.loads(out.strip().splitlines()[-1])
+    ms, out = run_timed(_probe_cmd(mode, args), env=env, timeout=timeout)
+    return ms, _probe_result(out)
 
 
 def killed_during(mode: str, host: Host, *args: object, env: dict[str, str]) -> tuple[float, dict[str, Any]]:
     """A fresh state process, with ``host`` killed -9 KILL_AFTER seconds after it started."""
     t0 = time.perf_counter()
     proc = subprocess.Popen(
-        [sys.executable, "-m", "paramdds.bench._ros2_probe", mode, *map(str, args)],
+        _probe_cmd(mode, args),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -185,7 +193,7 @@ def killed_during(mode: str, host: Host, *args: object, env: dict[str, str]) -> 
     ms = (time.perf_counter() - t0) * 1e3
     if proc.returncode != 0:
         raise RuntimeError(f"{mode} failed: {err[-800:]}")
-    return ms, json.loads(out.strip().splitlines()[-1])
+    return ms, _probe_result(out)
 
 
 def stats(samples: list[float]) -> dict[str, float]:

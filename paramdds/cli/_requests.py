@@ -16,7 +16,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 from ..core.descriptors import ParameterDescriptor
-from ..core.revision import Revision
+from ..core.revision import Revision, incarnation_text
 from ..core.values import Parameter, ParameterType
 from ..errors import ParamddsError
 from ._errors import Exit, UsageError, one_line
@@ -70,7 +70,7 @@ def run_nodes(args: argparse.Namespace) -> int:
             "revision": st.revision,
             "also_hosted_by": list(st.duplicates),  # other processes hosting the same node id
             "request_filter": st.request_filter,  # "native", "handler", or None: the server does not say
-            "incarnation": f"{st.incarnation:016x}",  # the server's for the node, new on every start
+            "incarnation": incarnation_text(st.incarnation),  # the server's for the node, new on every start
             "at": str(Revision(st.incarnation, st.revision)),  # what `set --if-revision` takes
             "origin": st.origin,  # the presence tag "origin" ("ros2": mirrored by the bridge), or None
         }

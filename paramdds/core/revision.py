@@ -6,7 +6,13 @@ from typing import NamedTuple
 
 from ..errors import ParamddsError
 
-__all__ = ["Revision"]
+__all__ = ["Revision", "incarnation_text"]
+
+
+def incarnation_text(incarnation: int) -> str:
+    """An incarnation as it is written everywhere: 16 hex digits (a JSON number would lose
+    digits above 2**53 in a browser)."""
+    return f"{incarnation:016x}"
 
 
 class Revision(NamedTuple):
@@ -22,7 +28,7 @@ class Revision(NamedTuple):
     revision: int
 
     def __str__(self) -> str:
-        return f"{self.incarnation:016x}:{self.revision}"
+        return f"{incarnation_text(self.incarnation)}:{self.revision}"
 
     @classmethod
     def parse(cls, text: str) -> Revision:
@@ -33,6 +39,11 @@ class Revision(NamedTuple):
             revision = int(tail, 10)
         except ValueError:
             raise ParamddsError(f"not a revision (REVISION or INCARNATION:REVISION): {text!r}") from None
-        if not (0 <= incarnation < 2**64 and 0 <= revision < 2**63):
+        parsed = cls(incarnation, revision)
+        if not parsed.on_wire():
             raise ParamddsError(f"revision out of range: {text!r}")
-        return cls(incarnation, revision)
+        return parsed
+
+    def on_wire(self) -> bool:
+        """Whether a set request can carry it (a uint64 incarnation, a non-negative int64 revision)."""
+        return 0 <= self.incarnation < 2**64 and 0 <= self.revision < 2**63

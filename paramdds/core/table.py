@@ -181,6 +181,13 @@ def _check_names(names: object) -> None:
         raise InvalidValueError(f"expected a list of parameter names, got {type(names).__name__}")
 
 
+def _not_declared(name: str) -> NotFoundError:
+    """A set of a name the table does not have, on a table that accepts no new names."""
+    return NotFoundError(
+        f"parameter {name!r} is not declared (start the node with --allow-undeclared to accept new names)"
+    )
+
+
 def _callback_error(stage: str, exc: Exception) -> ParamddsError:
     if isinstance(exc, ParamddsError):
         return error_for(exc.code, f"{stage} callback failed: {exc.message}")
@@ -581,34 +588,26 @@ class ParameterTable:
             raise ReadOnlyError(f"node {self.node_id!r} is read-only")
         current = stage.get(name)
         if current is None and not self.allow_undeclared:
-            raise NotFoundError(
-                f"parameter {name!r} is not declared (start the node with --allow-undeclared "
-                "to accept new names)"
-            )
+            raise _not_declared(name)
         if current is not None and current[1].read_only:
             raise ReadOnlyError(f"parameter {name!r} is read-only")
 
     def _plan_set(self, p: object, stage: _Stage) -> tuple[str, _Entry | None]:
-        """Step 3 for one parameter: the entry it would leave (None: deleted), or raise."""
+        """Step 3 for one parameter: the entry it would leave (None: deleted), or raise.
+        Read-only nodes and parameters were refused by :meth:`_check_access`; a name is
+        checked for being declared again, as an earlier entry of the unit may delete it."""
         if not isinstance(p, Parameter):
             raise InvalidValueError(f"expected a Parameter, got {type(p).__name__}")
         name = validate_name(p.name)
-        if self.read_only:
-            raise ReadOnlyError(f"node {self.node_id!r} is read-only")
         value = p.value if isinstance(p.value, ParameterValue) else ParameterValue.from_python(p.value)
         check_value(name, value)
         current = stage.get(name)
         if current is None:
             if not self.allow_undeclared:
-                raise NotFoundError(
-                    f"parameter {name!r} is not declared (start the node with --allow-undeclared "
-                    "to accept new names)"
-                )
+                raise _not_declared(name)
             # rclcpp declares it, dynamically typed (a NOT_SET value: declared without a value)
             return name, (value, ParameterDescriptor(name, value.type, dynamic_typing=True))
         desc = current[1]
-        if desc.read_only:
-            raise ReadOnlyError(f"parameter {name!r} is read-only")
         if value.type is ParameterType.NOT_SET:
             if not desc.dynamic_typing:
                 raise TypeMismatchError(

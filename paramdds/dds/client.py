@@ -81,8 +81,20 @@ REQUEST_TOPICS = ("SetParametersRequest", "GetParametersRequest", "ListParameter
 ParamsArg = Mapping[str, object] | Iterable[Parameter]
 
 
+class _At:
+    """A node's state as a reply or a presence reports it (the dataclasses below)."""
+
+    incarnation: int
+    revision: int
+
+    @property
+    def at(self) -> Revision:
+        """(incarnation, revision): what ``set(..., if_revision=)`` compares."""
+        return Revision(self.incarnation, self.revision)
+
+
 @dataclass(frozen=True)
-class NodeInfo:
+class NodeInfo(_At):
     node: str
     online: bool
     host: str
@@ -93,22 +105,13 @@ class NodeInfo:
     incarnation: int = 0  # the server's for this node (new on every start); 0 from one without
     origin: str | None = None  # where the node comes from (presence tag "origin", "ros2" for a mirror)
 
-    @property
-    def at(self) -> Revision:
-        """(incarnation, revision): what ``set(..., if_revision=)`` compares."""
-        return Revision(self.incarnation, self.revision)
-
 
 @dataclass(frozen=True)
-class GetReply:
+class GetReply(_At):
     node: str
     revision: int
     results: tuple[GetResult, ...]
     incarnation: int = 0
-
-    @property
-    def at(self) -> Revision:
-        return Revision(self.incarnation, self.revision)
 
     def values(self) -> dict[str, ParameterValue]:
         """The values found, by name (unknown names are in :meth:`missing`)."""
@@ -119,15 +122,11 @@ class GetReply:
 
 
 @dataclass(frozen=True)
-class SetReply:
+class SetReply(_At):
     node: str
     revision: int
     results: tuple[SetResult, ...]
     incarnation: int = 0  # the node's (on CONFLICT: its current one, with revision)
-
-    @property
-    def at(self) -> Revision:
-        return Revision(self.incarnation, self.revision)
 
     @property
     def successful(self) -> bool:
@@ -696,6 +695,6 @@ def _expected(if_revision: int | Revision | None) -> Revision:
     incarnation, revision = expected
     if not (isinstance(incarnation, int) and isinstance(revision, int)):
         raise ParamddsError(f"if_revision must be an int or a Revision, got {if_revision!r}")
-    if not (0 <= incarnation < 2**64 and 0 <= revision < 2**63):
+    if not expected.on_wire():
         raise ParamddsError(f"if_revision out of range: {if_revision!r}")
     return expected

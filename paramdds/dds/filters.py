@@ -45,8 +45,11 @@ __all__ = [
     "disable_native",
     "filter_tag",
     "filtered_topic",
+    "gone_of",
+    "gone_tag",
     "origin_of",
     "origin_tag",
+    "process_label",
     "request_filter_of",
     "status",
 ]
@@ -81,10 +84,7 @@ def filter_tag(native: bool) -> str:
 def request_filter_of(tags: Iterable[object]) -> str | None:
     """``"native"`` or ``"handler"`` from a presence value's tags; None if the node does not say
     (a foreign or older server: its presence carries no value)."""
-    for tag in tags:
-        if isinstance(tag, str) and tag.startswith(_TAG):
-            return tag[len(_TAG) :]
-    return None
+    return _tag_value(tags, _TAG)
 
 
 def origin_tag(origin: str) -> str:
@@ -95,14 +95,29 @@ def origin_tag(origin: str) -> str:
 def origin_of(tags: Iterable[object]) -> str | None:
     """The presence tag ``origin`` (``"ros2"`` for a node mirrored from ROS 2 by the bridge);
     None when the node does not say (a node served here, or an older server)."""
+    return _tag_value(tags, ORIGIN_TAG)
+
+
+def _tag_value(tags: Iterable[object], prefix: str) -> str | None:
+    """What follows ``prefix`` in the first tag that starts with it; None if none does."""
     for tag in tags:
-        if isinstance(tag, str) and tag.startswith(ORIGIN_TAG):
-            return tag[len(ORIGIN_TAG) :]
+        if isinstance(tag, str) and tag.startswith(prefix):
+            return tag[len(prefix) :]
     return None
 
 
+def process_label(host: str, pid: int) -> str:
+    """A process hosting a node, as a ``gone=`` tag and a monitor's duplicates name it."""
+    return f"pid {pid} on {host}"
+
+
+def gone_tag(host: str, pid: int) -> str:
+    """The presence tag that says this process stopped hosting the node (see :func:`gone_of`)."""
+    return GONE_TAG + process_label(host, pid)
+
+
 def gone_of(tags: Iterable[object]) -> list[str]:
-    """The processes a presence says stopped hosting the node ("pid N on HOST")."""
+    """The processes a presence says stopped hosting the node (:func:`process_label`)."""
     return [t[len(GONE_TAG) :] for t in tags if isinstance(t, str) and t.startswith(GONE_TAG)]
 
 

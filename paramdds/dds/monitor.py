@@ -36,7 +36,7 @@ from ..core.values import ParameterValue
 from ..secure.scope import guard_raw, scope_of
 from . import types as wire
 from .dispatch import Dispatcher
-from .filters import gone_of, origin_of, request_filter_of
+from .filters import gone_of, origin_of, process_label, request_filter_of
 from .participant import poll_peers
 from .qos import QosProfiles
 from .state import StateKey, StateSample, decode_key, decode_state
@@ -239,7 +239,9 @@ class ParameterMonitor:
     def _apply_presence(self, state: NodeState, s: StateSample, info: Any) -> MonitorEvent | None:
         writer = int(getattr(info, "publication_handle", 0))
         tags = s.value.value  # a string array of the server's tags, or NOT_SET
-        gone = gone_of(tags) if isinstance(tags, tuple) else []
+        if not isinstance(tags, tuple):
+            tags = ()
+        gone = gone_of(tags)
         if gone:  # the other host of this node stopped: it is neither shown nor a second host
             state.duplicates = [d for d in state.duplicates if d not in gone]
         if (
@@ -247,10 +249,10 @@ class ParameterMonitor:
             and state.writer
             and writer != state.writer
             and (s.host, s.pid) != (state.host, state.pid)
-            and f"pid {state.pid} on {state.host}" not in gone
+            and process_label(state.host, state.pid) not in gone
         ):
             # a second live writer of this node's presence: two processes host one node id
-            previous, new = f"pid {state.pid} on {state.host}", f"pid {s.pid} on {s.host}"
+            previous, new = process_label(state.host, state.pid), process_label(s.host, s.pid)
             state.duplicates = [d for d in state.duplicates if d != new]  # host and pid show the new one
             if previous not in state.duplicates:
                 state.duplicates.append(previous)
@@ -264,8 +266,8 @@ class ParameterMonitor:
         state.host, state.pid = s.host, s.pid
         state.revision, state.announced = s.revision, s.parameter_count
         state.incarnation = s.incarnation
-        state.request_filter = request_filter_of(tags) if isinstance(tags, tuple) else None
-        state.origin = origin_of(tags) if isinstance(tags, tuple) else None
+        state.request_filter = request_filter_of(tags)
+        state.origin = origin_of(tags)
         return self._set_online(state, info.instance_state == InstanceState.Alive)
 
     def _set_online(self, state: NodeState, online: bool) -> MonitorEvent | None:

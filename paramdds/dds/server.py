@@ -69,6 +69,7 @@ from cyclonedds.util import duration
 from ..core.limits import MAX_PARAMETERS_PER_REQUEST
 from ..core.names import canonical_node_id
 from ..core.results import ChangeKind, ChangeSet, SetResult
+from ..core.revision import incarnation_text
 from ..core.table import ParameterTable
 from ..core.values import Parameter, ParameterType
 from ..errors import ErrorCode, NotPermittedError, ParamddsError
@@ -78,7 +79,7 @@ from ._binding import assert_liveliness, take_serialized, unregister_serialized,
 from .cdr import MalformedSample, encode
 from .convert import descriptor_to_wire, parameter_from_wire, state_descriptor_to_wire, value_to_wire
 from .dispatch import SERIALIZED, Dispatcher
-from .filters import GONE_TAG, NativeFilter, filter_tag, filtered_topic
+from .filters import NativeFilter, filter_tag, filtered_topic, gone_tag
 from .node_worker import NodeWorker
 from .participant import poll_peers
 from .qos import QosProfiles
@@ -298,12 +299,7 @@ class ParameterServer:
             if isinstance(sample, StateKey):
                 twin = self._twin_of.pop(sample.node_id, None)
                 if twin is not None and info.instance_state != InstanceState.Alive:
-                    gone = f"{GONE_TAG}pid {twin[1]} on {twin[0]}"
-                    job = partial(self._write_presence, worker.table, gone)
-                    if worker.idle():
-                        job()
-                    else:
-                        worker.submit(job)
+                    self._presence_again(worker, gone_tag(*twin))
             elif (sample.host, sample.pid) != (self._host, self._pid):
                 self._twin_of[sample.node_id] = (sample.host, sample.pid)
                 self._warn_twin(sample.node_id, sample.host, sample.pid)
@@ -401,10 +397,14 @@ class ParameterServer:
         """
         log.warning("the server did not run for %.1f s (stopped or starved): writing presence again", late)
         for worker in list(self._workers.values()):
-            if worker.idle():
-                self._write_presence(worker.table)
-            else:
-                worker.submit(partial(self._write_presence, worker.table))
+            self._presence_again(worker)
+
+    def _presence_again(self, worker: NodeWorker, *tags: str) -> None:
+        """Write a node's presence again: now when its worker is idle, else after its jobs."""
+        if worker.idle():
+            self._write_presence(worker.table, *tags)
+        else:
+            worker.submit(partial(self._write_presence, worker.table, *tags))
 
     # -- state publication ---------------------------------------------------------
 
@@ -586,8 +586,8 @@ class ParameterServer:
         if request.expected_incarnation and request.expected_incarnation != incarnation:
             reason = (
                 f"not applied: node {table.node_id!r} is at revision {table.revision} of incarnation "
-                f"{incarnation:016x} (restarted since), not the expected revision "
-                f"{request.expected_revision} of incarnation {request.expected_incarnation:016x}"
+                f"{incarnation_text(incarnation)} (restarted since), not the expected revision "
+                f"{request.expected_revision} of incarnation {incarnation_text(request.expected_incarnation)}"
             )
             refused = [SetResult(p.name, False, reason, ErrorCode.CONFLICT) for p in request.parameters]
             return [_result_to_wire(r) for r in refused], table.revision

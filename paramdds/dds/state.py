@@ -218,8 +218,7 @@ def _decode_fast(buf: bytes) -> StateSample | None:
             pos += -pos & 3
         if buf[pos : pos + 4] == _EMPTY:  # only the name and the value's type: see convert.is_plain
             descriptor = _plain(name, value.type)
-            host, pid, count, pos = _tail(buf, pos + 4, end)
-            (incarnation,) = _unpack_u64(buf, pos + ((4 - pos) & 7))
+            host, pid, count, incarnation, _ = _tail(buf, pos + 4, end)
         else:
             descriptor, host, pid, count, incarnation = _described(buf, pos, end)
     except REFUSED:
@@ -242,12 +241,16 @@ def _key_string(buf: bytes, pos: int, end: int) -> tuple[str, int]:
     return buf[pos + 4 : e - 1].decode(), e
 
 
-def _tail(buf: bytes, pos: int, end: int) -> tuple[str, int, int, int]:
-    """host, pid, parameter_count and the offset after them (the incarnation is next)."""
+def _tail(buf: bytes, pos: int, end: int) -> tuple[str, int, int, int, int]:
+    """host, pid, parameter_count, the incarnation, and the offset after it (bytes after
+    it are padding, ignored as the codec does)."""
     host, pos = read_str(buf, pos, end)
     pos += -pos & 3
     pid, count = _TAIL.unpack_from(buf, pos)
-    return host, pid, count, pos + _TAIL.size
+    pos += _TAIL.size
+    pos += (4 - pos) & 7
+    (incarnation,) = _unpack_u64(buf, pos)
+    return host, pid, count, incarnation, pos + 8
 
 
 _decoded: dict[tuple[int, bytes], _Tail] = {}
@@ -265,11 +268,9 @@ def _described(buf: bytes, pos: int, end: int) -> _Described:
     if n != 1:
         raise NotFast("a descriptor sequence over its bound of 1")
     descriptor, pos = read_descriptor(buf, pos + 4, end)
-    host, pid, count, pos = _tail(buf, pos, end)
-    pos += (4 - pos) & 7
-    (incarnation,) = _unpack_u64(buf, pos)
+    host, pid, count, incarnation, after = _tail(buf, pos, end)
     tail = (descriptor, host, pid, count)
-    if pos + 8 == end and len(key[1]) <= _CACHED_BYTES_MAX:
+    if after == end and len(key[1]) <= _CACHED_BYTES_MAX:
         _bounded(_decoded, _CACHE_MAX)[key] = tail
     return (*tail, incarnation)
 

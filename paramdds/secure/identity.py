@@ -55,12 +55,6 @@ class Identity:
             "</AccessControl></Security>"
         )
 
-    def may(self, action: str) -> bool:
-        """Whether the role publishes the request of ``action`` (get, list, set)."""
-        from .keystore import REQUESTS
-
-        return REQUESTS[action] in ROLES[self.role][0]
-
     def covers(self, node: str) -> bool:
         """Whether ``node`` matches one of the granted globs (DDS decides; this words errors)."""
         return any(fnmatchcase(node, g) for g in self.nodes)

@@ -39,15 +39,16 @@ import json
 import os
 import re
 import shutil
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 from xml.sax.saxutils import escape
+
+if TYPE_CHECKING:
+    from .identity import Identity
 
 __all__ = [
     "GOVERNANCE_MAX_DOMAIN",
     "ROLES",
-    "IdentityInfo",
     "add_identity",
     "governance_xml",
     "init_keystore",
@@ -76,14 +77,6 @@ class KeystoreError(Exception):
     """Bad keystore input or state; the message says what to fix."""
 
 
-@dataclass(frozen=True)
-class IdentityInfo:
-    name: str
-    role: str
-    nodes: tuple[str, ...]
-    path: Path
-
-
 def _crypto() -> Any:
     try:
         from cryptography import x509
@@ -99,6 +92,12 @@ def _write_private(path: Path, data: bytes) -> None:
     with os.fdopen(fd, "wb") as f:
         f.write(data)
     os.chmod(path, 0o600)
+
+
+def _private_dir(path: Path) -> None:
+    """Create ``path`` (and its parents) with mode 0700, whatever the umask."""
+    path.mkdir(parents=True, mode=0o700)
+    os.chmod(path, 0o700)
 
 
 def _new_key() -> Any:
@@ -241,8 +240,7 @@ def init_keystore(root: Path, *, days: int = 3650) -> Path:
     if (root / "ca").exists():
         raise KeystoreError(f"{root} already holds a keystore (ca/ exists)")
     ca_dir = root / "ca"
-    ca_dir.mkdir(parents=True, mode=0o700)
-    os.chmod(ca_dir, 0o700)
+    _private_dir(ca_dir)
     for which, name in (
         ("identity_ca", "paramdds identity CA"),
         ("permissions_ca", "paramdds permissions CA"),
@@ -272,8 +270,9 @@ def check_globs(globs: list[str]) -> tuple[str, ...]:
     return tuple(dict.fromkeys(globs))
 
 
-def add_identity(root: Path, name: str, role: str, globs: list[str], *, days: int = 825) -> IdentityInfo:
+def add_identity(root: Path, name: str, role: str, globs: list[str], *, days: int = 825) -> Identity:
     """Issue identity ``name`` with ``role`` for the node ids matching ``globs`` (replaces one)."""
+    from .identity import Identity  # it imports this module
     if not _NAME.fullmatch(name):
         raise KeystoreError(f"identity name {name!r}: use 1-64 letters, digits, '_', '.', '-'")
     if role not in ROLES:
@@ -283,8 +282,7 @@ def add_identity(root: Path, name: str, role: str, globs: list[str], *, days: in
     perm_cert, perm_key = _load_ca(root, "permissions_ca")
     out = root / "identities" / name
     shutil.rmtree(out, ignore_errors=True)
-    out.mkdir(parents=True, mode=0o700)
-    os.chmod(out, 0o700)
+    _private_dir(out)
     key = _new_key()
     subject = _subject(name)
     cert = _certificate(subject, key, id_cert.subject, id_key, days, ca=False)
@@ -298,4 +296,4 @@ def add_identity(root: Path, name: str, role: str, globs: list[str], *, days: in
     (out / "permissions.p7s").write_bytes(_sign(document, perm_cert, perm_key))
     meta = {"name": name, "role": role, "nodes": list(nodes), "subject": subject.rfc4514_string()}
     (out / META).write_text(json.dumps(meta, indent=2) + "\n")
-    return IdentityInfo(name, role, nodes, out)
+    return Identity(out, name, role, nodes)

@@ -42,7 +42,7 @@ from starlette.staticfiles import StaticFiles
 from starlette.types import ASGIApp
 
 from ..core.names import validate_name
-from ..core.revision import Revision
+from ..core.revision import Revision, incarnation_text
 from ..core.values import Parameter
 from ..errors import ErrorCode, FileFormatError, ParamddsError
 from .guard import LOOPBACK_NAMES, Guard, error_response
@@ -51,7 +51,6 @@ from .inputs import bool_field, file_entries, int_arg, node_arg, read_body, revi
 from .model import (
     Row,
     checked,
-    incarnation_text,
     parameter_row,
     result_row,
     summary_json,

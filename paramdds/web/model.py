@@ -28,6 +28,7 @@ from ..core.descriptors import ParameterDescriptor
 from ..core.limits import check_value
 from ..core.names import validate_name
 from ..core.results import SetResult
+from ..core.revision import incarnation_text
 from ..core.validation import validate
 from ..core.values import ParameterType, ParameterValue
 from ..dds.client import NodeInfo
@@ -44,10 +45,6 @@ def summary_json(info: NodeInfo) -> Row:
     row = asdict(info)
     row["incarnation"] = incarnation_text(info.incarnation)
     return row
-
-
-def incarnation_text(incarnation: int) -> str:
-    return f"{incarnation:016x}"
 
 
 def parameter_row(name: str, value: ParameterValue, descriptor: ParameterDescriptor | None) -> Row:
