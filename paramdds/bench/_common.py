@@ -209,8 +209,8 @@ class Workers:
         self.close()
 
 
-def run_timed(cmd: Sequence[str], *, env: dict[str, str], timeout: float = 60.0) -> tuple[float, str]:
-    """Run a command to completion; (wall time in ms, stdout). Raises on a non-zero exit."""
+def start_timed(cmd: Sequence[str], *, env: dict[str, str]) -> tuple[subprocess.Popen[str], int]:
+    """Start a command in a process group of its own; (the process, its start time in ns)."""
     t0 = time.perf_counter_ns()
     proc = subprocess.Popen(
         list(cmd),
@@ -220,6 +220,12 @@ def run_timed(cmd: Sequence[str], *, env: dict[str, str], timeout: float = 60.0)
         env=env,
         start_new_session=True,
     )
+    return proc, t0
+
+
+def finish_timed(proc: subprocess.Popen[str], t0: int, *, timeout: float) -> tuple[float, str]:
+    """Wait for a command of :func:`start_timed`; (wall time in ms, stdout). Raises on a
+    non-zero exit; on a timeout (or any other exception) its whole process group is killed."""
     try:
         out, err = proc.communicate(timeout=timeout)
     except BaseException:
@@ -228,8 +234,15 @@ def run_timed(cmd: Sequence[str], *, env: dict[str, str], timeout: float = 60.0)
         raise
     elapsed = (time.perf_counter_ns() - t0) / 1e6
     if proc.returncode != 0:
-        raise WorkerError(f"{' '.join(cmd)} exited {proc.returncode}: {err.strip()[-800:]}")
+        cmd = " ".join(map(str, proc.args)) if isinstance(proc.args, list) else str(proc.args)
+        raise WorkerError(f"{cmd} exited {proc.returncode}: {err.strip()[-800:]}")
     return elapsed, out
+
+
+def run_timed(cmd: Sequence[str], *, env: dict[str, str], timeout: float = 60.0) -> tuple[float, str]:
+    """Run a command to completion; (wall time in ms, stdout). Raises on a non-zero exit."""
+    proc, t0 = start_timed(cmd, env=env)
+    return finish_timed(proc, t0, timeout=timeout)
 
 
 # -- output -----------------------------------------------------------------------------

@@ -41,7 +41,7 @@ from typing import Any
 
 import yaml
 
-from ._common import emit, median, note, percentile, render, run_timed
+from ._common import emit, finish_timed, median, note, percentile, render, run_timed, start_timed
 
 PREFIX = "bench_n"
 ROS_NS = "bench"
@@ -179,20 +179,10 @@ def probe(
 
 def killed_during(mode: str, host: Host, *args: object, env: dict[str, str]) -> tuple[float, dict[str, Any]]:
     """A fresh state process, with ``host`` killed -9 KILL_AFTER seconds after it started."""
-    t0 = time.perf_counter()
-    proc = subprocess.Popen(
-        _probe_cmd(mode, args),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=env,
-    )
+    proc, t0 = start_timed(_probe_cmd(mode, args), env=env)
     time.sleep(KILL_AFTER)
     host.kill()
-    out, err = proc.communicate(timeout=180)
-    ms = (time.perf_counter() - t0) * 1e3
-    if proc.returncode != 0:
-        raise RuntimeError(f"{mode} failed: {err[-800:]}")
+    ms, out = finish_timed(proc, t0, timeout=180)  # a probe still running then is killed
     return ms, _probe_result(out)
 
 
