@@ -1,0 +1,89 @@
+"""Where the session's features meet: the web console, incarnations, secure mode and the
+discovery fix on the ROS 2 bridge's mirrored and exposed nodes. Real rclpy nodes in
+subprocesses, a real bridge, real consoles; each test failed before its fix."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+from typing import Any
+
+import httpx
+import pytest
+
+from paramdds.dds.participant import close_participant, make_participant
+
+from ..web._support import Console
+from ..web.conftest import browser, page  # noqa: F401 (fixtures)
+from ..web.test_browser import open_node, row
+
+pytestmark = pytest.mark.timeout(180)
+
+
+@pytest.fixture
+def bridge(ros_env: dict[str, str], domain_id: int) -> Iterator[Any]:
+    from paramdds.ros2.bridge import Bridge, BridgeOptions
+
+    dp = make_participant(domain_id, localhost=True)
+    b = Bridge(dp, None, BridgeOptions(timeout=2.0, resync=0)).start()
+    yield b
+    b.close()
+    close_participant(dp)
+
+
+@pytest.fixture
+def console(domain_id: int, bridge: Any) -> Iterator[Console]:
+    c = Console(domain_id)
+    yield c
+    c.stop()
+
+
+def get(console: Console, path: str, **params: str) -> Any:
+    r = httpx.get(console.url + path, params=params, timeout=10)
+    assert r.status_code == 200, r.text
+    return r.json()
+
+
+def post(console: Console, route: str, body: dict[str, Any]) -> httpx.Response:
+    return httpx.post(console.url + "api/" + route, json=body, timeout=15)
+
+
+def wait_summary(console: Console, name: str, predicate: Any, timeout: float = 30.0) -> dict[str, Any]:
+    deadline = time.monotonic() + timeout
+    while True:
+        r = httpx.get(console.url + "api/node", params={"node": name}, timeout=10)
+        if r.status_code == 200 and predicate(r.json()["summary"]):
+            return r.json()["summary"]  # type: ignore[no-any-return]
+        assert time.monotonic() < deadline, f"{name}: {r.text}"
+        time.sleep(0.1)
+
+
+def test_the_console_applies_atomically_on_a_mirrored_node_and_shows_its_refusal(
+    ros_hosts: Any, console: Console, page: Any
+) -> None:
+    """"Apply atomically" sent the page's (incarnation, revision) with every atomic set, and
+    the bridge refuses compare-and-set on a mirror: on a ROS 2 node the button never worked
+    ("compare-and-set is not available..."), the edits stayed dirty. Now the page sends the
+    atomic set without one, says so, and a refusal shows the node's own reason."""
+    from playwright.sync_api import expect
+
+    host = ros_hosts("--rich", "/robot/rich")
+    wait_summary(console, "robot/rich", lambda s: s["online"] and s["origin"] == "ros2")
+    open_node(page, console, "robot/rich")
+    expect(page.locator('#nodes li[data-node="robot/rich"] .origin')).to_have_text("ros2")
+    row(page, "mode").locator('[data-role="input"]').fill("manual")
+    row(page, "limits.count").locator('[data-role="input"]').fill("6")
+    page.click("#apply")
+    expect(page.locator("#banner")).to_contain_text("Applied 2 changes atomically")
+    expect(page.locator("#banner")).to_contain_text("mirrored from ros2, which has no revisions")
+    assert host.command("get /robot/rich mode") == 'value "manual"'
+    assert host.command("get /robot/rich limits.count") == "value 6"
+    expect(page.locator("#apply")).to_be_disabled()  # nothing left dirty
+
+    # refused by the node's own callback: all or none, with its reason on the page
+    row(page, "mode").locator('[data-role="input"]').fill("bogus")
+    row(page, "limits.count").locator('[data-role="input"]').fill("8")
+    page.click("#apply")
+    expect(page.locator("#banner")).to_contain_text("mode must be auto or manual, not 'bogus'")
+    assert host.command("get /robot/rich mode") == 'value "manual"'
+    assert host.command("get /robot/rich limits.count") == "value 6"
