@@ -87,3 +87,48 @@ def test_the_console_applies_atomically_on_a_mirrored_node_and_shows_its_refusal
     expect(page.locator("#banner")).to_contain_text("mode must be auto or manual, not 'bogus'")
     assert host.command("get /robot/rich mode") == 'value "manual"'
     assert host.command("get /robot/rich limits.count") == "value 6"
+
+
+def test_a_mirrored_node_killed_and_restarted_in_ros2_gets_a_new_incarnation(
+    ros_hosts: Any, console: Console, domain_id: int
+) -> None:
+    """kill -9 and an immediate restart of the rclpy process: the dead participant stays in
+    the ROS 2 graph for Fast DDS's lease, the bridge sees the node's new /parameter_events
+    writer and resynchronizes, but kept hosting it under the same incarnation, so a monitor
+    or the console could not tell the node restarted (back at its defaults). Now the mirror
+    is hosted again: a new incarnation, as a restarted paramdds server has."""
+    from paramdds.dds.monitor import ParameterMonitor
+
+    dp = make_participant(domain_id, localhost=True)
+    monitor = ParameterMonitor(dp)
+    try:
+        host = ros_hosts("--rich", "/robot/rich")
+        first = wait_summary(console, "robot/rich", lambda s: s["online"])
+        wait_until(lambda: getattr(monitor.snapshot().get("robot/rich"), "online", False), 20, "online")
+        assert f"{monitor.snapshot()['robot/rich'].incarnation:016x}" == first["incarnation"]
+        assert post(console, "set", {"node": "robot/rich", "values": {"mode": "manual"}}).status_code == 200
+        host.kill()
+        host = ros_hosts("--rich", "/robot/rich")  # back at its defaults (mode 'auto')
+        again = wait_summary(
+            console, "robot/rich", lambda s: s["online"] and s["incarnation"] != first["incarnation"], 30
+        )
+        wait_until(
+            lambda: (st := monitor.snapshot().get("robot/rich")) is not None
+            and st.online
+            and f"{st.incarnation:016x}" == again["incarnation"]
+            and st.parameters["mode"][0].value == "auto",
+            20,
+            "the monitor at the new incarnation with the node's defaults",
+        )
+        rows = httpx.get(console.url + "api/node", params={"node": "robot/rich"}, timeout=10).json()["rows"]
+        assert [r["value"] for r in rows if r["name"] == "mode"] == ["auto"]
+    finally:
+        monitor.close()
+        close_participant(dp)
+
+
+def wait_until(check: Any, timeout: float, what: str) -> None:
+    deadline = time.monotonic() + timeout
+    while not check():
+        assert time.monotonic() < deadline, f"timed out waiting for {what}"
+        time.sleep(0.05)
