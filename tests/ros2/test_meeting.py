@@ -13,11 +13,14 @@ import pytest
 
 from paramdds.dds.participant import close_participant, make_participant
 
+from ..web import conftest as web
 from ..web._support import Console
-from ..web.conftest import browser, page  # noqa: F401 (fixtures)
 from ..web.test_browser import open_node, row
 
 pytestmark = pytest.mark.timeout(180)
+
+# the web tests' headless Chromium (a tab: "web_page")
+browser, web_page = web.browser, web.page
 
 
 @pytest.fixture
@@ -59,13 +62,15 @@ def wait_summary(console: Console, name: str, predicate: Any, timeout: float = 3
 
 
 def test_the_console_applies_atomically_on_a_mirrored_node_and_shows_its_refusal(
-    ros_hosts: Any, console: Console, page: Any
+    ros_hosts: Any, console: Console, web_page: Any
 ) -> None:
-    """"Apply atomically" sent the page's (incarnation, revision) with every atomic set, and
+    """ "Apply atomically" sent the page's (incarnation, revision) with every atomic set, and
     the bridge refuses compare-and-set on a mirror: on a ROS 2 node the button never worked
     ("compare-and-set is not available..."), the edits stayed dirty. Now the page sends the
     atomic set without one, says so, and a refusal shows the node's own reason."""
     from playwright.sync_api import expect
+
+    page = web_page
 
     host = ros_hosts("--rich", "/robot/rich")
     wait_summary(console, "robot/rich", lambda s: s["online"] and s["origin"] == "ros2")
@@ -113,10 +118,12 @@ def test_a_mirrored_node_killed_and_restarted_in_ros2_gets_a_new_incarnation(
             console, "robot/rich", lambda s: s["online"] and s["incarnation"] != first["incarnation"], 30
         )
         wait_until(
-            lambda: (st := monitor.snapshot().get("robot/rich")) is not None
-            and st.online
-            and f"{st.incarnation:016x}" == again["incarnation"]
-            and st.parameters["mode"][0].value == "auto",
+            lambda: (
+                (st := monitor.snapshot().get("robot/rich")) is not None
+                and st.online
+                and f"{st.incarnation:016x}" == again["incarnation"]
+                and st.parameters["mode"][0].value == "auto"
+            ),
             20,
             "the monitor at the new incarnation with the node's defaults",
         )
