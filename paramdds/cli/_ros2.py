@@ -12,7 +12,10 @@ from ._session import Session
 
 def run_ros2(args: argparse.Namespace) -> int:
     from ..ros2 import missing
+    from ..ros2.bridge import SECURE_REFUSED
 
+    if args.identity:  # before the extra or the secure library are looked for
+        raise UsageError(SECURE_REFUSED)
     reason = missing()
     if reason:
         raise UsageError(f"'paramdds ros2' cannot run: {reason}")

@@ -30,9 +30,16 @@ from ..dds.client import ParameterClient
 from ..dds.filters import origin_tag
 from ..dds.qos import QosProfiles
 from ..dds.server import ParameterServer
-from ..errors import ParamddsError
+from ..errors import NotPermittedError, ParamddsError
+from ..secure.scope import scope_of
 from .mirror import Mirror
 from .rosside import ENCLAVE, RosSide
+
+SECURE_REFUSED = (
+    "the ROS 2 bridge does not run in secure mode (--identity, PARAMDDS_IDENTITY): a secure "
+    "server is created with the node ids it will host, and the bridge hosts whatever ROS 2 "
+    "nodes appear; run it without an identity, on a domain without DDS Security"
+)
 
 log = logging.getLogger(__name__)
 
@@ -63,6 +70,8 @@ class Bridge:
     """Mirror ROS 2 nodes on paramdds and expose paramdds nodes to ROS 2 until :meth:`close`."""
 
     def __init__(self, participant: Any, qos: QosProfiles | None, options: BridgeOptions) -> None:
+        if scope_of(participant) is not None:  # before anything starts (rclpy included)
+            raise NotPermittedError(SECURE_REFUSED)
         self.options = options
         self._qos = qos or QosProfiles.load()
         self.ros = RosSide(options.ros_domain, options.name)

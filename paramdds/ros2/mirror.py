@@ -265,6 +265,7 @@ class Mirrored:
     hosted: bool = False
     syncing: bool = False
     dirty: bool = False  # events came while a sync ran: sync again
+    restarted: bool = False  # the ROS 2 node restarted while hosted: host it again once synced
     synced_at: float = 0.0
     failures: int = 0
     retry_at: float = 0.0
@@ -313,8 +314,10 @@ class Mirror:
                     continue
                 self._submit(m)
             elif writers - m.writers:  # a writer we did not know: the node restarted
-                log.info("%s restarted: resynchronizing", fqn)
+                log.info("%s restarted: resynchronizing it under a new incarnation", fqn)
                 m.writers = writers
+                with m.lock:
+                    m.restarted = m.hosted
                 self._submit(m)
             else:
                 m.writers = writers
@@ -376,6 +379,15 @@ class Mirror:
                     exc.message,
                 )
                 return
+            with m.lock:
+                # a node that restarted in ROS 2 is hosted again (a new incarnation, as a
+                # restarted server's), as if it had left and come back: unhosted here,
+                # resynchronized, hosted below and what it no longer has deleted
+                renew, m.restarted = m.hosted and m.restarted, False
+                m.hosted = m.hosted and not renew
+            if renew:
+                self._departed[m.node_id] = m.table.names()
+                self._unhost(m.node_id)
             m.table.resync(entries)
             with self._lock:
                 still = self.nodes.get(m.fqn) is m

@@ -5,7 +5,7 @@ secure process runs in a second environment whose binding is built against Cyclo
 C 11.0.1 with security: ``PARAMDDS_SECURE_VENV``, else ``build/secure/venv`` in the
 checkout. ``.ci/run`` makes it (``paramdds keystore install``); by hand::
 
-    python3 -m venv build/secure/venv && build/secure/venv/bin/pip install -e '.[secure]'
+    python3 -m venv build/secure/venv && build/secure/venv/bin/pip install -e '.[secure,web]'
     build/secure/venv/bin/paramdds keystore install \\
         --source ../shared/vendor/cyclonedds-11.0.1.tar.gz --prefix build/secure/cyclone
 

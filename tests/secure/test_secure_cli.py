@@ -211,3 +211,35 @@ def test_a_request_naming_a_node_outside_its_writers_partitions_is_not_applied(s
     finally:
         _, err = stop(server)
     assert "Traceback" not in err, err
+
+
+def test_the_web_console_serves_as_its_identity(system: SecureSystem) -> None:
+    """``paramdds web --identity``: the console of an operator granted ``robot1*`` reads and
+    sets robot1; robot2, outside its grants, is not even visible to it."""
+    import socket
+
+    import httpx
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    url = f"http://127.0.0.1:{port}/api/"
+    console = system.start("op1", "web", "--bind", f"127.0.0.1:{port}", "--timeout", "5")
+    try:
+        wait_line(console, "[WEB] Console on")
+        deadline = time.monotonic() + 20
+        while "robot1" not in {n["node"] for n in httpx.get(url + "nodes", timeout=5).json()["nodes"]}:
+            assert time.monotonic() < deadline, "robot1 never reached the console"
+            time.sleep(0.1)
+        done = httpx.post(url + "set", json={"node": "robot1", "values": {"robot.mode": "web"}}, timeout=15)
+        assert done.status_code == 200, done.text
+        assert system.value("robot1", "robot.mode") == "web"
+        # robot2's partition is not granted to op1: the console never sees it
+        assert "robot2" not in {n["node"] for n in httpx.get(url + "nodes", timeout=5).json()["nodes"]}
+        body = {"node": "robot2", "values": {"robot.mode": "web"}}
+        refused = httpx.post(url + "set", json=body, timeout=15)
+        assert (refused.status_code, refused.json()["error"]["code"]) == (404, "NOT_FOUND"), refused.text
+        assert system.value("robot2", "robot.mode") != "web"
+    finally:
+        _, err = stop(console)
+    assert "Traceback" not in err, err

@@ -407,6 +407,9 @@ function updateApply() {
   $("#apply").disabled = n === 0 || S.info.read_only;
   $("#discard").disabled = n === 0;
   $("#apply").textContent = n ? `Apply ${n} change${n === 1 ? "" : "s"} atomically` : "Apply atomically";
+  $("#apply").title = S.summary && S.summary.origin
+    ? `all or none, by the node itself; not compared with the values you started from (a node mirrored from ${S.summary.origin} has no revisions)`
+    : "all or none, and only if the node has not changed since you started editing";
 }
 
 function banner(text, kind = "", items = null) {
@@ -456,12 +459,15 @@ async function applyAll() {
     if (v === undefined) { banner(`Not sent: ${n} is not valid.`, "error"); return; }
     values[n] = v;
   }
-  const node = S.selected, expected = S.baseRevision;
+  // a node mirrored from ROS 2 has no revision of its own to compare (the bridge refuses
+  // compare-and-set there): its atomic set is sent without one, and the banner says so
+  const node = S.selected, mirrored = !!(S.summary && S.summary.origin), expected = mirrored ? null : S.baseRevision;
   const if_revision = expected ? `${expected.incarnation}:${expected.revision}` : null;
   const { ok, status, data } = await api("/api/set", { node, values, atomic: true, if_revision });
   if (node !== S.selected) return;
   if (ok) {
-    banner(`Applied ${names.length} changes atomically (revision ${data.revision}).`, "ok"); clearDirty(names); acked(names);
+    const unchecked = mirrored ? ` Not compared with the values you started from: node ${node} is mirrored from ${S.summary.origin}, which has no revisions.` : "";
+    banner(`Applied ${names.length} changes atomically (revision ${data.revision}).${unchecked}`, "ok"); clearDirty(names); acked(names);
     if (S.summary) setSummary(advance(S.summary, data));
     return;
   }
