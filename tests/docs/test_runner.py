@@ -108,6 +108,14 @@ def _env() -> dict[str, str]:
     return dict(os.environ)
 
 
+def test_cyclones_own_log_lines_are_not_compared_anything_else_is() -> None:
+    shown = "paramdds: error: refused"
+    printed = "1795501464.054213 [134] dq.builtin: Remote secure participant 8f:1c1 not allowed\n" + shown
+    assert matches(shown, printed, ())
+    assert not matches(shown, "[134] dq.builtin: not a timestamped line\n" + shown, ())
+    assert not matches(shown, "paramdds: warning: something\n" + shown, ())
+
+
 def test_a_page_runs_and_a_changed_output_fails(tmp_path: Path) -> None:
     path = _page(tmp_path, PAGE)
     assert run_page(parse(path), tmp_path, _env(), timeout=10) == 3
