@@ -23,6 +23,7 @@ from typing import Any
 import pytest
 
 from paramdds.bench.ros2 import find_realworld
+from paramdds.dds.participant import close_participant, make_participant
 from paramdds.ros2 import missing
 from tests.conftest import make_dds_env
 
@@ -122,6 +123,19 @@ class RosHost:
             if stream is not None and not stream.closed:
                 with contextlib.suppress(OSError):
                     stream.close()
+
+
+@pytest.fixture
+def bridge(ros_env: dict[str, str], domain_id: int) -> Iterator[Any]:
+    """A bridge on this test's domain mirroring every ROS 2 node (2 s forwarding timeout, no
+    periodic resync), closed after the test."""
+    from paramdds.ros2.bridge import Bridge, BridgeOptions
+
+    dp = make_participant(domain_id, localhost=True)
+    b = Bridge(dp, None, BridgeOptions(timeout=2.0, resync=0)).start()
+    yield b
+    b.close()
+    close_participant(dp)
 
 
 @pytest.fixture

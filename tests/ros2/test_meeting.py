@@ -27,17 +27,6 @@ browser, web_page = web.browser, web.page
 
 
 @pytest.fixture
-def bridge(ros_env: dict[str, str], domain_id: int) -> Iterator[Any]:
-    from paramdds.ros2.bridge import Bridge, BridgeOptions
-
-    dp = make_participant(domain_id, localhost=True)
-    b = Bridge(dp, None, BridgeOptions(timeout=2.0, resync=0)).start()
-    yield b
-    b.close()
-    close_participant(dp)
-
-
-@pytest.fixture
 def console(domain_id: int, bridge: Any) -> Iterator[Console]:
     c = Console(domain_id)
     yield c

@@ -25,17 +25,6 @@ pytestmark = pytest.mark.timeout(180)
 
 
 @pytest.fixture
-def bridge(ros_env: dict[str, str], domain_id: int) -> Iterator[Any]:
-    from paramdds.ros2.bridge import Bridge, BridgeOptions
-
-    dp = make_participant(domain_id, localhost=True)
-    b = Bridge(dp, None, BridgeOptions(timeout=2.0, resync=0)).start()
-    yield b
-    b.close()
-    close_participant(dp)
-
-
-@pytest.fixture
 def paramdds_side(domain_id: int) -> Iterator[tuple[ParameterClient, ParameterMonitor]]:
     """A paramdds client and monitor of their own (a process that only speaks paramdds)."""
     dp = make_participant(domain_id, localhost=True)
