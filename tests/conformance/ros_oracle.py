@@ -576,6 +576,14 @@ def _set_items(
     return [(p, a, b) for p, a, b in zip(op.args[0], ros[1], ours[1], strict=True) if not agree(a, b)]
 
 
+def _declared_value(s: Sides, op: Op) -> ParameterValue:
+    """The value a declare operation takes: the parameter file's override, unless the
+    declaration ignores overrides, else its default."""
+    name, default, _desc, ignore = op.args
+    override = None if ignore else s.table.override(name)
+    return override if override is not None else default
+
+
 def _one_param_ops(
     op: Op, ros: Outcome, ours: Outcome
 ) -> list[tuple[tuple[str, ParameterValue], Outcome, Outcome]]:
@@ -605,9 +613,8 @@ def _widened(s: Sides, op: Op, ros: Outcome, ours: Outcome) -> bool:
         return entry is not None and not entry.dynamic_typing and (v.type, entry.type) in pairs
 
     if op.kind == "declare":
-        name, default, desc, ignore = op.args
-        override = None if ignore else s.table.override(name)
-        chosen = override if override is not None else default
+        _name, default, desc, _ignore = op.args
+        chosen = _declared_value(s, op)
         pairs = {(T.INTEGER, T.DOUBLE), (T.INTEGER_ARRAY, T.DOUBLE_ARRAY)}
         dtype = desc.type if desc is not None and default.type is T.NOT_SET else default.type
         return _fails(ros, "INVALID_TYPE") and (chosen.type, dtype) in pairs
@@ -625,9 +632,8 @@ def _array_range(s: Sides, op: Op, ros: Outcome, ours: Outcome) -> bool:
         return v.type is T.DOUBLE_ARRAY and d.floating_point_range is not None
 
     if op.kind == "declare":
-        name, default, desc, ignore = op.args
-        override = None if ignore else s.table.override(name)
-        chosen = override if override is not None else default
+        desc = op.args[2]
+        chosen = _declared_value(s, op)
         return ros[0] == "ok" and _fails(ours, ErrorCode.OUT_OF_RANGE) and ranged_array(chosen, desc)
     return any(
         _fails(b, ErrorCode.OUT_OF_RANGE) and _declared(s, n) and ranged_array(v, s.before[n])
@@ -752,9 +758,8 @@ def _infinite_bound(s: Sides, op: Op, ros: Outcome, ours: Outcome) -> bool:
         )
 
     if op.kind == "declare":
-        name, default, desc, ignore = op.args
-        override = None if ignore else s.table.override(name)
-        chosen = override if override is not None else default
+        desc = op.args[2]
+        chosen = _declared_value(s, op)
         return ros[0] == "ok" and _fails(ours, ErrorCode.OUT_OF_RANGE) and at_infinite_bound(chosen, desc)
     return any(
         _fails(b, ErrorCode.OUT_OF_RANGE) and at_infinite_bound(v, s.before.get(n))
