@@ -67,30 +67,26 @@ class Scope:
 
     def publisher(self, nodes: Iterable[str]) -> Any:
         """A publisher in exactly these node-id partitions (shared per set)."""
-        key = frozenset(nodes)
-        with self._lock:
-            found = self._publishers.get(key)
-            if found is None:
-                from cyclonedds.pub import Publisher
-                from cyclonedds.qos import Policy, Qos
+        from cyclonedds.pub import Publisher
 
-                found = self._publishers[key] = Publisher(
-                    self.participant, qos=Qos(Policy.Partition(sorted(key)))
-                )
-            return found
+        return self._in_partitions(self._publishers, Publisher, frozenset(nodes))
 
     def subscriber(self, nodes: Iterable[str] | None = None) -> Any:
         """A subscriber in these node-id partitions, or in the identity's globs (None)."""
-        key = frozenset(self.identity.nodes if nodes is None else nodes)
-        with self._lock:
-            found = self._subscribers.get(key)
-            if found is None:
-                from cyclonedds.qos import Policy, Qos
-                from cyclonedds.sub import Subscriber
+        from cyclonedds.sub import Subscriber
 
-                found = self._subscribers[key] = Subscriber(
-                    self.participant, qos=Qos(Policy.Partition(sorted(key)))
-                )
+        return self._in_partitions(
+            self._subscribers, Subscriber, frozenset(self.identity.nodes if nodes is None else nodes)
+        )
+
+    def _in_partitions(self, made: dict[frozenset[str], Any], kind: Any, key: frozenset[str]) -> Any:
+        """The ``kind`` (Publisher or Subscriber) in the partitions ``key``, made once per set."""
+        from cyclonedds.qos import Policy, Qos
+
+        with self._lock:
+            found = made.get(key)
+            if found is None:
+                found = made[key] = kind(self.participant, qos=Qos(Policy.Partition(sorted(key))))
             return found
 
     def writer(self, topic: str, node: str, qos: Any, *, opening: Callable[[str], None] | None = None) -> Any:
