@@ -1,4 +1,4 @@
-"""``NAME=VALUE`` arguments: split, typed from YAML scalars, checked before anything is sent.
+"""Node ids and ``NAME=VALUE`` arguments: split, typed from YAML scalars, checked before anything is sent.
 
 Values are typed by the same resolver as parameter files (it mirrors rcl):
 ``1`` is an integer, ``1.5`` a double, ``true`` a bool, ``[1, 2]`` an integer
@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 from ..core.values import ParameterType, ParameterValue
 from ..errors import NotFoundError, ParamddsError, TypeMismatchError
-from ._errors import UsageError
+from ..frontend.exits import UsageError
 
 _EMPTY_LIST = re.compile(r"^\s*\[\s*\]\s*$")
 
@@ -30,6 +30,16 @@ class Assignment:
     name: str
     text: str
     value: ParameterValue | None
+
+
+def node_arg(text: str) -> str:
+    """A node id from the command line, canonical (UsageError when invalid)."""
+    from ..core.names import canonical_node_id
+
+    try:
+        return canonical_node_id(text)
+    except ParamddsError as exc:
+        raise UsageError(f"invalid node name {text!r}: {exc.message}") from exc
 
 
 def parse_value(text: str) -> ParameterValue:

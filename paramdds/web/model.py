@@ -5,7 +5,7 @@ Shapes (documented in docs/web.md):
 * a node summary: ``{"node", "online", "host", "pid", "revision", "parameters",
   "request_filter", "incarnation", "origin"}`` (the incarnation in 16 hex digits);
 * a parameter row: ``{"name", "value", "type", "descriptor"}`` with the value and
-  descriptor in the CLI's JSON shapes (:mod:`paramdds.cli._output`: byte arrays as
+  descriptor in the CLI's JSON shapes (:mod:`paramdds.frontend.shapes`: byte arrays as
   lists of ints, non-finite doubles as ``"nan"``/``"inf"``/``"-inf"``);
 * a set result: ``{"name", "successful", "reason", "code"}``.
 
@@ -23,7 +23,6 @@ import re
 from collections.abc import Iterable, Mapping
 from dataclasses import asdict
 
-from ..cli._output import json_descriptor, json_value
 from ..core.descriptors import ParameterDescriptor
 from ..core.limits import check_value
 from ..core.names import validate_name
@@ -33,6 +32,7 @@ from ..core.validation import validate
 from ..core.values import ParameterType, ParameterValue
 from ..dds.client import NodeInfo
 from ..errors import InvalidValueError, TypeMismatchError
+from ..frontend.shapes import json_descriptor, json_value
 
 Row = dict[str, object]
 _HEX = re.compile(r"^(?:0x)?((?:[0-9a-fA-F]{2})*)$")

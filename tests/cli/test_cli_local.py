@@ -11,8 +11,6 @@ from pathlib import Path
 import pytest
 
 from paramdds.cli import main
-from paramdds.cli._errors import Exit, UsageError, exit_code
-from paramdds.cli._output import dumps_json, json_descriptor, json_value
 from paramdds.cli._parser import build_parser, resolve_globals
 from paramdds.cli._values import fit_to_type, parse_assignment, parse_assignments
 from paramdds.core.descriptors import FloatingPointRange, ParameterDescriptor, Validator
@@ -26,6 +24,8 @@ from paramdds.errors import (
     TypeMismatchError,
     UnavailableError,
 )
+from paramdds.frontend.exits import Exit, UsageError, exit_code
+from paramdds.frontend.shapes import dumps_json, json_descriptor, json_value
 from paramdds.journal import HEADER, PersistError, atomic_write, frame, unframe
 
 PV = ParameterValue
