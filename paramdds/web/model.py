@@ -10,8 +10,9 @@ Shapes (documented in docs/web.md):
 * a set result: ``{"name", "successful", "reason", "code"}``.
 
 Values sent by a browser are typed by the parameter's descriptor
-(:func:`typed_value`): ``1`` for a double parameter is ``1.0``, a byte array may be
-a hex string, and the value is checked against the descriptor with the same core
+(:func:`typed_value`, with the rule every front end shares, :mod:`paramdds.core.fit`):
+``1`` for a double parameter is ``1.0``, a byte array may be a hex string, and the
+value is checked against the descriptor with the same core
 validation the node runs, so a value the node would refuse never leaves this
 process and the reason shown is the node's own wording.
 """
@@ -24,6 +25,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import asdict
 
 from ..core.descriptors import ParameterDescriptor
+from ..core.fit import EMPTY_LIST, EmptyList, fit_value
 from ..core.limits import check_value
 from ..core.names import validate_name
 from ..core.results import SetResult
@@ -138,29 +140,30 @@ def typed_value(name: str, raw: object, descriptor: ParameterDescriptor | None) 
     validate_name(name)
     if raw is None:
         raise InvalidValueError(f"Parameter {name!r}: null is not a value (delete the parameter instead)")
-    dynamic = descriptor is None or descriptor.dynamic_typing or descriptor.type is ParameterType.NOT_SET
-    if dynamic:
-        if isinstance(raw, list) and not raw:
-            raise TypeMismatchError(f"Parameter {name!r}: an empty list has no type of its own")
-        if isinstance(raw, dict):
-            raise TypeMismatchError(f"Parameter {name!r}: cannot make a parameter value of an object")
-        value = ParameterValue.from_python(raw)
-    else:
-        assert descriptor is not None
+    fixed = descriptor is not None and not descriptor.dynamic_typing
+    value: ParameterValue | EmptyList
+    if isinstance(raw, list) and not raw:
+        value = EMPTY_LIST  # its type is the descriptor's (core.fit)
+    elif fixed and descriptor is not None and descriptor.type is not ParameterType.NOT_SET:
         value = _as_type(name, descriptor.type, raw)
+    elif isinstance(raw, dict):
+        raise TypeMismatchError(f"Parameter {name!r}: cannot make a parameter value of an object")
+    else:
+        value = ParameterValue.from_python(raw)
     return checked(name, value, descriptor)
 
 
-def checked(name: str, value: ParameterValue, descriptor: ParameterDescriptor | None) -> ParameterValue:
-    """``value`` widened to the declared type where the node would widen it, then checked
-    against our size limits and the descriptor (the node's own rules, in the core)."""
-    fixed = descriptor is not None and not descriptor.dynamic_typing
-    if fixed and descriptor is not None and descriptor.type is not ParameterType.NOT_SET:
-        value = value.coerce(descriptor.type, name=name)
-    check_value(name, value)
+def checked(
+    name: str, value: ParameterValue | EmptyList, descriptor: ParameterDescriptor | None
+) -> ParameterValue:
+    """``value`` typed against the descriptor as every front end types it
+    (:func:`paramdds.core.fit.fit_value`: an empty list, bytes, an integer for a double), then
+    checked against our size limits and the descriptor (the node's own rules, in the core)."""
+    typed = fit_value(name, value, descriptor)
+    check_value(name, typed)
     if descriptor is not None:
-        validate(name, value, descriptor)
-    return value
+        validate(name, typed, descriptor)
+    return typed
 
 
 def typed_values(
