@@ -1,9 +1,10 @@
 """The ``paramdds`` command: one entry point, a verb per task (see ``paramdds --help``).
 
 Start-up time matters (``paramdds get`` should answer in a few hundred ms), so
-this package imports only argparse and the error tree up front; a verb's module,
-Cyclone and the DDS layer are imported when the verb runs, and ``--help`` never
-imports Cyclone.
+this package imports only argparse and the exit codes up front; building the
+parser imports every verb's module (:mod:`paramdds.cli.verbs`, argparse only at
+their top), and a verb imports Cyclone and the DDS layer when it runs, so
+``--help`` never imports Cyclone.
 
 Every verb is a module of :mod:`paramdds.cli.verbs` whose ``run(args) -> int``
 returns the exit code; errors end up in :func:`main`, which maps them to the exit
