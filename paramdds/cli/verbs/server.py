@@ -14,17 +14,62 @@ ignored, and Python keeps it ignored: stop such a server with SIGTERM (run.sh
 from __future__ import annotations
 
 import argparse
-import sys
 
-from ._errors import Exit, UsageError
-from ._live import wait_until_interrupted
-from ._parser import DEFAULT_NODE
-from ._requests import node_arg
-from ._session import Session
+from .._parser import DEFAULT_NODE
+
+HELP = "host one or more nodes and serve their parameters"
 
 
-def run_server(args: argparse.Namespace) -> int:
-    from ..runtime import ServerOptions, ServerProcess, prepare
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "-n",
+        "--node-name",
+        action="append",
+        dest="node_names",
+        metavar="NAME",
+        help=f"a node to host; repeat for several (default {DEFAULT_NODE})",
+    )
+    p.add_argument(
+        "-p",
+        "--params-file",
+        action="append",
+        dest="params_files",
+        default=[],
+        metavar="FILE",
+        help="parameter file (seed or ROS 2 format); repeat, later wins",
+    )
+    p.add_argument("--spec", metavar="FILE", help="generate_parameter_library spec declaring the parameters")
+    p.add_argument(
+        "--validators",
+        action="append",
+        default=[],
+        metavar="MODULE",
+        help="import MODULE (a Python module name) that registers custom spec validators; repeat for several",
+    )
+    p.add_argument(
+        "--strict-spec",
+        action="store_true",
+        help="refuse a spec naming a custom validator nobody registered (default: warn, not enforced)",
+    )
+    p.add_argument(
+        "--persist",
+        metavar="FILE",
+        help="keep runtime changes in FILE (created if missing, reloaded at start)",
+    )
+    p.add_argument("--allow-undeclared", action="store_true", help="accept sets of undeclared names")
+    p.add_argument("--strict-types", action="store_true", help="never widen an integer to a double")
+    p.add_argument("--read-only", action="store_true", help="serve reads, refuse every set and delete")
+    p.add_argument("--use-sim-time", action="store_true", help="declare use_sim_time (bool, false)")
+
+
+def run(args: argparse.Namespace) -> int:
+    import sys
+
+    from ...frontend.exits import Exit
+    from ...frontend.session import Session
+    from ...runtime import ServerOptions, ServerProcess, prepare
+    from .._live import wait_until_interrupted
+    from .._values import node_arg
 
     for module in args.validators:
         import_validators(module)
@@ -62,6 +107,8 @@ def run_server(args: argparse.Namespace) -> int:
 def import_validators(module: str) -> None:
     """Import ``module``, which registers custom spec validators (``--validators``); exit 2 if it fails."""
     import importlib
+
+    from ...frontend.exits import UsageError
 
     try:
         importlib.import_module(module)
