@@ -60,6 +60,7 @@ from functools import partial
 from typing import Any
 
 from cyclonedds.core import InstanceState, Policy, SampleState, ViewState
+from cyclonedds.domain import DomainParticipant
 from cyclonedds.pub import DataWriter
 from cyclonedds.qos import Qos
 from cyclonedds.sub import DataReader
@@ -72,14 +73,14 @@ from ..core.results import ChangeKind, ChangeSet, SetResult
 from ..core.revision import incarnation_text
 from ..core.table import ParameterTable
 from ..core.values import Parameter, ParameterType
-from ..errors import ErrorCode, NotPermittedError, ParamddsError
-from ..secure.scope import guard_raw, guard_samples, permitted, scope_of
+from ..errors import ErrorCode, ParamddsError
 from ._binding import assert_liveliness, take_serialized, unregister_serialized, write_serialized
 from .dispatch import SERIALIZED, Dispatcher
 from .filters import NativeFilter, filter_tag, filtered_topic, gone_tag
 from .node_worker import NodeWorker
 from .participant import poll_peers
 from .qos import QosProfiles
+from .transport import transport_of
 from .wire import types as wire
 from .wire.cdr import MalformedSample, encode
 from .wire.convert import descriptor_to_wire, parameter_from_wire, state_descriptor_to_wire, value_to_wire
@@ -112,14 +113,14 @@ class ParameterServer:
 
     def __init__(
         self,
-        participant: Any,
+        participant: DomainParticipant,
         qos: QosProfiles | None = None,
         *,
         nodes: Iterable[str] | None = None,
         tags: Sequence[str] = (),
     ) -> None:
         """``nodes``: the node ids this server will host; needed in secure mode only, where
-        its writers are created in those nodes' partitions (see :mod:`paramdds.secure.scope`).
+        its writers are created in those nodes' partitions (see :mod:`.transport`).
         ``tags``: more ``name=value`` items for its presence value (``origin=ros2``)."""
         self._dp = participant
         self._qos = qos or QosProfiles.load()
@@ -154,14 +155,14 @@ class ParameterServer:
         self._last_tick = time.monotonic()
 
         # secure mode: writers and readers in the partitions of the nodes hosted here
-        self._scope = scope_of(participant)
-        self._scoped = None if self._scope is None else self._scope_nodes(nodes)
-        self._pub = participant if self._scope is None else self._scope.publisher(self._scoped or ())
-        self._sub = participant if self._scope is None else self._scope.subscriber(self._scoped)
+        self._transport = transport_of(participant)
+        self._where = self._transport.hosting(nodes)
+        self._pub = self._where.publisher
+        self._sub = self._where.subscriber
         state_qos = self._qos.writer("ParameterEvents")
         # liveliness is asserted by our dispatch loop, not by Cyclone's threads (see above)
         state_qos += _manual_liveliness()
-        with permitted(self._scope, f"serving nodes {sorted(self._scoped or ())}"):
+        with self._transport.refused(f"serving nodes {sorted(self._where.nodes or ())}"):
             self._state_writer = DataWriter(
                 self._pub, Topic(participant, "ParameterEvents", wire.ParameterEvent), state_qos
             )
@@ -177,15 +178,10 @@ class ParameterServer:
             "ListParametersRequest": self._on_list,
         }
         for name, handler in handlers.items():
-            with permitted(self._scope, f"reading {name}"):
-                reader = DataReader(self._sub, self._request_topic(name), self._qos.reader(name))
-            self._dispatcher.add(reader, guard_samples(self._scope, reader, handler))
-
-    @staticmethod
-    def _scope_nodes(nodes: Iterable[str] | None) -> frozenset[str]:
-        if not nodes:
-            raise NotPermittedError("in secure mode a server is created with its node ids (nodes=...)")
-        return frozenset(canonical_node_id(n) for n in nodes)
+            reader = self._transport.reader(
+                self._request_topic(name), self._qos.reader(name), self._where.nodes
+            )
+            self._dispatcher.add(reader, self._transport.guard(reader, handler))
 
     def _request_topic(self, name: str) -> Any:
         return filtered_topic(self._dp, name, wire.TOPICS[name], self._filter)
@@ -200,10 +196,7 @@ class ParameterServer:
     def add_node(self, table: ParameterTable) -> None:
         """Host ``table``: publish its state and presence and serve its requests."""
         node_id = table.node_id
-        if self._scoped is not None and node_id not in self._scoped:
-            raise NotPermittedError(
-                f"node {node_id!r} is not among the node ids this secure server was created with"
-            )
+        self._where.admit(node_id)
         if node_id in self._tables:
             raise ParamddsError(f"node {node_id!r} is already hosted by this server")
         worker = NodeWorker(self, table)
@@ -264,11 +257,13 @@ class ParameterServer:
         # not filtered: assignments for nodes not hosted yet are kept for when they are added
         topic = Topic(self._dp, "SetParametersRequest", wire.SetParametersRequest)
         reader = DataReader(self._sub, topic, self._qos.assignment_reader())
-        self._dispatcher.add(reader, guard_samples(self._scope, reader, self._on_assignment))
+        self._dispatcher.add(reader, self._transport.guard(reader, self._on_assignment))
         if self._twins.native:  # other processes' presence of our nodes, and nothing else
             twins = filtered_topic(self._dp, "ParameterEvents", wire.ParameterEvent, self._twins)
             reader = DataReader(self._sub, twins, self._twin_qos())
-            self._dispatcher.add_raw(reader, _decode_presence, guard_raw(self._scope, reader, self._on_twins))
+            self._dispatcher.add_raw(
+                reader, _decode_presence, self._transport.guard_raw(reader, self._on_twins)
+            )
         self._last_tick = time.monotonic()
         self._dispatcher.start()
         if not self._twins.native:  # without the filter, following presence would cost every change

@@ -22,7 +22,7 @@ ENCRYPT); whole RTPS messages are signed (``rtps_protection_kind`` SIGN). These 
 defaults SROS2 generates for ROS 2.
 
 Roles (each grant lists the node-id globs an identity is given; partitions carry node
-ids, see :mod:`.scope`):
+ids, see :mod:`paramdds.dds.transport`):
 
 ========  ==========================================================================
 server    publish state and replies, read requests (and state), for its globs
