@@ -17,7 +17,7 @@ import secrets
 from cyclonedds.domain import DomainParticipant
 
 from ..core.names import canonical_node_id
-from .client import ParamsArg, _to_parameters
+from ..core.request import ParamsArg, to_parameters
 from .qos import QosProfiles
 from .transport import Writers, transport_of
 from .wire import types as wire
@@ -43,6 +43,6 @@ class Assigner:
                 client_id=self.client_id,
                 request_id=next(self._ids),
                 retained=True,
-                parameters=[parameter_to_wire(p) for p in _to_parameters(params)],
+                parameters=[parameter_to_wire(p) for p in to_parameters(params)],
             )
         )

@@ -31,7 +31,7 @@ import logging
 import secrets
 import threading
 import time
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Iterator, Sequence
 from concurrent.futures import Future
 from concurrent.futures import TimeoutError as FutureTimeout
 from dataclasses import dataclass
@@ -40,8 +40,9 @@ from typing import Any
 from cyclonedds.core import DDSException, InstanceState
 from cyclonedds.domain import DomainParticipant
 
-from ..core.limits import MAX_PARAMETERS_PER_REQUEST, check_value
-from ..core.names import canonical_node_id, validate_name
+from ..core.limits import check_request_size
+from ..core.names import canonical_node_id
+from ..core.request import ParamsArg, to_parameters
 from ..core.results import GetResult, ListResult, SetResult
 from ..core.revision import Revision
 from ..core.values import NOT_SET, Parameter, ParameterValue
@@ -49,7 +50,6 @@ from ..errors import (
     NotFoundError,
     ParamddsError,
     TimeoutError_,
-    TooLargeError,
     UnavailableError,
     code_of,
     error_for,
@@ -73,8 +73,6 @@ PRESENCE_POLL = 0.02  # seconds between presence checks in wait_for_node
 RESEND_AFTER = 0.2  # seconds without a reply before a call checks presence and resends
 MATCH_POLL = 0.02  # seconds between checks, while a call waits, for a newly matched server
 REQUEST_TOPICS = ("SetParametersRequest", "GetParametersRequest", "ListParametersRequest")
-
-ParamsArg = Mapping[str, object] | Iterable[Parameter]
 
 
 class _At:
@@ -127,21 +125,6 @@ class SetReply(_At):
     @property
     def successful(self) -> bool:
         return all(r.successful for r in self.results)
-
-
-def _to_parameters(params: ParamsArg) -> list[Parameter]:
-    if isinstance(params, Mapping):
-        items = [Parameter(name, ParameterValue.from_python(v)) for name, v in params.items()]
-    else:
-        items = list(params)
-    if len(items) > MAX_PARAMETERS_PER_REQUEST:
-        raise TooLargeError(
-            f"a set of {len(items)} parameters exceeds the limit of {MAX_PARAMETERS_PER_REQUEST}"
-        )
-    for p in items:
-        validate_name(p.name)
-        check_value(p.name, p.value)
-    return items
 
 
 class _Pending:
@@ -424,10 +407,7 @@ class ParameterClient:
 
     def _send_get(self, node: str, names: Sequence[str], with_descriptors: bool) -> tuple[str, int, _Pending]:
         node = canonical_node_id(node)
-        if len(names) > MAX_PARAMETERS_PER_REQUEST:
-            raise TooLargeError(
-                f"a get of {len(names)} names exceeds the limit of {MAX_PARAMETERS_PER_REQUEST}"
-            )
+        check_request_size(len(names), "get")
         sample = wire.GetParametersRequest(
             node_id=node,
             client_id=self.client_id,
@@ -448,7 +428,7 @@ class ParameterClient:
             request_id=self._next_id(),
             atomic=atomic,
             expected_revision=expected.revision,
-            parameters=[parameter_to_wire(p) for p in _to_parameters(params)],
+            parameters=[parameter_to_wire(p) for p in to_parameters(params)],
             expected_incarnation=expected.incarnation,
         )
         return self._send("SetParametersRequest", node, sample)

@@ -67,7 +67,7 @@ from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
-from ..core.limits import MAX_PARAMETERS_PER_REQUEST
+from ..core.limits import check_request_size
 from ..core.names import canonical_node_id
 from ..core.results import ChangeKind, ChangeSet, SetResult
 from ..core.revision import incarnation_text
@@ -560,12 +560,7 @@ class ParameterServer:
             self._publish(table, changes)
 
     def _apply_set(self, table: ParameterTable, request: Any) -> tuple[list[Any], int]:
-        count = len(request.parameters)
-        if count > MAX_PARAMETERS_PER_REQUEST:
-            raise ParamddsError(
-                f"a set of {count} parameters exceeds the limit of {MAX_PARAMETERS_PER_REQUEST}",
-                code=ErrorCode.TOO_LARGE,
-            )
+        check_request_size(len(request.parameters))
         params: list[Parameter | None] = []
         bad: dict[int, SetResult] = {}
         for i, p in enumerate(request.parameters):
@@ -707,11 +702,7 @@ Fill = Callable[[ParameterTable, Any, Any], None]
 
 
 def _fill_get(table: ParameterTable, request: Any, response: Any) -> None:
-    if len(request.names) > MAX_PARAMETERS_PER_REQUEST:
-        raise ParamddsError(
-            f"a get of {len(request.names)} names exceeds the limit of {MAX_PARAMETERS_PER_REQUEST}",
-            code=ErrorCode.TOO_LARGE,
-        )
+    check_request_size(len(request.names), "get")
     results = table.get_many(list(request.names), with_descriptors=request.with_descriptors)
     response.results = [
         wire.GetParameterResult(
