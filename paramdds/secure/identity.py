@@ -16,7 +16,7 @@ from fnmatch import fnmatchcase
 from pathlib import Path
 
 from ..errors import ErrorCode, ParamddsError
-from .keystore import GOVERNANCE_MAX_DOMAIN, META, ROLES
+from .roles import GOVERNANCE_MAX_DOMAIN, META, ROLES
 
 __all__ = ["IDENTITY_ENV", "Identity", "identity_from_env", "load_identity", "require_secure_library"]
 
