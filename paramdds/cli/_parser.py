@@ -134,6 +134,16 @@ def _server(p: Parser) -> None:
     )
     p.add_argument("--spec", metavar="FILE", help="generate_parameter_library spec declaring the parameters")
     p.add_argument(
+        "--schema",
+        metavar="FILE",
+        help="JSON Schema (Autoware's FILE.schema.json) declaring the parameters and checking every change",
+    )
+    p.add_argument(
+        "--lenient",
+        action="store_true",
+        help="--schema: warn on unknown keywords; start without file values the schema refuses",
+    )
+    p.add_argument(
         "--validators",
         action="append",
         default=[],

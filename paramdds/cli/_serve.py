@@ -28,12 +28,16 @@ def run_server(args: argparse.Namespace) -> int:
 
     for module in args.validators:
         import_validators(module)
+    if args.spec and args.schema:
+        raise UsageError("--spec and --schema both declare the parameters: give one")
     names = [node_arg(n) for n in (args.node_names or [DEFAULT_NODE])]
     options = ServerOptions(
         node_names=list(dict.fromkeys(names)),
         params_files=list(args.params_files),
         spec=args.spec,
         strict_spec=args.strict_spec,
+        schema=args.schema,
+        lenient=args.lenient,
         persist=args.persist,
         allow_undeclared=args.allow_undeclared,
         strict_types=args.strict_types,
