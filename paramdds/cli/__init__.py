@@ -46,6 +46,8 @@ _IMPLEMENTATIONS = {
     "web": "paramdds.cli._web:run_web",
     "keystore": "paramdds.secure.cli:run_keystore",
     "ros2": "paramdds.cli._ros2:run_ros2",
+    "check": "paramdds.cli.verbs.check:run",
+    "schema": "paramdds.cli.verbs.schema:run",
 }
 
 

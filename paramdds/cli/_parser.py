@@ -11,6 +11,7 @@ defaults (``PARAMDDS_DOMAIN``, ``PARAMDDS_LOCALHOST``) are applied by
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import sys
 from collections.abc import Sequence
@@ -35,6 +36,8 @@ VERBS = (
     "keystore",
     "ros2",
     "bench",
+    "check",
+    "schema",
 )
 OUTPUTS = ("table", "yaml", "json")
 LOG_LEVELS = ("debug", "info", "warning", "error", "critical")
@@ -328,6 +331,10 @@ def build_parser(*, with_bench: bool = False) -> Parser:
     _keystore(_verb(sub, "keystore", "secure mode: CAs, governance and identities; the secure Cyclone build"))
 
     _ros2(_verb(sub, "ros2", "mirror ROS 2 nodes on paramdds, expose paramdds nodes to ROS 2 (ros2 extra)"))
+
+    for name in ("check", "schema"):  # verbs in the one-module-per-verb shape (paramdds/cli/verbs/)
+        module = importlib.import_module(f"paramdds.cli.verbs.{name}")
+        module.add_arguments(_verb(sub, name, module.HELP))
 
     if with_bench:
         _register_bench(sub)

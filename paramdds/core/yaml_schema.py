@@ -229,7 +229,7 @@ class NodeSchema:
         try:
             errors = list(self._validator.iter_errors(document))
         except referencing.exceptions.Unresolvable as exc:
-            raise _unresolvable(self.file, exc) from None
+            raise _unresolvable(self.file, getattr(exc, "_wrapped", exc)) from None
         except RecursionError:
             raise _error(self.file, "", "the schema recurses without end (a $ref cycle)") from None
         return [_violation(e) for e in sorted(errors, key=_order)]
@@ -279,6 +279,11 @@ def _violation(error: Any) -> Violation:
     )
     dotted = ".".join(path_parts).replace(".[", "[")
     message = str(error.message)
+    if error.validator == "additionalProperties" and isinstance(error.instance, dict):
+        known = error.schema.get("properties", {}) if isinstance(error.schema, dict) else {}
+        extra = [k for k in error.instance if k not in known]
+        if len(extra) == 1 and len(parts) >= 2:
+            dotted = f"{dotted}.{extra[0]}" if dotted else str(extra[0])
     if error.context and error.validator in ("oneOf", "anyOf"):
         branches: dict[int, list[str]] = {}
         for sub in error.context:
