@@ -55,9 +55,9 @@ def read_document(path: str | Path) -> Any:
 def _plain(node: yaml.Node, source: Source) -> Any:
     if isinstance(node, yaml.MappingNode):
         out: dict[str, Any] = {}
-        for k, v in node.value:
-            key = _plain(k, source)
-            out[str(key) if not isinstance(key, str) else key] = _plain(v, source)
+        for k, v in node.value:  # keys are names: never typed
+            key = k.value if isinstance(k, yaml.ScalarNode) else str(_plain(k, source))
+            out[str(key)] = _plain(v, source)
         return out
     if isinstance(node, yaml.SequenceNode):
         return [_plain(v, source) for v in node.value]
