@@ -123,28 +123,27 @@ def test_check_a_broken_ref_is_exit_2_naming_file_and_ref() -> None:
     assert "Traceback" not in got.stderr
 
 
+def _schema(leaf: dict[str, object]) -> str:
+    params = {"properties": {"a": leaf}}
+    return json.dumps({"type": "object", "properties": {"/**": {"properties": {"ros__parameters": params}}}})
+
+
 def test_server_schema_bad_input_is_exit_2_without_traceback(domain_id: int, tmp_path: Path) -> None:
     bad = tmp_path / "bad.schema.json"
-    bad.write_text(
-        '{"type": "object", "properties": {"/**": {"properties": {"ros__parameters": {"properties": {"a": {"type": "number", "maximun": 1}}}}}}}'
-    )
+    bad.write_text(_schema({"type": "number", "maximun": 1}))
     got = run_cli(domain_id, "server", "--schema", str(bad))
     assert got.returncode == 2
     assert "bad.schema.json" in got.stderr and "maximun" in got.stderr and "Traceback" not in got.stderr
     params = tmp_path / "p.yaml"
     params.write_text("/**:\n  ros__parameters:\n    a: 5.0\n")
-    bad.write_text(
-        '{"type": "object", "properties": {"/**": {"properties": {"ros__parameters": {"properties": {"a": {"type": "number", "maximum": 1}}}}}}}'
-    )
+    bad.write_text(_schema({"type": "number", "maximum": 1}))
     got = run_cli(domain_id, "server", "--schema", str(bad), "-p", str(params))
     assert got.returncode == 2 and "break the schema: a: 5.0 is greater than the maximum of 1" in got.stderr
 
 
 def test_server_lenient_starts_without_the_refused_value(domain_id: int, tmp_path: Path) -> None:
     schema = tmp_path / "s.schema.json"
-    schema.write_text(
-        '{"type": "object", "properties": {"/**": {"properties": {"ros__parameters": {"properties": {"a": {"type": "number", "default": 0.5, "maximum": 1, "x-note": 1}}}}}}}'
-    )
+    schema.write_text(_schema({"type": "number", "default": 0.5, "maximum": 1, "x-note": 1}))
     params = tmp_path / "p.yaml"
     params.write_text("/**:\n  ros__parameters:\n    a: 5.0\n")
     server = start_server(domain_id, "-n", "n1", "--schema", str(schema), "-p", str(params), "--lenient")
