@@ -62,8 +62,9 @@ of its type sets it.
 
 Whole-node validator: :meth:`ParameterTable.set_node_validator` installs one function
 that sees the node as a request would leave it (every value, after step 3, before the
-on-set callbacks) and the names the request touches, and returns ``(name, reason)``
-to refuse it (``name`` is the parameter at fault, ``""`` for all of them) or None.
+on-set callbacks) and the names the request touches with their values before it (None:
+absent), and returns ``(name, reason)`` to refuse it (``name`` is the parameter at
+fault, ``""`` for all of them) or None.
 It runs for every unit of a set (so per parameter for :meth:`ParameterTable.set`, once
 for an atomic set), for declarations and for undeclare; a refusal is INVALID_VALUE.
 A JSON Schema uses it (:mod:`.yaml_schema`): checks such as ``required`` or
@@ -117,8 +118,11 @@ PreSetCallback = Callable[[list[Parameter]], list[Parameter]]
 OnSetCallback = Callable[[list[Parameter]], SetVeto]
 PostSetCallback = Callable[[list[Parameter]], None]
 ChangeListener = Callable[[ChangeSet], None]
-# (the node's values as the request would leave them, the names it touches) -> (name at fault, reason)
-NodeValidator = Callable[[Mapping[str, ParameterValue], Sequence[str]], "tuple[str, str] | None"]
+# (the node's values as the request would leave them, {touched name: its value before or None})
+#   -> (name at fault, reason) or None
+NodeValidator = Callable[
+    [Mapping[str, ParameterValue], Mapping[str, "ParameterValue | None"]], "tuple[str, str] | None"
+]
 
 _Entry = tuple[ParameterValue, ParameterDescriptor]
 
@@ -167,6 +171,11 @@ class _Stage:
     def keep(self) -> None:
         assert self.parent is not None
         self.parent.pending.update(self.pending)
+
+    def before(self, name: str) -> ParameterValue | None:
+        """The value of ``name`` without this stage's own writes (None: absent)."""
+        entry = self.parent.get(name) if self.parent is not None else self.base.get(name)
+        return None if entry is None else entry[0]
 
     def values(self) -> dict[str, ParameterValue]:
         """Every value as this stage would leave the table."""
@@ -616,7 +625,7 @@ class ParameterTable:
         """The whole-node validator (see the module doc) on the state ``stage`` would leave."""
         if self._node_validator is None:
             return
-        refusal = self._node_validator(stage.values(), names)
+        refusal = self._node_validator(stage.values(), {n: stage.before(n) for n in names})
         if refusal is not None:
             name, reason = refusal
             raise _UnitFailed(name or None, InvalidValueError(reason))

@@ -54,6 +54,7 @@ from __future__ import annotations
 import json
 import logging
 import math
+import re
 import sys
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -98,6 +99,12 @@ ANNOTATION_KEYWORDS = frozenset(
     | {"writeOnly", "definitions", "contentMediaType", "contentEncoding"}
 )
 _SCHEMA_MAPS = ("properties", "patternProperties", "definitions")
+# an object schema with only these checks its key set and each property on its own
+_SEPARABLE = frozenset(
+    {"type", "properties", "required", "additionalProperties", "patternProperties", "minProperties"}
+    | {"maxProperties", "propertyNames"}
+    | ANNOTATION_KEYWORDS
+)
 _SCHEMA_ONE = ("additionalItems", "additionalProperties", "contains", "propertyNames", "if", "then")
 _SCHEMA_ONE2 = ("else", "not")
 _SCHEMA_LISTS = ("allOf", "anyOf", "oneOf")
@@ -218,6 +225,8 @@ class NodeSchema:
     ref_errors: dict[str, FileFormatError] = field(default_factory=dict)
     lenient: bool = False
     _validator: Any = None
+    _cache: dict[int, tuple[Any, Any]] = field(default_factory=dict)  # id(sub-schema) -> validators
+    _refs: dict[int, tuple[Any, Any, Any]] = field(default_factory=dict)  # id($ref node) -> its target
 
     # --- validating ----------------------------------------------------------------------
 
@@ -238,19 +247,129 @@ class NodeSchema:
         """What the schema says of a node holding ``values`` (unset ones are absent)."""
         return self.document_violations(self.document(values))
 
+    def changed_violations(
+        self,
+        values: Mapping[str, ParameterValue],
+        before: Mapping[str, ParameterValue | None],
+        mirror: _Mirror | None = None,
+    ) -> list[Violation]:
+        """:meth:`violations`, for a node whose values were valid before the names of
+        ``before`` changed (``before``: their values then, None when absent).
+
+        The same verdict, found by validating only what the change can affect: along the
+        path to each changed name, an object whose keywords are all *separable* (``type``,
+        ``properties``, ``required``, ``additionalProperties``, ``patternProperties``,
+        ``min/maxProperties``, ``propertyNames``: each checks the key set or one property
+        alone) is checked for its key set and descended into; any other subschema (a leaf,
+        or an object with ``oneOf``, ``dependencies``, ``not``…) is validated whole by
+        jsonschema. Everything off those paths was valid and did not change. ``mirror`` keeps
+        the nested document between calls (patched, not rebuilt)."""
+        import referencing.exceptions
+
+        names = list(before)
+        keys_changed = any(_present(before, n) != _present(values, n) for n in names)
+        params = mirror.update(values) if mirror is not None else nest(values)
+        document = {self.node_key: {PARAMS_KEY: params}}
+        paths = [(self.node_key, PARAMS_KEY, *n.split(".")) for n in names]
+        for name in names:
+            value = values.get(name)
+            if value is not None and value.type is not T.NOT_SET and not _nested_at(params, name.split(".")):
+                return self.document_violations(document)  # a dotted key (a name also a prefix)
+        try:
+            errors = self._descend(
+                self._validator.schema, self._validator._resolver, document, (), paths, 0, keys_changed
+            )
+        except referencing.exceptions.Unresolvable as exc:
+            raise _unresolvable(self.file, getattr(exc, "_wrapped", exc)) from None
+        except RecursionError:
+            raise _error(self.file, "", "the schema recurses without end (a $ref cycle)") from None
+        return [_violation(e, prefix) for prefix, e in sorted(errors, key=lambda pe: _order(pe[1], pe[0]))]
+
+    def _validators_for(self, node: Any, resolver: Any) -> tuple[Any, Any]:
+        """(the whole subschema's validator, its key-set-only validator), cached per subschema."""
+        cached = self._cache.get(id(node))
+        if cached is not None and cached[0].schema is node:
+            return cached
+        whole = self._validator.evolve(schema=node, _resolver=resolver)
+        reduced = None
+        if isinstance(node, dict):
+            keyset = ("type", "required", "minProperties", "maxProperties", "propertyNames")
+            keys = {k: node[k] for k in keyset if k in node}
+            if "additionalProperties" in node:
+                keys["properties"] = dict.fromkeys(node.get("properties", {}), True)
+                keys["patternProperties"] = dict.fromkeys(node.get("patternProperties", {}), True)
+                keys["additionalProperties"] = node["additionalProperties"] is not False
+            reduced = self._validator.evolve(schema=keys, _resolver=resolver)
+        self._cache[id(node)] = (whole, reduced)
+        return whole, reduced
+
+    def _descend(
+        self,
+        node: Any,
+        resolver: Any,
+        instance: Any,
+        prefix: tuple[Any, ...],
+        paths: list[tuple[str, ...]],
+        hops: int,
+        keys_changed: bool,
+    ) -> list[tuple[tuple[Any, ...], Any]]:
+        while isinstance(node, dict) and "$ref" in node:  # draft-07: $ref replaces its siblings
+            hops += 1
+            if hops > 200:
+                raise RecursionError
+            cached = self._refs.get(id(node))
+            if cached is None or cached[0] is not node:
+                resolved = resolver.lookup(node["$ref"])
+                cached = self._refs[id(node)] = (node, resolved.contents, resolved.resolver)
+            node, resolver = cached[1], cached[2]
+        whole, reduced = self._validators_for(node, resolver)
+        separable = isinstance(node, dict) and isinstance(instance, dict) and _SEPARABLE.issuperset(node)
+        if not separable or any(not p for p in paths):
+            return [(prefix, e) for e in whole.iter_errors(instance)]
+        # the key-set checks: only when a name comes or goes (values alone leave them as they were)
+        out = [(prefix, e) for e in reduced.iter_errors(instance)] if keys_changed else []
+        children: dict[str, list[tuple[str, ...]]] = {}
+        for p in paths:
+            children.setdefault(p[0], []).append(p[1:])
+        props = node.get("properties", {})
+        patterns = node.get("patternProperties", {})
+        for key, rest in children.items():
+            if key not in instance:
+                continue  # deleted: the key-set check covers it
+            subs = [props[key]] if key in props else []
+            subs += [sub for pattern, sub in patterns.items() if re.search(pattern, key)]
+            extra = node.get("additionalProperties")
+            if not subs and isinstance(extra, dict):
+                subs = [extra]
+            for sub in subs:
+                out += self._descend(sub, resolver, instance[key], (*prefix, key), rest, hops, keys_changed)
+        return out
+
     def document(self, values: Mapping[str, ParameterValue]) -> dict[str, Any]:
         """``values`` as the parameter file check-jsonschema would read: the envelope, nested."""
         return {self.node_key: {PARAMS_KEY: nest(values)}}
 
     def node_validator(
         self,
-    ) -> Callable[[Mapping[str, ParameterValue], Sequence[str]], tuple[str, str] | None]:
+    ) -> Callable[
+        [Mapping[str, ParameterValue], Mapping[str, ParameterValue | None]], tuple[str, str] | None
+    ]:
         """The table's whole-node validator: the first violation, blamed on the touched name
         it concerns (a name at or under its path), else on none of them."""
 
-        def check(values: Mapping[str, ParameterValue], names: Sequence[str]) -> tuple[str, str] | None:
+        trusted = [False]  # the state last accepted was checked whole: later checks are incremental
+        mirror = _Mirror()
+
+        def check(
+            values: Mapping[str, ParameterValue], before: Mapping[str, ParameterValue | None]
+        ) -> tuple[str, str] | None:
+            names = list(before)
             try:
-                found = self.violations(values)
+                if trusted[0]:
+                    found = self.changed_violations(values, before, mirror)
+                else:
+                    found = self.violations(values)
+                    trusted[0] = not found
             except ParamddsError as exc:
                 return "", f"schema {self.file}: {exc.message}"
             if not found:
@@ -263,16 +382,31 @@ class NodeSchema:
         return check
 
 
+def _present(values: Mapping[str, ParameterValue | None], name: str) -> bool:
+    value = values.get(name)
+    return value is not None and value.type is not T.NOT_SET
+
+
+def _nested_at(params: dict[str, Any], parts: list[str]) -> bool:
+    node: Any = params
+    for part in parts:
+        if not isinstance(node, dict) or part not in node:
+            return False
+        node = node[part]
+    return True
+
+
 def _concerns(path: str, name: str) -> bool:
     return not path or name == path or name.startswith(path + ".") or path.startswith(name + ".")
 
 
-def _order(error: Any) -> tuple[int, str]:
-    return (len(error.absolute_path), ".".join(str(p) for p in error.absolute_path))
+def _order(error: Any, prefix: tuple[Any, ...] = ()) -> tuple[int, str]:
+    parts = [*prefix, *error.absolute_path]
+    return (len(parts), ".".join(str(p) for p in parts))
 
 
-def _violation(error: Any) -> Violation:
-    parts = list(error.absolute_path)
+def _violation(error: Any, prefix: tuple[Any, ...] = ()) -> Violation:
+    parts = [*prefix, *error.absolute_path]
     where = "$" + "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in parts)
     path_parts = (
         [str(p) if not isinstance(p, int) else f"[{p}]" for p in parts[2:]] if len(parts) >= 2 else []
@@ -323,6 +457,60 @@ def to_json(value: ParameterValue) -> Any:
     return v
 
 
+class _Mirror:
+    """The nested document of the values last checked, patched for what changed since."""
+
+    def __init__(self) -> None:
+        self.values: dict[str, ParameterValue] = {}
+        self.params: dict[str, Any] | None = None
+
+    def update(self, values: Mapping[str, ParameterValue]) -> dict[str, Any]:
+        old = self.values
+        params = self.params
+        if params is not None:
+            changed = [n for n, v in values.items() if old.get(n) is not v]
+            changed += [n for n in old if n not in values]
+            if len(changed) * 4 > len(values) or not all(
+                self._patch(params, n, values.get(n)) for n in changed
+            ):
+                params = None
+        if params is None:
+            params = nest(values)
+        self.params, self.values = params, dict(values)
+        return params
+
+    @staticmethod
+    def _patch(params: dict[str, Any], name: str, value: ParameterValue | None) -> bool:
+        """Write one value in place; False when only a rebuild can (a name that is a prefix)."""
+        parts = name.split(".")
+        chain = [params]
+        node = params
+        for part in parts[:-1]:
+            child = node.get(part)
+            if child is None:
+                if value is None or value.type is T.NOT_SET:
+                    return True  # nothing there to delete
+                child = node[part] = {}
+            elif not isinstance(child, dict):
+                return False
+            chain.append(child)
+            node = child
+        leaf = parts[-1]
+        if isinstance(node.get(leaf), dict):
+            return False
+        if value is None or value.type is T.NOT_SET:
+            node.pop(leaf, None)
+            for parent, part, child in zip(
+                reversed(chain[:-1]), reversed(parts[:-1]), reversed(chain[1:]), strict=True
+            ):
+                if child:
+                    break
+                del parent[part]  # nest() writes no empty group
+        else:
+            node[leaf] = to_json(value)
+        return True
+
+
 def nest(values: Mapping[str, ParameterValue]) -> dict[str, Any]:
     """Dotted names as nested objects; unset values are left out. A name that is both a value
     and a prefix keeps the longer names as dotted keys (as a dump writes them)."""
@@ -359,11 +547,15 @@ class _Loader:
         self.lenient = lenient
         self.spec = DRAFT7
 
+        loaded: dict[str, Resource[Any]] = {}
+
         def retrieve(uri: str) -> Resource[Any]:
             if not uri.startswith("file:"):
                 raise FileFormatError(f"$ref to {uri!r}: paramdds resolves references to files only")
-            contents = _load_document(_uri_path(uri), lenient=lenient)
-            return Resource.from_contents(contents, default_specification=DRAFT7)
+            if uri not in loaded:  # read once, when first needed
+                contents = _load_document(_uri_path(uri), lenient=lenient)
+                loaded[uri] = Resource.from_contents(contents, default_specification=DRAFT7)
+            return loaded[uri]
 
         self.registry: Registry[Any] = Registry(retrieve=retrieve).with_resource(  # type: ignore[call-arg]
             root_uri, DRAFT7.create_resource(root)

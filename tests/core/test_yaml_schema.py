@@ -505,3 +505,59 @@ def test_a_specs_schema_says_its_validators() -> None:
     assert props["count"]["exclusiveMinimum"] == 0
     assert schema["definitions"]["robot"]["required"] == ["name"]
     jsonschema.Draft7Validator.check_schema(schema)
+
+
+# --- the incremental check is the whole check ---------------------------------------------------
+
+_STRINGS = st.sampled_from(["", "x", "naive", "advanced", "twist", "odom", "CAR", "map", "DS4", "P65"])
+_BY_TYPE = {
+    T.BOOL: st.booleans(),
+    T.INTEGER: st.integers(min_value=-3, max_value=50),
+    T.DOUBLE: st.floats(min_value=-2.0, max_value=50.0, allow_nan=False),
+    T.STRING: _STRINGS,
+    T.STRING_ARRAY: st.lists(_STRINGS, max_size=3).map(tuple),
+    T.DOUBLE_ARRAY: st.lists(st.floats(min_value=-1.0, max_value=1.0), max_size=3).map(tuple),
+    T.INTEGER_ARRAY: st.lists(st.integers(min_value=-1, max_value=3), max_size=3).map(tuple),
+}
+_DIFFERENTIAL = [
+    ("autoware_pointcloud_preprocessor", "concatenate_and_time_sync_node.param.yaml"),
+    ("autoware_multi_object_tracker", "input_channels.param.yaml"),
+    ("autoware_lidar_centerpoint", "centerpoint_ml_package.param.yaml"),
+    ("autoware_map_loader", "pointcloud_map_loader.param.yaml"),
+]
+
+
+def _whole_check(schema: NodeSchema) -> object:
+    def check(values: dict[str, ParameterValue], before: dict[str, object]) -> tuple[str, str] | None:
+        found = schema.violations(values)
+        return None if not found else ("", str(found[0]))
+
+    return check
+
+
+@needs_realworld
+@pytest.mark.parametrize(("rel", "cfg"), _DIFFERENTIAL, ids=lambda x: x)
+@settings(max_examples=60, deadline=None)
+@given(data=st.data())
+def test_incremental_checks_give_the_whole_checks_verdict(rel: str, cfg: str, data: st.DataObject) -> None:
+    schema, fast = _table(rel, cfg)
+    _, whole = _table(rel, cfg)
+    whole.set_node_validator(_whole_check(schema))  # type: ignore[arg-type]
+    entries = {e.name: e for e in schema.entries}
+    for _ in range(data.draw(st.integers(min_value=1, max_value=8))):
+        names = data.draw(st.lists(st.sampled_from(sorted(entries)), min_size=1, max_size=3, unique=True))
+        params = []
+        for name in names:
+            d = entries[name].descriptor
+            kind = d.type if not d.dynamic_typing else data.draw(st.sampled_from([T.STRING_ARRAY, T.DOUBLE]))
+            if data.draw(st.integers(0, 9)) == 0:
+                value = ParameterValue(T.NOT_SET, None)  # a delete (refused on static types by both)
+            else:
+                value = ParameterValue(kind, data.draw(_BY_TYPE[kind]))
+            params.append(Parameter(name, value))
+        atomic = data.draw(st.booleans())
+        a = fast.set_atomically(params) if atomic else fast.set(params)
+        b = whole.set_atomically(params) if atomic else whole.set(params)
+        assert [r.successful for r in a.results] == [r.successful for r in b.results], (params, a, b)
+        assert fast.snapshot() == whole.snapshot()
+        assert schema.violations({n: v for n, v, _ in fast.snapshot()}) == []
