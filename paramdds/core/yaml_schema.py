@@ -275,10 +275,23 @@ class NodeSchema:
             value = values.get(name)
             if value is not None and value.type is not T.NOT_SET and not _nested_at(params, name.split(".")):
                 return self.document_violations(document)  # a dotted key (a name also a prefix)
+        root, resolver = self._validator.schema, self._validator._resolver
         try:
-            errors = self._descend(
-                self._validator.schema, self._validator._resolver, document, (), paths, 0, keys_changed
-            )
+            if mirror is None or keys_changed:
+                errors = self._descend(root, resolver, document, (), paths, 0, keys_changed)
+            else:  # values only: each name's plan (the subschemas validated whole) is fixed
+                steps: dict[tuple[Any, ...], Any] = {}
+                for name, path in zip(names, paths, strict=True):
+                    plan = mirror.plans.get(name)
+                    if plan is None:
+                        plan = mirror.plans[name] = []
+                        self._descend(root, resolver, document, (), [path], 0, False, plan)
+                    steps.update(plan)
+                errors = [
+                    (prefix, e)
+                    for prefix, whole in steps.items()
+                    for e in whole.iter_errors(_at(document, prefix))
+                ]
         except referencing.exceptions.Unresolvable as exc:
             raise _unresolvable(self.file, getattr(exc, "_wrapped", exc)) from None
         except RecursionError:
@@ -312,7 +325,10 @@ class NodeSchema:
         paths: list[tuple[str, ...]],
         hops: int,
         keys_changed: bool,
+        plan: list[tuple[tuple[Any, ...], Any]] | None = None,
     ) -> list[tuple[tuple[Any, ...], Any]]:
+        """The errors along ``paths`` (rules in :meth:`changed_violations`); with ``plan``,
+        records the (prefix, validator) pairs it would run instead of running them."""
         while isinstance(node, dict) and "$ref" in node:  # draft-07: $ref replaces its siblings
             hops += 1
             if hops > 200:
@@ -325,6 +341,9 @@ class NodeSchema:
         whole, reduced = self._validators_for(node, resolver)
         separable = isinstance(node, dict) and isinstance(instance, dict) and _SEPARABLE.issuperset(node)
         if not separable or any(not p for p in paths):
+            if plan is not None:
+                plan.append((prefix, whole))
+                return []
             return [(prefix, e) for e in whole.iter_errors(instance)]
         # the key-set checks: only when a name comes or goes (values alone leave them as they were)
         out = [(prefix, e) for e in reduced.iter_errors(instance)] if keys_changed else []
@@ -342,7 +361,9 @@ class NodeSchema:
             if not subs and isinstance(extra, dict):
                 subs = [extra]
             for sub in subs:
-                out += self._descend(sub, resolver, instance[key], (*prefix, key), rest, hops, keys_changed)
+                out += self._descend(
+                    sub, resolver, instance[key], (*prefix, key), rest, hops, keys_changed, plan
+                )
         return out
 
     def document(self, values: Mapping[str, ParameterValue]) -> dict[str, Any]:
@@ -380,6 +401,12 @@ class NodeSchema:
             return blamed, f"schema: {reason}"
 
         return check
+
+
+def _at(document: Any, prefix: tuple[Any, ...]) -> Any:
+    for key in prefix:
+        document = document[key]
+    return document
 
 
 def _present(values: Mapping[str, ParameterValue | None], name: str) -> bool:
@@ -463,6 +490,8 @@ class _Mirror:
     def __init__(self) -> None:
         self.values: dict[str, ParameterValue] = {}
         self.params: dict[str, Any] | None = None
+        # name -> the (prefix, validator) a change of its value alone runs
+        self.plans: dict[str, list[tuple[tuple[Any, ...], Any]]] = {}
 
     def update(self, values: Mapping[str, ParameterValue]) -> dict[str, Any]:
         old = self.values
