@@ -3,11 +3,29 @@
 
 from __future__ import annotations
 
+import json
+import os
+import subprocess
+import sys
+from typing import Any
+
 import pytest
 
 from paramdds.bench.ros2 import find_realworld
 
-from .test_bench_smoke import bench, positive
+
+def bench(scenario: str, domain_id: int) -> dict[str, Any]:
+    cmd = [sys.executable, "-m", "paramdds.cli", "bench", scenario, "--quick", "-o", "json", "--localhost"]
+    env = dict(os.environ, PARAMDDS_LOCALHOST="1")
+    done = subprocess.run([*cmd, "-d", str(domain_id)], capture_output=True, text=True, timeout=150, env=env)
+    assert done.returncode == 0, done.stderr
+    data: dict[str, Any] = json.loads(done.stdout)
+    return data
+
+
+def positive(data: dict[str, Any], *keys: str) -> None:
+    for key in keys:
+        assert isinstance(data.get(key), (int, float)) and data[key] > 0, f"{key} = {data.get(key)!r}"
 
 
 @pytest.mark.skipif(find_realworld() is None, reason="shared/realworld is absent (CI has it)")
