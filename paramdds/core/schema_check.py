@@ -109,6 +109,7 @@ def check_with_spec(spec: Any, path: str | Path) -> list[Finding]:
     mapped = [m.entry.name for m in getattr(spec, "mapped", ())]
     found: list[Finding] = []
     sections = list(_sections(document))
+    given: dict[str, Any] = {}
     if not sections:
         found.append(Finding(str(path), "", "", f"no '{PARAMS_KEY}' section"))
     for section, params in sections:
@@ -127,11 +128,12 @@ def check_with_spec(spec: Any, path: str | Path) -> list[Finding]:
                 validate(name, value, desc)
             except ParamddsError as exc:
                 found.append(Finding(str(path), section, name, exc.message))
-        for name, entry in entries.items():
-            if entry.required and name not in values and entry.default is NOT_SET:
-                found.append(
-                    Finding(str(path), section, name, "required by the spec (no default) and not given")
-                )
+        given.update(values)
+    for name, entry in entries.items():  # sections merge for a node: any of them may give it
+        if sections and entry.required and name not in given and entry.default is NOT_SET:
+            found.append(
+                Finding(str(path), "", name, "required by the spec (no default) and given by no section")
+            )
     return found
 
 

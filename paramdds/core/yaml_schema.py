@@ -424,7 +424,10 @@ def _nested_at(params: dict[str, Any], parts: list[str]) -> bool:
 
 
 def _concerns(path: str, name: str) -> bool:
-    return not path or name == path or name.startswith(path + ".") or path.startswith(name + ".")
+    """Whether a violation at ``path`` (``a.b``, ``a.b[1]``) concerns the parameter ``name``."""
+    return (
+        not path or name == path or name.startswith(path + ".") or path.startswith((name + ".", name + "["))
+    )
 
 
 def _order(error: Any, prefix: tuple[Any, ...] = ()) -> tuple[int, str]:

@@ -486,7 +486,7 @@ def test_check_a_file_against_a_spec(tmp_path: Path) -> None:
         "bad.yaml",
     )
     found = {(f.path, f.section) for f in check_with_spec(spec, bad)}
-    assert found == {("speed", "n"), ("mode", "n"), ("nope", "n"), ("count", "n"), ("name", "n")}
+    assert found == {("speed", "n"), ("mode", "n"), ("nope", "n"), ("count", "n"), ("name", "")}
 
 
 def test_a_specs_schema_says_its_validators() -> None:
