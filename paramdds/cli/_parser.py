@@ -327,6 +327,12 @@ def build_parser(*, with_bench: bool = False) -> Parser:
         help="another name the console is reached under (checked against the Host header: "
         "a DNS alias or a proxy's name; the bind address is always allowed); repeatable",
     )
+    p.add_argument(
+        "--schema",
+        action="append",
+        metavar="NODE=FILE",
+        help="check writes to NODE against the JSON Schema FILE before sending them (the node checks too)",
+    )
 
     _keystore(_verb(sub, "keystore", "secure mode: CAs, governance and identities; the secure Cyclone build"))
 
