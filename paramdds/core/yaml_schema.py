@@ -171,6 +171,14 @@ def check_keywords(schema: Any, file: str, path: Sequence[object] = (), *, lenie
                     stack.extend((v, (*where, key, i)) for i, v in enumerate(value))
                 else:
                     stack.append((value, (*where, key)))
+            elif key == "format" and isinstance(value, str) and value not in _formats():
+                message = (
+                    f"{_pointer((*where, key))}: format {value!r} cannot be enforced here (jsonschema's "
+                    f"format checker knows {', '.join(sorted(_formats()))})"
+                )
+                if not lenient:
+                    raise FileFormatError(message + "; --lenient ignores it", file=file)
+                log.warning("%s: %s; not enforced (--lenient)", file, message)
             elif key not in VALIDATION_KEYWORDS and key not in ANNOTATION_KEYWORDS:
                 message = (
                     f"{_pointer((*where, key))}: unknown keyword {key!r}: draft-07 does not define it, so "
@@ -179,6 +187,12 @@ def check_keywords(schema: Any, file: str, path: Sequence[object] = (), *, lenie
                 if not lenient:
                     raise FileFormatError(message + "; --lenient ignores it", file=file)
                 log.warning("%s: %s; ignored (--lenient)", file, message)
+
+
+def _formats() -> frozenset[str]:
+    import jsonschema
+
+    return frozenset(jsonschema.Draft7Validator.FORMAT_CHECKER.checkers)
 
 
 def _load_document(path: Path, *, lenient: bool) -> Any:

@@ -344,6 +344,10 @@ def _envelope(params: dict[str, object], **extra: object) -> str:
             'the default "x" is not a integer',
         ),
         ('{"type": "object"}', "no node key"),
+        (
+            _envelope({"type": "object", "properties": {"a": {"type": "string", "format": "ros-topic"}}}),
+            "format 'ros-topic' cannot be enforced",
+        ),
     ],
 )
 def test_bad_schemas_are_clear_errors_naming_file_and_json_path(

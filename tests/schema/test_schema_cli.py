@@ -173,3 +173,44 @@ def test_check_against_a_spec_with_its_real_configuration(tmp_path: Path) -> Non
     assert got.returncode == 1
     assert "diffbot_base_controller: wheel_separation:" in got.stdout
     assert "diffbot_base_controller: left_wheel_names:" in got.stdout
+
+
+@needs_realworld
+def test_check_speaks_json_and_schema_derives_from_a_spec_with_mapped_parameters(tmp_path: Path) -> None:
+    pkg = AUTOWARE / "behavior_velocity_planner"
+    got = subprocess.run(
+        [
+            PARAMDDS,
+            "check",
+            "-o",
+            "json",
+            str(pkg / "config/behavior_velocity_planner.param.yaml"),
+            "--schema",
+            str(pkg / "schema/behavior_velocity_planner.schema.json"),
+        ],
+        capture_output=True,
+        text=True,
+    )
+    assert got.returncode == 1
+    [report] = json.loads(got.stdout)
+    assert report["valid"] is False
+    assert report["errors"][0]["section"] == "/**"
+    assert report["errors"][0]["path"] == "behavior_output_path_interval"
+    spec = REALWORLD / "joint_trajectory_controller_parameters.yaml"
+    got = subprocess.run([PARAMDDS, "schema", "--spec", str(spec)], capture_output=True, text=True)
+    assert got.returncode == 0, got.stderr
+    schema = json.loads(got.stdout)
+    import jsonschema
+
+    jsonschema.Draft7Validator.check_schema(schema)
+    gains = schema["definitions"]["joint_trajectory_controller_parameters"]["properties"]["gains"]
+    assert gains["additionalProperties"]["properties"]["p"]["type"] == "number"  # gains.__map_joints.p
+    (tmp_path / "s.json").write_text(got.stdout)
+    (tmp_path / "p.yaml").write_text(
+        "/**:\n  ros__parameters:\n    joints: [j1]\n    gains:\n      j1: {p: 1.0}\n"
+    )
+    assert check_jsonschema(tmp_path / "s.json", tmp_path / "p.yaml").returncode == 0
+    (tmp_path / "p.yaml").write_text(
+        "/**:\n  ros__parameters:\n    joints: [j1]\n    gains:\n      j1: {p: x}\n"
+    )
+    assert check_jsonschema(tmp_path / "s.json", tmp_path / "p.yaml").returncode == 1
