@@ -34,7 +34,7 @@ from .core.descriptors import ParameterDescriptor
 from .core.table import ParameterTable
 from .core.values import Parameter, ParameterValue
 from .errors import FileFormatError, ParamddsError
-from .persist import PersistError, PersistStore
+from .journal import PersistError, PersistStore
 
 log = logging.getLogger(__name__)
 
@@ -61,7 +61,7 @@ def is_seed_format(text: str, source: str) -> bool:
     """True when the document is a map with a top-level ``parameters:`` list (the seed format)."""
     import yaml
 
-    from .core.yaml_base import Source, compose
+    from .core.yaml.base import Source, compose
 
     node = compose(text, Source(source))
     if not isinstance(node, yaml.MappingNode):
@@ -72,11 +72,11 @@ def is_seed_format(text: str, source: str) -> bool:
 def read_entries(path: str, node_id: str) -> list[Entry]:
     """The entries a parameter file gives ``node_id``: every one of a seed file, in file
     order, or those of the matching sections of a ROS 2 file."""
-    from .core.yaml_base import read_file
+    from .core.yaml.base import read_file
 
     text = read_file(path)
     if is_seed_format(text, path):
-        from .core.yaml_seed import load_seed_params_str
+        from .core.yaml.seed import load_seed_params_str
 
         return _entries(load_seed_params_str(text, source=path))
     return parse_ros_text(text, path, node_id)
@@ -84,7 +84,7 @@ def read_entries(path: str, node_id: str) -> list[Entry]:
 
 def parse_ros_text(text: str, source: str, node_id: str) -> list[Entry]:
     """The entries for ``node_id`` in a ROS 2 parameter file's text."""
-    from .core.yaml_ros import load_ros_text_full
+    from .core.yaml.ros import load_ros_text_full
 
     return _entries(load_ros_text_full(text, node_id, source=source))
 
@@ -96,7 +96,7 @@ def read_values(path: str, node_id: str) -> list[Parameter]:
 
 def dump_text(state: Mapping[str, Snapshot], *, with_descriptors: bool = True) -> str:
     """A ROS 2 parameter file holding every node of ``state`` (the dump format)."""
-    from .core.yaml_dump import dump_ros_params
+    from .core.yaml.dump import dump_ros_params
 
     return "".join(
         dump_ros_params(node, snapshot, with_descriptors=with_descriptors) for node, snapshot in state.items()
@@ -104,7 +104,7 @@ def dump_text(state: Mapping[str, Snapshot], *, with_descriptors: bool = True) -
 
 
 def _load_spec(path: str, strict: bool = False) -> Any:
-    from .core import yaml_spec
+    from .core.yaml import spec as yaml_spec
 
     return yaml_spec.load_spec(path, strict=strict)
 
@@ -112,7 +112,8 @@ def _load_spec(path: str, strict: bool = False) -> Any:
 def _declare_spec(
     table: ParameterTable, spec: Any, values: Mapping[str, ParameterValue], options: ServerOptions
 ) -> None:
-    from .core import yaml_schema, yaml_spec
+    from .core import yaml_schema
+    from .core.yaml import spec as yaml_spec
 
     if isinstance(spec, yaml_schema.NodeSchema):  # --schema: a JSON Schema declares the node
         for note in yaml_schema.declare_schema(table, spec, values, lenient=options.lenient):

@@ -37,10 +37,10 @@ from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 
-from ..dds import types as wire
 from ..dds._binding import cookie_buffer, waitset_attach_indexed, waitset_wait_indexed, write_serialized
 from ..dds.dispatch import Dispatcher
 from ..dds.qos import QosProfiles
+from ..dds.wire import types as wire
 
 ECHO_REQUEST = "BenchEchoRequest"  # names chosen so the Request / Reply QoS profiles apply
 ECHO_REPLY = "BenchEchoResponse"
@@ -71,7 +71,7 @@ def _ids_offset() -> int:
 def get_sizes(node: str, name: str, value: object) -> tuple[int, int]:
     """Serialized sizes (request, reply) of a one-name get, as the client and server send them."""
     from ..core.values import ParameterValue
-    from ..dds.convert import value_to_wire
+    from ..dds.wire.convert import value_to_wire
 
     req = wire.GetParametersRequest(node_id=node, client_id=2**63, request_id=1, names=[name])
     rep = wire.GetParametersResponse(
@@ -308,7 +308,7 @@ class RosLayoutServer:
 
 def _handler(service: str, table: Any) -> Callable[[Any], Any]:
     from ..core.values import Parameter
-    from ..dds.convert import descriptor_to_wire, parameter_from_wire, value_to_wire
+    from ..dds.wire.convert import descriptor_to_wire, parameter_from_wire, value_to_wire
 
     def ids(cls: Any, request: Any) -> Any:
         return cls(node_id=table.node_id, client_id=request.client_id, request_id=request.request_id)

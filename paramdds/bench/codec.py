@@ -2,7 +2,7 @@
 
 In this process, no DDS traffic: for each case the same sample is encoded and
 decoded by paramdds's codecs (the generated per-struct functions of
-:mod:`paramdds.dds.cdr`, and the state fast paths of :mod:`paramdds.dds.state`)
+:mod:`paramdds.dds.wire.cdr`, and the state fast paths of :mod:`paramdds.dds.wire.state`)
 and by cyclonedds-python's own generic interpreter, the baseline, alternating
 in rounds. Times are CPU time of this thread (``time.thread_time``), so the
 time other processes take the core from us is not counted, and the fastest
@@ -38,10 +38,10 @@ class _Case(NamedTuple):
 def _cases() -> list[_Case]:
     from ..core.descriptors import ParameterDescriptor
     from ..core.values import ParameterType, ParameterValue
-    from ..dds import types as wire
-    from ..dds.cdr import decode, encode
-    from ..dds.convert import value_to_wire
-    from ..dds.state import decode_state, encode_state
+    from ..dds.wire import types as wire
+    from ..dds.wire.cdr import decode, encode
+    from ..dds.wire.convert import value_to_wire
+    from ..dds.wire.state import decode_state, encode_state
 
     def value(v: object) -> Any:
         return value_to_wire(ParameterValue.from_python(v))
@@ -129,10 +129,10 @@ def _cases() -> list[_Case]:
 def _bench_set_cases() -> list[_Case]:
     """The server and monitor paths over the 20 parameters of a bench node (descriptions,
     ranges, validators, arrays in real files' proportions: see ``worker.descriptor_for``)."""
-    from ..dds import types as wire
-    from ..dds.cdr import encode
-    from ..dds.convert import state_descriptor_to_wire, value_to_wire
-    from ..dds.state import decode_state, encode_state
+    from ..dds.wire import types as wire
+    from ..dds.wire.cdr import encode
+    from ..dds.wire.convert import state_descriptor_to_wire, value_to_wire
+    from ..dds.wire.state import decode_state, encode_state
     from .worker import make_table
 
     table = make_table("robot_042", 20)

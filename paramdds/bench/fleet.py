@@ -100,9 +100,9 @@ def run(args: argparse.Namespace) -> int:
     empty_domain = args.domain + 1 if args.domain < 232 else args.domain - 1
 
 
-    from ..dds import types as wire
     from ..dds.participant import make_participant
     from ..dds.qos import QosProfiles
+    from ..dds.wire import types as wire
 
     _compile_bytecode()
     env = worker_env(args.localhost)
@@ -271,7 +271,7 @@ def _request_writer(dp: Any, qos: Any, partitions: list[str] | None = None) -> A
     from cyclonedds.qos import Policy, Qos
     from cyclonedds.topic import Topic
 
-    from ..dds import types as wire
+    from ..dds.wire import types as wire
 
     owner = dp if partitions is None else Publisher(dp, qos=Qos(Policy.Partition(partitions=partitions)))
     topic = Topic(dp, "GetParametersRequest", wire.GetParametersRequest)
@@ -317,9 +317,9 @@ def _bytes_by_servers(
 ) -> dict[str, int]:
     """Loopback bytes per get request with ``counts`` server processes reading requests:
     started one group after another in ``domain``; gets go to the first server's node."""
-    from ..dds import types as wire
     from ..dds.participant import make_participant
     from ..dds.qos import QosProfiles
+    from ..dds.wire import types as wire
 
     note(f"fleet: loopback bytes per request with {', '.join(map(str, counts))} server processes")
     qos = QosProfiles.load()

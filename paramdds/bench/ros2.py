@@ -3,7 +3,7 @@
 The same parameter sets (the nodes of the parameter files in ``realworld/``, one set
 per node in turn, plus one double ``bench_gain`` for the warm sets) are hosted by
 ``--servers`` host processes (default 4) in each system: ``python -m
-paramdds.ros2.host`` (rclpy nodes, single-threaded executor) and ``paramdds server``.
+paramdds.bench.ros2_host`` (rclpy nodes, single-threaded executor) and ``paramdds server``.
 For each N of ``--nodes`` (default 10, 100, 300):
 
 * ``state``: whole-process time of a fresh process that holds every node's parameters
@@ -249,7 +249,7 @@ def measure(
     # -- real ROS 2 ------------------------------------------------------------------
     ros = [
         Host(
-            [sys.executable, "-m", "paramdds.ros2.host", "--params-file", str(f), "--threads", "1"],
+            [sys.executable, "-m", "paramdds.bench.ros2_host", "--params-file", str(f), "--threads", "1"],
             env,
             "ready",
         )

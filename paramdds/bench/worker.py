@@ -183,9 +183,9 @@ def role_partition(args: argparse.Namespace) -> None:
     from cyclonedds.sub import DataReader, Subscriber
     from cyclonedds.topic import Topic
 
-    from ..dds import types as wire
     from ..dds.dispatch import Dispatcher
     from ..dds.qos import QosProfiles
+    from ..dds.wire import types as wire
     from ._common import NODE_PREFIX, node_names
 
     qos = QosProfiles.load()

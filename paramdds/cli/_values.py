@@ -34,7 +34,7 @@ class Assignment:
 
 def parse_value(text: str) -> ParameterValue:
     """A command-line value typed like a YAML scalar (UsageError when unparsable)."""
-    from ..core.yaml_scalar import parse_cli_value
+    from ..core.yaml.scalar import parse_cli_value
 
     try:
         return parse_cli_value(text)

@@ -842,7 +842,7 @@ class ParameterTable:
         """``fn`` runs after each commit, outside callbacks, and may declare parameters.
 
         What it declares is a commit of its own (a new revision) that runs no hooks; an
-        exception it raises is logged. Spec mapped parameters use it (see yaml_spec).
+        exception it raises is logged. Spec mapped parameters use it (see core.yaml.spec).
         """
         with self._lock:
             self._guard("add a commit hook")

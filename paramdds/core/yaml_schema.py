@@ -196,7 +196,7 @@ def _formats() -> frozenset[str]:
 
 
 def _load_document(path: Path, *, lenient: bool) -> Any:
-    from .yaml_base import read_file
+    from .yaml.base import read_file
 
     name = str(path)
     doc = parse_json(read_file(path), name)
@@ -614,7 +614,7 @@ def load_schema(path: str | Path, *, lenient: bool = False, declare: bool = True
 
     ``declare=False`` only reads and checks it for validating files (no envelope needed;
     a ``$ref`` is followed only when a file's check needs it)."""
-    from .yaml_base import read_file
+    from .yaml.base import read_file
 
     return load_schema_str(
         read_file(path), source=str(path), lenient=lenient, base=Path(path), declare=declare
@@ -888,7 +888,7 @@ def _group_notes(node: dict[str, Any], prefix: str) -> list[str]:
 
 def _default(raw: object, ptype: ParameterType | None, where: str, file: str) -> ParameterValue:
     """A schema default as a value: JSON data, or a string read as a parameter file's text."""
-    from .yaml_scalar import parse_cli_value
+    from .yaml.scalar import parse_cli_value
 
     try:
         if isinstance(raw, str) and ptype is not T.STRING:

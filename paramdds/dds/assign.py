@@ -20,10 +20,10 @@ from cyclonedds.topic import Topic
 
 from ..core.names import canonical_node_id
 from ..secure.scope import scope_of
-from . import types as wire
 from .client import ParamsArg, _to_parameters
-from .convert import parameter_to_wire
 from .qos import QosProfiles
+from .wire import types as wire
+from .wire.convert import parameter_to_wire
 
 
 class Assigner:

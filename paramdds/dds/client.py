@@ -58,14 +58,14 @@ from ..errors import (
     error_for,
 )
 from ..secure.scope import guard_samples, scope_of
-from . import types as wire
-from .cdr import is_malformed
-from .convert import descriptor_from_wire, parameter_to_wire, value_from_wire
 from .discovery import MIN_QUIET, DiscoveryState, DiscoveryWatch, Presence
 from .dispatch import Dispatcher
 from .filters import NativeFilter, filtered_topic, origin_of, request_filter_of
 from .participant import peer_mismatches
 from .qos import QosProfiles
+from .wire import types as wire
+from .wire.cdr import is_malformed
+from .wire.convert import descriptor_from_wire, parameter_to_wire, value_from_wire
 
 log = logging.getLogger(__name__)
 

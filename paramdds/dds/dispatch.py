@@ -41,7 +41,7 @@ from cyclonedds.internal import InvalidSample
 from cyclonedds.util import duration
 
 from ._binding import take_serialized
-from .cdr import MalformedSample, is_malformed
+from .wire.cdr import MalformedSample, is_malformed
 
 log = logging.getLogger(__name__)
 

@@ -2,7 +2,7 @@
 
 Because ``ParameterEvents`` is keyed by (node_id, name) and TRANSIENT_LOCAL, a
 monitor that starts late receives each node's whole current table, not the last
-change (design.md, trap 1). From the instance states it derives:
+change (trap 1 of docs/wire.md). From the instance states it derives:
 
 * a parameter sample whose name is new to the node → ``added``, else ``modified``;
 * a parameter instance disposed → ``deleted``;
@@ -34,12 +34,12 @@ from ..core.descriptors import ParameterDescriptor
 from ..core.names import canonical_node_id
 from ..core.values import ParameterValue
 from ..secure.scope import guard_raw, scope_of
-from . import types as wire
 from .dispatch import Dispatcher
 from .filters import gone_of, origin_of, process_label, request_filter_of
 from .participant import poll_peers
 from .qos import QosProfiles
-from .state import StateKey, StateSample, decode_key, decode_state
+from .wire import types as wire
+from .wire.state import StateKey, StateSample, decode_key, decode_state
 
 log = logging.getLogger(__name__)
 

@@ -25,7 +25,6 @@ import os
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from fnmatch import fnmatchcase
-from importlib import import_module
 from importlib.resources import as_file, files
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -53,20 +52,9 @@ _FILE_NAME = "DDS_QOS_PROFILES.xml"
 
 
 def default_path() -> Path:
-    """The packaged ``DDS_QOS_PROFILES.xml`` as a file-system path."""
-    try:
-        resource = files("paramdds.qos") / _FILE_NAME
-        with as_file(resource) as path:  # a real file for any normal install
-            found = Path(path)
-    except (NotADirectoryError, TypeError):
-        # An editable install made before qos/__init__.py existed maps paramdds.qos
-        # as a namespace package with a placeholder entry that resources cannot read.
-        package = import_module("paramdds.qos")
-        found = next(
-            (Path(entry) / _FILE_NAME for entry in package.__path__ if (Path(entry) / _FILE_NAME).is_file()),
-            Path(_FILE_NAME),
-        )
-    return found
+    """The packaged ``DDS_QOS_PROFILES.xml`` (the repository's ``qos/``) as a file-system path."""
+    with as_file(files("paramdds.dds.wire.profiles") / _FILE_NAME) as path:  # a real file for any install
+        return Path(path)
 
 
 @dataclass(frozen=True)

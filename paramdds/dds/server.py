@@ -74,16 +74,16 @@ from ..core.table import ParameterTable
 from ..core.values import Parameter, ParameterType
 from ..errors import ErrorCode, NotPermittedError, ParamddsError
 from ..secure.scope import guard_raw, guard_samples, permitted, scope_of
-from . import types as wire
 from ._binding import assert_liveliness, take_serialized, unregister_serialized, write_serialized
-from .cdr import MalformedSample, encode
-from .convert import descriptor_to_wire, parameter_from_wire, state_descriptor_to_wire, value_to_wire
 from .dispatch import SERIALIZED, Dispatcher
 from .filters import NativeFilter, filter_tag, filtered_topic, gone_tag
 from .node_worker import NodeWorker
 from .participant import poll_peers
 from .qos import QosProfiles
-from .state import StateKey, StateSample, decode_key, decode_state, encode_key, encode_state
+from .wire import types as wire
+from .wire.cdr import MalformedSample, encode
+from .wire.convert import descriptor_to_wire, parameter_from_wire, state_descriptor_to_wire, value_to_wire
+from .wire.state import StateKey, StateSample, decode_key, decode_state, encode_key, encode_state
 
 log = logging.getLogger(__name__)
 

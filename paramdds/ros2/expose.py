@@ -22,7 +22,7 @@ from ..dds.client import ParameterClient
 from ..dds.monitor import EventKind, MonitorEvent, ParameterMonitor
 from ..dds.qos import QosProfiles
 from ..errors import ParamddsError
-from .convert import descriptor_to_ros, value_from_ros, value_to_ros
+from .messages import descriptor_to_ros, value_from_ros, value_to_ros
 from .rosside import RosSide
 
 log = logging.getLogger(__name__)

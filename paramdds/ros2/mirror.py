@@ -30,7 +30,7 @@ from ..core.results import SetOutcome, SetResult
 from ..core.table import ParameterTable
 from ..core.values import Parameter, ParameterType, ParameterValue
 from ..errors import ErrorCode, ParamddsError
-from .convert import descriptor_from_ros, parameter_to_ros, result_from_ros, value_from_ros
+from .messages import descriptor_from_ros, parameter_to_ros, result_from_ros, value_from_ros
 from .rosside import RosSide
 
 log = logging.getLogger(__name__)

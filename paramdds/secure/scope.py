@@ -99,7 +99,7 @@ class Scope:
         from cyclonedds.pub import DataWriter
         from cyclonedds.topic import Topic
 
-        from ..dds import types as wire
+        from ..dds.wire import types as wire
 
         key = (topic, node, id(qos))
         found = self._writers.get(key)

@@ -94,7 +94,7 @@ def file_entries(text: str, node: str) -> list[tuple[str, ParameterValue, Parame
 
     source = "upload"
     if is_seed_format(text, source):
-        from ..core.yaml_seed import load_seed_params_str
+        from ..core.yaml.seed import load_seed_params_str
 
         return [(p.name, p.value, None) for p in load_seed_params_str(text, source=source)]
     return parse_ros_text(text, source, node)

@@ -26,7 +26,7 @@ from paramdds.errors import (
     TypeMismatchError,
     UnavailableError,
 )
-from paramdds.persist import HEADER, PersistError, atomic_write, frame, unframe
+from paramdds.journal import HEADER, PersistError, atomic_write, frame, unframe
 
 PV = ParameterValue
 T = ParameterType

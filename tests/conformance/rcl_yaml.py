@@ -20,7 +20,7 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-from paramdds.core.yaml_ros import load_ros_text_full
+from paramdds.core.yaml.ros import load_ros_text_full
 from paramdds.errors import ParamddsError
 
 from .ros_oracle import AUTOMATIC, from_ros, ros_missing, same_payload

@@ -41,8 +41,8 @@ from paramdds.core.descriptors import FloatingPointRange, IntegerRange, Paramete
 from paramdds.core.listing import list_names
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import NOT_SET, Parameter, ParameterType, ParameterValue
-from paramdds.core.yaml_ros import load_ros_params_str, load_ros_text_full
-from paramdds.core.yaml_spec import declare_spec, load_spec_str
+from paramdds.core.yaml.ros import load_ros_params_str, load_ros_text_full
+from paramdds.core.yaml.spec import declare_spec, load_spec_str
 from paramdds.errors import ParamddsError
 
 ERROR = "ERROR"

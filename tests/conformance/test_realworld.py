@@ -21,8 +21,8 @@ from paramdds.core.descriptors import ParameterDescriptor
 from paramdds.core.table import ParameterTable
 from paramdds.core.validation import validate
 from paramdds.core.values import Parameter, ParameterType, ParameterValue
-from paramdds.core.yaml_ros import load_ros_file_full, load_ros_params
-from paramdds.core.yaml_spec import Spec, SpecEntry, declare_spec, load_spec
+from paramdds.core.yaml.ros import load_ros_file_full, load_ros_params
+from paramdds.core.yaml.spec import Spec, SpecEntry, declare_spec, load_spec
 from paramdds.errors import FileFormatError, ParamddsError
 
 _REPO = Path(__file__).resolve().parents[2]

@@ -9,7 +9,7 @@ import pytest
 from paramdds.core.descriptors import FloatingPointRange, ParameterDescriptor, Validator
 from paramdds.core.values import ParameterType as T
 from paramdds.core.values import ParameterValue as PV
-from paramdds.core.yaml_ros import (
+from paramdds.core.yaml.ros import (
     load_ros_file_full,
     load_ros_params,
     load_ros_params_str,

@@ -21,9 +21,9 @@ from paramdds.core.schema_check import autoware_pairs, check_with_schema, check_
 from paramdds.core.schema_export import derive_schema
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import Parameter, ParameterType, ParameterValue
-from paramdds.core.yaml_ros import load_ros_params
+from paramdds.core.yaml.ros import load_ros_params
+from paramdds.core.yaml.spec import load_spec_str
 from paramdds.core.yaml_schema import NodeSchema, declare_schema, load_schema, load_schema_str
-from paramdds.core.yaml_spec import load_spec_str
 from paramdds.errors import ErrorCode, FileFormatError
 
 _REPO = Path(__file__).resolve().parents[2]

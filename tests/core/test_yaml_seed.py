@@ -9,7 +9,7 @@ import pytest
 from paramdds.core.values import Parameter
 from paramdds.core.values import ParameterType as T
 from paramdds.core.values import ParameterValue as PV
-from paramdds.core.yaml_seed import load_seed_params, load_seed_params_str
+from paramdds.core.yaml.seed import load_seed_params, load_seed_params_str
 from paramdds.errors import FileFormatError
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"

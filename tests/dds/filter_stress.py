@@ -19,11 +19,11 @@ from cyclonedds.topic import Topic
 
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import ParameterValue
-from paramdds.dds import types as wire
 from paramdds.dds.client import AsyncParameterClient, ParameterClient
 from paramdds.dds.participant import make_participant
 from paramdds.dds.qos import QosProfiles
 from paramdds.dds.server import ParameterServer
+from paramdds.dds.wire import types as wire
 
 NODES = [f"n{i}" for i in range(8)]
 ROUNDS = 20

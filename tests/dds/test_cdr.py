@@ -15,9 +15,9 @@ from cyclonedds.idl.annotations import final
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from paramdds.dds import types as wire
 from paramdds.dds._binding import Endianness
-from paramdds.dds.cdr import _codec, decode, encode, is_malformed
+from paramdds.dds.wire import types as wire
+from paramdds.dds.wire.cdr import _codec, decode, encode, is_malformed
 
 from .strategies import samples
 

@@ -12,8 +12,8 @@ from hypothesis import strategies as st
 
 from paramdds.core.descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
 from paramdds.core.values import INT64_MAX, INT64_MIN, NOT_SET, Parameter, ParameterType, ParameterValue
-from paramdds.dds import types as wire
-from paramdds.dds.convert import (
+from paramdds.dds.wire import types as wire
+from paramdds.dds.wire.convert import (
     descriptor_from_wire,
     descriptor_to_wire,
     parameter_from_wire,
@@ -164,7 +164,7 @@ def test_unknown_type_byte_is_refused(byte: int) -> None:
 def test_state_descriptor_is_left_out_only_when_it_is_name_and_type() -> None:
     from paramdds.core.descriptors import IntegerRange, ParameterDescriptor
     from paramdds.core.values import ParameterType, ParameterValue
-    from paramdds.dds.convert import state_descriptor_from_wire, state_descriptor_to_wire
+    from paramdds.dds.wire.convert import state_descriptor_from_wire, state_descriptor_to_wire
 
     value = ParameterValue.of(ParameterType.INTEGER, 3)
     plain = ParameterDescriptor("a.b", ParameterType.INTEGER)

@@ -17,8 +17,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from paramdds.dds import filters
-from paramdds.dds import types as wire
 from paramdds.dds._binding import Endianness
+from paramdds.dds.wire import types as wire
 
 pytestmark = pytest.mark.skipif(
     not filters.NATIVE and not os.environ.get("PARAMDDS_REQUIRE_NATIVE"),

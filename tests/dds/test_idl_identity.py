@@ -1,4 +1,4 @@
-"""The hand-written wire types in ``paramdds/dds/types.py`` are exactly ``idl/paramdds.idl``.
+"""The hand-written wire types in ``paramdds/dds/wire/types.py`` are exactly ``idl/paramdds.idl``.
 
 How the IDL is compiled
 -----------------------
@@ -42,7 +42,7 @@ import cyclonedds
 import pytest
 from cyclonedds.idl import IdlStruct
 
-from paramdds.dds import types
+from paramdds.dds.wire import types
 
 REPO = Path(__file__).resolve().parents[2]
 IDL_FILE = REPO / "idl" / "paramdds.idl"

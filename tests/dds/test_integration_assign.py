@@ -9,9 +9,9 @@ import pytest
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 
-from paramdds.dds import types as wire
 from paramdds.dds.assign import Assigner
 from paramdds.dds.qos import QosProfiles
+from paramdds.dds.wire import types as wire
 
 from .helpers import DdsSession, ServerProc, wait_until
 

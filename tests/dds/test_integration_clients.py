@@ -1,4 +1,4 @@
-"""Request/reply correctness under concurrency (design.md traps 2 and 3).
+"""Request/reply correctness under concurrency (traps 2 and 3 of docs/wire.md).
 
 Trap 2: clients that count request ids from 1 and match replies on
 (node_id, request_id) steal each other's replies. Every client here counts from 1,
@@ -30,10 +30,10 @@ from cyclonedds.topic import Topic
 from paramdds.core.descriptors import ParameterDescriptor
 from paramdds.core.table import ParameterTable
 from paramdds.dds import client as client_module
-from paramdds.dds import types as wire
 from paramdds.dds._binding import matched_subscriptions
 from paramdds.dds.client import AsyncParameterClient, ParameterClient
 from paramdds.dds.qos import QosProfiles
+from paramdds.dds.wire import types as wire
 from paramdds.errors import UnavailableError
 
 from .helpers import DdsSession, wait_until

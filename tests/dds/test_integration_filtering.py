@@ -25,8 +25,8 @@ from cyclonedds.topic import Topic
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import ParameterValue
 from paramdds.dds import filters
-from paramdds.dds import types as wire
 from paramdds.dds.qos import QosProfiles
+from paramdds.dds.wire import types as wire
 from paramdds.errors import ParamddsError
 
 from .helpers import DdsSession, wait_until

@@ -16,8 +16,8 @@ from cyclonedds.builtin import (
     BuiltinTopicDcpsTopic,
 )
 
-from paramdds.dds import types as wire
 from paramdds.dds.client import AsyncParameterClient
+from paramdds.dds.wire import types as wire
 
 from .helpers import DdsSession, ServerProc, wait_until
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from paramdds.core.values import ParameterValue
-from paramdds.core.yaml_seed import load_seed_params
+from paramdds.core.yaml.seed import load_seed_params
 from paramdds.dds.monitor import EventKind, MonitorEvent
 
 from .helpers import DdsSession, ServerProc

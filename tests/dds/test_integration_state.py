@@ -1,6 +1,6 @@
 """Node state on ParameterEvents: late joiners, presence, graceful stop, killed and restarted servers.
 
-Trap 1 (design.md): events keyed by node_id alone keep the last *change*; keyed by
+Trap 1 (docs/wire.md): events keyed by node_id alone keep the last *change*; keyed by
 (node_id, name) they keep the whole table, so a late monitor sees exactly the
 current state. The autodispose trap: a graceful stop must look like "offline",
 never like every parameter being deleted.

@@ -1,4 +1,4 @@
-"""Validation, atomicity and no silent truncation over the wire (design.md traps 4 and 5),
+"""Validation, atomicity and no silent truncation over the wire (traps 4 and 5 of docs/wire.md),
 and bad requests written with a raw Cyclone writer."""
 
 from __future__ import annotations
@@ -16,9 +16,9 @@ from paramdds.core.descriptors import IntegerRange, ParameterDescriptor
 from paramdds.core.limits import MAX_PARAMETERS_PER_REQUEST, MAX_VALUE_BYTES
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import Parameter, ParameterValue
-from paramdds.dds import types as wire
 from paramdds.dds.monitor import EventKind, MonitorEvent
 from paramdds.dds.qos import QosProfiles
+from paramdds.dds.wire import types as wire
 from paramdds.errors import ErrorCode, InvalidNameError, TooLargeError
 
 from .helpers import DdsSession, wait_until

@@ -20,9 +20,9 @@ from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 
 from paramdds.core.table import ParameterTable
-from paramdds.dds import types as wire
 from paramdds.dds.participant import peer_mismatches
 from paramdds.dds.qos import QosProfiles
+from paramdds.dds.wire import types as wire
 from paramdds.errors import TimeoutError_
 
 from ..conftest import make_dds_env

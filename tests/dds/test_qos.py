@@ -17,9 +17,9 @@ from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
-from paramdds.dds import types
 from paramdds.dds.participant import make_participant
 from paramdds.dds.qos import TOPIC_PROFILES, QosProfiles, default_path
+from paramdds.dds.wire import types
 from paramdds.errors import ErrorCode, FileFormatError
 
 SECOND = 1_000_000_000

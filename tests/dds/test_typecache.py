@@ -4,12 +4,12 @@ from __future__ import annotations
 
 from cyclonedds.idl._main import IDL
 
-from paramdds.dds import _typeobjects, typecache
-from paramdds.dds import types as wire
+from paramdds.dds.wire import _typeobjects, typecache
+from paramdds.dds.wire import types as wire
 
 
 def test_the_cache_matches_types_py_and_this_binding() -> None:
-    # fails after a change to types.py: run `python -m paramdds.dds.typecache` and commit the result
+    # fails after a change to types.py: run `python -m paramdds.dds.wire.typecache` and commit the result
     assert typecache.compute(list(wire.TOPICS.values())) == _typeobjects.TYPE_DATA
 
 

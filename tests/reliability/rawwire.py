@@ -17,9 +17,9 @@ from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
-from paramdds.dds import types as wire
 from paramdds.dds._binding import write_serialized
 from paramdds.dds.qos import QosProfiles
+from paramdds.dds.wire import types as wire
 
 REQUESTS = ("SetParametersRequest", "GetParametersRequest", "ListParametersRequest")
 REPLIES = ("SetParametersResponse", "GetParametersResponse", "ListParametersResponse")

@@ -22,10 +22,10 @@ def main() -> int:
     from cyclonedds.topic import Topic
     from cyclonedds.util import duration
 
-    from paramdds.dds import types as wire
     from paramdds.dds._binding import assert_liveliness
     from paramdds.dds.participant import make_participant
     from paramdds.dds.qos import QosProfiles
+    from paramdds.dds.wire import types as wire
 
     participant = make_participant(int(os.environ["PARAMDDS_DOMAIN"]), localhost=True, app_name="silent")
     if "--no-writer" in sys.argv:

@@ -25,9 +25,9 @@ from cyclonedds.topic import Topic
 from paramdds.core.results import ChangeSet, SetOutcome
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import Parameter
-from paramdds.dds import types as wire
 from paramdds.dds.assign import Assigner
 from paramdds.dds.qos import QosProfiles
+from paramdds.dds.wire import types as wire
 from paramdds.errors import ErrorCode, RemoteError
 
 from .conftest import DDS, wait

@@ -17,7 +17,7 @@ import paramdds.dds.server as server_module
 from paramdds.core.results import SetVeto
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import ParameterValue
-from paramdds.dds import types as wire
+from paramdds.dds.wire import types as wire
 
 from .conftest import DDS
 from .rawwire import RawPeer, same_reply

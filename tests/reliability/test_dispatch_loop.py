@@ -23,9 +23,9 @@ import pytest
 from paramdds.core.results import SetVeto
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import Parameter
-from paramdds.dds import types as wire
 from paramdds.dds._binding import dispose_serialized, unregister_serialized
 from paramdds.dds.monitor import EventKind, MonitorEvent
+from paramdds.dds.wire import types as wire
 
 from .conftest import DDS, wait
 from .rawwire import RawPeer

@@ -24,9 +24,9 @@ from paramdds.core.descriptors import IntegerRange, ParameterDescriptor
 from paramdds.core.limits import MAX_PARAMETERS_PER_REQUEST
 from paramdds.core.results import SetResult
 from paramdds.core.table import ParameterTable
-from paramdds.dds import types as wire
-from paramdds.dds.convert import parameter_from_wire
 from paramdds.dds.server import ParameterServer
+from paramdds.dds.wire import types as wire
+from paramdds.dds.wire.convert import parameter_from_wire
 from paramdds.errors import ParamddsError
 
 from .conftest import DDS

@@ -22,10 +22,10 @@ from paramdds.core.descriptors import ParameterDescriptor
 from paramdds.core.limits import MAX_PARAMETERS_PER_REQUEST
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import ParameterType, ParameterValue
-from paramdds.dds import types as wire
 from paramdds.dds._binding import write_serialized
-from paramdds.dds.convert import value_to_wire
 from paramdds.dds.qos import QosProfiles
+from paramdds.dds.wire import types as wire
+from paramdds.dds.wire.convert import value_to_wire
 
 from .conftest import DDS
 from .rawwire import RawPeer

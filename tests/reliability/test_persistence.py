@@ -29,7 +29,7 @@ from paramdds.core.table import ParameterTable
 from paramdds.core.values import Parameter, ParameterValue
 from paramdds.dds.client import ParameterClient
 from paramdds.errors import ErrorCode, ParamddsError
-from paramdds.persist import HEADER, PersistStore, frame, unframe
+from paramdds.journal import HEADER, PersistStore, frame, unframe
 from paramdds.runtime import dump_text, parse_ros_text
 
 from .conftest import DDS, PARAMDDS, Proc, make_dds_env, other_domain, start_server
@@ -154,7 +154,7 @@ def test_damaged_persistence_file_refuses_start_and_is_left_untouched(
 CRASH_BEFORE_RENAME = textwrap.dedent(
     """
     import os, sys
-    from paramdds import persist
+    from paramdds import journal as persist
     def crash(src, dst):  # the power goes out after the temp file is written and fsynced
         os._exit(9)
     os.replace = crash

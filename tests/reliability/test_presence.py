@@ -20,9 +20,9 @@ from cyclonedds.pub import DataWriter
 from cyclonedds.topic import Topic
 
 from paramdds.core.table import ParameterTable
-from paramdds.dds import types as wire
 from paramdds.dds.discovery import PROBE_AFTER, Presence, is_settled
 from paramdds.dds.qos import QosProfiles
+from paramdds.dds.wire import types as wire
 from paramdds.errors import TimeoutError_, UnavailableError
 
 from .conftest import DDS, Proc, make_dds_env, wait

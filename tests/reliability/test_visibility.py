@@ -20,11 +20,11 @@ from cyclonedds.pub import DataWriter
 from cyclonedds.topic import Topic
 
 from paramdds.core.table import ParameterTable
-from paramdds.dds import types as wire
 from paramdds.dds.filters import NATIVE
 from paramdds.dds.monitor import EventKind, MonitorEvent
 from paramdds.dds.qos import QosProfiles
 from paramdds.dds.server import DUPLICATE_CHECK
+from paramdds.dds.wire import types as wire
 
 from .conftest import DDS, PARAMDDS, Proc, make_dds_env, paramdds_argv, start_server, wait
 

@@ -63,12 +63,12 @@ def ros_env(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, domain_id: int) -> 
 
 
 class RosHost:
-    """``python -m paramdds.ros2.host`` in a subprocess: real rclpy nodes until :meth:`close`."""
+    """``python -m paramdds.bench.ros2_host`` in a subprocess: real rclpy nodes until :meth:`close`."""
 
     def __init__(self, env: dict[str, str], *args: str, timeout: float = 30.0) -> None:
         self.args = args
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "paramdds.ros2.host", *args],
+            [sys.executable, "-m", "paramdds.bench.ros2_host", *args],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=subprocess.DEVNULL,

@@ -11,7 +11,7 @@ from paramdds.core.descriptors import FloatingPointRange, IntegerRange, Paramete
 from paramdds.core.values import ParameterType, ParameterValue
 from paramdds.errors import ErrorCode
 from paramdds.ros2.bridge import matches
-from paramdds.ros2.convert import code_of_reason
+from paramdds.ros2.messages import code_of_reason
 
 from .conftest import require_ros2
 
@@ -72,14 +72,14 @@ def _values() -> st.SearchStrategy[ParameterValue]:
 @given(_values())
 def test_every_value_survives_the_rcl_interfaces_message(value: ParameterValue) -> None:
     require_ros2()
-    from paramdds.ros2.convert import value_from_ros, value_to_ros
+    from paramdds.ros2.messages import value_from_ros, value_to_ros
 
     assert value_from_ros(value_to_ros(value)) == value
 
 
 def test_descriptors_survive_the_rcl_interfaces_message() -> None:
     require_ros2()
-    from paramdds.ros2.convert import descriptor_from_ros, descriptor_to_ros
+    from paramdds.ros2.messages import descriptor_from_ros, descriptor_to_ros
 
     for d in (
         ParameterDescriptor(

@@ -26,7 +26,7 @@ pytestmark = pytest.mark.timeout(180)
 
 
 def twin_table(node_id: str) -> ParameterTable:
-    """The parameters of ``python -m paramdds.ros2.host --rich``, declared on paramdds."""
+    """The parameters of ``python -m paramdds.bench.ros2_host --rich``, declared on paramdds."""
     t = ParameterTable(node_id)
     t.declare("use_sim_time", False)
     t.declare("start_type_description_service", True, ParameterDescriptor("", read_only=True))

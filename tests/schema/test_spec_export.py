@@ -23,7 +23,7 @@ from paramdds.core.descriptors import ParameterDescriptor, Validator
 from paramdds.core.schema_export import derive_schema
 from paramdds.core.validation import validate
 from paramdds.core.values import ParameterType, ParameterValue
-from paramdds.core.yaml_spec import load_spec
+from paramdds.core.yaml.spec import load_spec
 from paramdds.errors import ParamddsError
 
 from ..core.test_yaml_schema import REALWORLD, needs_realworld

@@ -80,7 +80,7 @@ ROGUE = """
 import sys, time
 from paramdds.dds.participant import make_participant, close_participant
 from paramdds.secure.identity import load_identity
-from paramdds.dds import types as wire
+from paramdds.dds.wire import types as wire
 from cyclonedds.pub import DataWriter
 from cyclonedds.topic import Topic
 from paramdds.dds.qos import QosProfiles
@@ -175,8 +175,8 @@ ROGUE_REQUEST = """
 import sys, time
 from paramdds.dds.participant import make_participant, close_participant
 from paramdds.secure.identity import load_identity
-from paramdds.dds import types as wire
-from paramdds.dds.convert import parameter_to_wire
+from paramdds.dds.wire import types as wire
+from paramdds.dds.wire.convert import parameter_to_wire
 from paramdds.core.values import Parameter, ParameterValue
 
 dp = make_participant(int(sys.argv[2]), localhost=True, identity=load_identity(sys.argv[1]))

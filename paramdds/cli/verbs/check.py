@@ -94,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
                 return check_with_schema(schema, path)
 
         else:
-            from ...core.yaml_spec import load_spec
+            from ...core.yaml.spec import load_spec
 
             against = args.spec
             spec = load_spec(args.spec)

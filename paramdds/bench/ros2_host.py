@@ -1,4 +1,4 @@
-"""A process of real rclpy nodes for tests and benchmarks: ``python -m paramdds.ros2.host``.
+"""A process of real rclpy nodes for tests and benchmarks: ``python -m paramdds.bench.ros2_host``.
 
 Every node named in the parameter files (``--params-file``, ROS 2 format, read by rcl's
 own YAML parser) is created with ``automatically_declare_parameters_from_overrides``, so
@@ -98,7 +98,7 @@ def _hang(node: Any) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m paramdds.ros2.host")
+    ap = argparse.ArgumentParser(prog="python -m paramdds.bench.ros2_host")
     ap.add_argument("--params-file", action="append", default=[])
     ap.add_argument("--node", action="append", default=[], help="a node with no file entry (/ns/name)")
     ap.add_argument("--rich", action="append", default=[], help="a node with full descriptors (/ns/name)")

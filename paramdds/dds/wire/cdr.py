@@ -39,7 +39,7 @@ from typing import Any, NamedTuple, TypeVar
 from cyclonedds.idl import IdlStruct
 from cyclonedds.idl.types import bounded_str, sequence
 
-from ._binding import Endianness, binding_deserialize
+from .._binding import Endianness, binding_deserialize
 
 HEADER = b"\x00\x01\x00\x00"  # CDR_LE (plain XCDR1, little-endian), no options
 _MALFORMED = "_paramdds_malformed"
@@ -275,7 +275,7 @@ def _compile(cls: type, functions: dict[str, Any]) -> str:
         packers: dict[str, Any] = {}
         source = "\n\n\n".join("\n".join(f) for f in _decoder_and_encoder(name, members, packers))
         namespace = dict(_BASE_NAMESPACE, cls=cls, **functions, **packers)
-        exec(compile(source + "\n", f"<paramdds.dds.cdr {name}>", "exec"), namespace)
+        exec(compile(source + "\n", f"<paramdds.dds.wire.cdr {name}>", "exec"), namespace)
         _compiled[cls] = _Functions(namespace[f"decode_{name}"], namespace[f"encode_{name}"], source + "\n")
     compiled = _compiled[cls]
     functions.update({f"decode_{name}": compiled.decode, f"encode_{name}": compiled.encode})

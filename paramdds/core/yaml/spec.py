@@ -85,16 +85,16 @@ from pathlib import Path
 
 import yaml
 
-from ..errors import InvalidValueError, ParamddsError
-from .custom_validators import lookup_validator
-from .descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
-from .results import ChangeSet
-from .table import ParameterTable
-from .validation import check_validator
-from .values import INT64_MAX, INT64_MIN, NOT_SET, ParameterType, ParameterValue
-from .yaml_base import Source, compose, expect_map, items, read_file
-from .yaml_ros import parse_validator
-from .yaml_scalar import node_value, typed_value
+from ...errors import InvalidValueError, ParamddsError
+from ..custom_validators import lookup_validator
+from ..descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
+from ..results import ChangeSet
+from ..table import ParameterTable
+from ..validation import check_validator
+from ..values import INT64_MAX, INT64_MIN, NOT_SET, ParameterType, ParameterValue
+from .base import Source, compose, expect_map, items, read_file
+from .ros import parse_validator
+from .scalar import node_value, typed_value
 
 __all__ = ["MappedEntry", "Spec", "SpecEntry", "declare_spec", "load_spec", "load_spec_str"]
 

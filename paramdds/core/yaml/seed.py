@@ -7,7 +7,7 @@
 
 Rules: the top level is a map with the single key ``parameters``, a list of maps
 with exactly the keys ``name``, ``type`` and ``value``. ``type`` is one of the nine
-labels above. ``value`` is read by the shared resolver (:mod:`.yaml_scalar`) and
+labels above. ``value`` is read by the shared resolver (:mod:`.scalar`) and
 must fit ``type``: an integer is widened for a ``double`` (as
 :meth:`ParameterValue.coerce` does), a plain scalar for a ``string`` is taken as
 written (``value: 1.50`` is ``"1.50"``), an empty list takes the stated array
@@ -23,9 +23,9 @@ from pathlib import Path
 
 import yaml
 
-from .values import Parameter, ParameterType, ParameterValue
-from .yaml_base import Source, compose, expect_map, items, line_of, read_file
-from .yaml_scalar import node_value
+from ..values import Parameter, ParameterType, ParameterValue
+from .base import Source, compose, expect_map, items, line_of, read_file
+from .scalar import node_value
 
 __all__ = ["SEED_TYPES", "load_seed_params", "load_seed_params_str"]
 

@@ -212,9 +212,9 @@ def test_a_node_mirrored_from_ros2_is_marked(page: Page, console: Console, domai
     from cyclonedds.pub import DataWriter
     from cyclonedds.topic import Topic
 
-    from paramdds.dds import types as wire
     from paramdds.dds.participant import close_participant, make_participant
     from paramdds.dds.qos import QosProfiles
+    from paramdds.dds.wire import types as wire
 
     dp = make_participant(domain, localhost=True)
     try:

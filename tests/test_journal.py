@@ -20,7 +20,7 @@ from paramdds.core.descriptors import ParameterDescriptor
 from paramdds.core.results import ChangeKind, ChangeSet, ParameterChange
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import NOT_SET, ParameterValue
-from paramdds.persist import (
+from paramdds.journal import (
     PersistError,
     PersistStore,
     _descriptor_from_json,

@@ -6,7 +6,7 @@ resolvers are switched off, so no scalar is typed by YAML 1.1's rules (``1:20``
 is never 80, ``yes`` is never guessed by PyYAML). Each untagged scalar arrives
 with one of two marker tags:
 
-* :data:`PLAIN_TAG` — a plain scalar, typed later by :mod:`.yaml_scalar`;
+* :data:`PLAIN_TAG` — a plain scalar, typed later by :mod:`.scalar`;
 * :data:`NONPLAIN_TAG` — a quoted or block (``|``/``>``) scalar with no tag;
   quoted ones are strings, block ones are typed by content as rcl does.
 
@@ -25,7 +25,7 @@ from typing import Any
 
 import yaml
 
-from ..errors import FileFormatError
+from ...errors import FileFormatError
 
 PLAIN_TAG = "tag:paramdds:plain"
 NONPLAIN_TAG = "tag:paramdds:nonplain"

@@ -1,4 +1,4 @@
-"""``python -m paramdds.secure.bench``: what security costs, plain and secure in one run.
+"""``python -m paramdds.bench.secure``: what security costs, plain and secure in one run.
 
 Run it in an environment with the secure Cyclone build (``paramdds keystore install``).
 It makes a throwaway keystore, then for each mode (plain, secure with a full-rights
@@ -74,13 +74,13 @@ def _pct(values: list[float], q: float) -> float:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m paramdds.secure.bench", description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(prog="python -m paramdds.bench.secure", description=__doc__.splitlines()[0])
     p.add_argument("--domain", type=int, default=170, help="plain uses this domain id, secure the next")
     p.add_argument("--requests", type=int, default=2000, help="round trips per mode")
     args = p.parse_args(argv)
     from ..dds.participant import close_participant
-    from .identity import load_identity
-    from .keystore import add_identity, init_keystore
+    from ..secure.identity import load_identity
+    from ..secure.keystore import add_identity, init_keystore
 
     work = Path(tempfile.mkdtemp(prefix="paramdds-secure-bench-"))
     init_keystore(work / "ks")

@@ -13,10 +13,10 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 
-from ..core.descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
-from ..core.values import NOT_SET, ParameterType, ParameterValue
-from ..core.values import Parameter as CoreParameter
-from ..errors import InvalidValueError
+from ...core.descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
+from ...core.values import NOT_SET, ParameterType, ParameterValue
+from ...core.values import Parameter as CoreParameter
+from ...errors import InvalidValueError
 from . import types as wire
 
 __all__ = [

@@ -31,7 +31,7 @@ example ``/ns/robot1`` and ``/ns: {robot1: …}``, or ``/**:`` twice at the top
 level) is one section, merged as rcl merges it (see ``_merge_repeated``). The root
 namespace key ``/`` followed by a node (``/: {my_node: …}``) is node ``/my_node``.
 
-**Values** are typed by :mod:`.yaml_scalar` (rcl's rules). Differences from rcl,
+**Values** are typed by :mod:`.scalar` (rcl's rules). Differences from rcl,
 each to fail loudly rather than guess: a name given twice in one
 ``ros__parameters`` map is an error (rcl keeps the last); an untagged ``[]`` is
 an error unless a descriptor types it (rcl loads an empty list as no value and
@@ -75,11 +75,11 @@ from pathlib import Path
 
 import yaml
 
-from ..errors import FileFormatError, ParamddsError
-from .descriptors import VALIDATOR_ARITY, FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
-from .values import ParameterType, ParameterValue
-from .yaml_base import PLAIN_TAG, SEQ_TAG, Source, compose, expect_map, items, key_text, line_of, read_file
-from .yaml_scalar import UntypedEmptyList, node_value, typed_value
+from ...errors import FileFormatError, ParamddsError
+from ..descriptors import VALIDATOR_ARITY, FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
+from ..values import ParameterType, ParameterValue
+from .base import PLAIN_TAG, SEQ_TAG, Source, compose, expect_map, items, key_text, line_of, read_file
+from .scalar import UntypedEmptyList, node_value, typed_value
 
 __all__ = [
     "DESCRIPTORS_KEY",

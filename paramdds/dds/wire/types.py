@@ -15,8 +15,8 @@ from cyclonedds.idl import IdlStruct
 from cyclonedds.idl.annotations import final, key
 from cyclonedds.idl.types import bounded_str, byte, float64, int32, int64, sequence, uint32, uint64
 
-from paramdds.dds import typecache
-from paramdds.dds.cdr import fast_cdr
+from paramdds.dds.wire import typecache
+from paramdds.dds.wire.cdr import fast_cdr
 
 MAX_KEY_LEN = 255  # bytes of UTF-8, for node ids and parameter names (written as a literal
 # in the annotations below: the cyclonedds mypy plugin needs `bounded_str[<int literal>]`)
@@ -231,7 +231,7 @@ class ListParametersResponse(IdlStruct, typename="paramdds.ListParametersRespons
     incarnation: uint64 = 0
 
 
-# topic name -> type, in the order of design.md's table
+# topic name -> type, in the order of docs/wire.md's table
 TOPICS: dict[str, type[IdlStruct]] = {
     "ParameterEvents": ParameterEvent,
     "SetParametersRequest": SetParametersRequest,

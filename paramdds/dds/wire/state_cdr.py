@@ -25,8 +25,8 @@ import struct
 from collections.abc import Callable
 from typing import Any
 
-from ..core.descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
-from ..core.values import NOT_SET, ParameterType, ParameterValue, PyValue
+from ...core.descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
+from ...core.values import NOT_SET, ParameterType, ParameterValue, PyValue
 from .cdr import encode_str
 
 __all__ = [

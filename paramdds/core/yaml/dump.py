@@ -30,7 +30,7 @@ dump → load → dump is byte-identical. Rules:
   list. A parameter with no value is ``!not_set``. These three forms are ours;
   everything else is plain ROS 2.
 * ``with_descriptors=True`` adds a ``paramdds__descriptors`` map beside
-  ``ros__parameters`` (format in :mod:`.yaml_ros`), which ROS tools cannot read.
+  ``ros__parameters`` (format in :mod:`.ros`), which ROS tools cannot read.
 """
 
 from __future__ import annotations
@@ -40,11 +40,11 @@ import math
 import re
 from collections.abc import Iterable, Sequence
 
-from ..errors import InvalidNameError
-from .descriptors import ParameterDescriptor, Validator
-from .values import ParameterType, ParameterValue
-from .yaml_ros import DESCRIPTORS_KEY, PARAMS_KEY
-from .yaml_scalar import resolve_plain
+from ...errors import InvalidNameError
+from ..descriptors import ParameterDescriptor, Validator
+from ..values import ParameterType, ParameterValue
+from .ros import DESCRIPTORS_KEY, PARAMS_KEY
+from .scalar import resolve_plain
 
 __all__ = ["dump_ros_params", "format_value"]
 

@@ -50,9 +50,9 @@ import re
 
 import yaml
 
-from ..errors import FileFormatError, InvalidValueError, ParamddsError
-from .values import INT64_MAX, INT64_MIN, NOT_SET, ParameterType, ParameterValue
-from .yaml_base import STR_TAG, Source, compose
+from ...errors import FileFormatError, InvalidValueError, ParamddsError
+from ..values import INT64_MAX, INT64_MIN, NOT_SET, ParameterType, ParameterValue
+from .base import STR_TAG, Source, compose
 
 __all__ = [
     "ARRAY_TAGS",

@@ -44,9 +44,9 @@ import math
 import struct
 from typing import Any, NamedTuple
 
-from ..core.descriptors import ParameterDescriptor
-from ..core.values import NOT_SET, ParameterType, ParameterValue
-from ..errors import ParamddsError
+from ...core.descriptors import ParameterDescriptor
+from ...core.values import NOT_SET, ParameterType, ParameterValue
+from ...errors import ParamddsError
 from . import types as wire
 from .cdr import HEADER, MalformedSample, encode_str, is_malformed
 from .convert import state_descriptor_from_wire, value_from_wire
