@@ -5,7 +5,7 @@ Sources, lowest precedence first (each later one overrides the values before it)
 1. the spec's defaults (``--spec``, a generate_parameter_library file, or
    ``--schema``, a JSON Schema as Autoware writes them): it declares the parameters,
    with their descriptors and validators (a schema also checks the whole node on
-   every change, see :mod:`paramdds.core.yaml_schema`);
+   every change, see :mod:`paramdds.core.yaml.schema`);
 2. the parameter files (``--params-file``), in order: a file with a top-level
    ``parameters:`` list is in the seed format and applies to every hosted node;
    any other file is a ROS 2 parameter file and only the sections matching the
@@ -112,7 +112,7 @@ def _load_spec(path: str, strict: bool = False) -> Any:
 def _declare_spec(
     table: ParameterTable, spec: Any, values: Mapping[str, ParameterValue], options: ServerOptions
 ) -> None:
-    from .core import yaml_schema
+    from .core.yaml import schema as yaml_schema
     from .core.yaml import spec as yaml_spec
 
     if isinstance(spec, yaml_schema.NodeSchema):  # --schema: a JSON Schema declares the node
@@ -235,7 +235,7 @@ def prepare(options: ServerOptions) -> tuple[dict[str, ParameterTable], list[str
     """
     spec = _load_spec(options.spec, options.strict_spec) if options.spec else None
     if options.schema:
-        from .core.yaml_schema import load_schema
+        from .core.yaml.schema import load_schema
 
         spec = load_schema(options.schema, lenient=options.lenient)
     store = _persist_store(options.persist) if options.persist else None

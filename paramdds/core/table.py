@@ -67,7 +67,7 @@ absent), and returns ``(name, reason)`` to refuse it (``name`` is the parameter 
 fault, ``""`` for all of them) or None.
 It runs for every unit of a set (so per parameter for :meth:`ParameterTable.set`, once
 for an atomic set), for declarations and for undeclare; a refusal is INVALID_VALUE.
-A JSON Schema uses it (:mod:`.yaml_schema`): checks such as ``required`` or
+A JSON Schema uses it (:mod:`.yaml.schema`): checks such as ``required`` or
 ``oneOf`` concern several parameters at once.
 
 Threads: every request runs under one re-entrant lock, so it is applied atomically

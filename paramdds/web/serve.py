@@ -139,7 +139,7 @@ def options_from(args: argparse.Namespace, host: str) -> WebOptions:
 
 def _schemas(given: Sequence[str]) -> tuple[tuple[str, object], ...]:
     """``--schema NODE=FILE`` values, each schema loaded (a bad one: exit 2 naming it)."""
-    from ..core.yaml_schema import load_schema
+    from ..core.yaml.schema import load_schema
 
     out = []
     for text in given:

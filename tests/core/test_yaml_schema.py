@@ -1,4 +1,4 @@
-"""JSON Schema parameter files (core/yaml_schema.py, core/schema_check.py, core/schema_export.py).
+"""JSON Schema parameter files (core/yaml/schema.py, schema_check.py, schema_export.py).
 
 The Autoware schemas and parameter files are read where CI puts them
 (``<repo>/../shared/realworld/autoware``, see its SOURCES.md); the verdicts they are
@@ -17,13 +17,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from paramdds.core.schema_check import autoware_pairs, check_with_schema, check_with_spec
-from paramdds.core.schema_export import derive_schema
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import Parameter, ParameterType, ParameterValue
 from paramdds.core.yaml.ros import load_ros_params
+from paramdds.core.yaml.schema import NodeSchema, declare_schema, load_schema, load_schema_str
+from paramdds.core.yaml.schema_check import autoware_pairs, check_with_schema, check_with_spec
+from paramdds.core.yaml.schema_export import derive_schema
 from paramdds.core.yaml.spec import load_spec_str
-from paramdds.core.yaml_schema import NodeSchema, declare_schema, load_schema, load_schema_str
 from paramdds.errors import ErrorCode, FileFormatError
 
 _REPO = Path(__file__).resolve().parents[2]

@@ -20,9 +20,9 @@ from typing import Any
 import pytest
 
 from paramdds.core.descriptors import ParameterDescriptor, Validator
-from paramdds.core.schema_export import derive_schema
 from paramdds.core.validation import validate
 from paramdds.core.values import ParameterType, ParameterValue
+from paramdds.core.yaml.schema_export import derive_schema
 from paramdds.core.yaml.spec import load_spec
 from paramdds.errors import ParamddsError
 

@@ -33,8 +33,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ...core.schema_check import Finding, autoware_pairs, check_with_schema, check_with_spec
-    from ...core.yaml_schema import load_schema
+    from ...core.yaml.schema import load_schema
+    from ...core.yaml.schema_check import Finding, autoware_pairs, check_with_schema, check_with_spec
     from ...errors import ParamddsError
     from .._errors import Exit, UsageError
 

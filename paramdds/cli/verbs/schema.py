@@ -24,8 +24,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ...core.schema_export import derive_schema
     from ...core.yaml.ros import DESCRIPTORS_KEY
+    from ...core.yaml.schema_export import derive_schema
     from .._errors import UsageError
 
     if bool(args.spec) == bool(args.node):

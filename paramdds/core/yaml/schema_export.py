@@ -31,9 +31,9 @@ import sys
 from collections.abc import Iterable
 from typing import Any
 
-from .descriptors import ParameterDescriptor, Validator
-from .values import INT64_MAX, INT64_MIN, ParameterType, ParameterValue
-from .yaml_schema import ENVELOPE, PARAMS_KEY, to_json
+from ..descriptors import ParameterDescriptor, Validator
+from ..values import INT64_MAX, INT64_MIN, ParameterType, ParameterValue
+from .schema import ENVELOPE, PARAMS_KEY, to_json
 
 __all__ = ["derive_schema", "property_schema"]
 
