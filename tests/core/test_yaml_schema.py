@@ -359,6 +359,28 @@ def test_bad_schemas_are_clear_errors_naming_file_and_json_path(
     assert str(path) in str(info.value)
 
 
+@pytest.mark.parametrize(
+    "root",
+    [
+        {"$ref": "#"},
+        {
+            "definitions": {"a": {"$ref": "#/definitions/b"}, "b": {"$ref": "#/definitions/a"}},
+            "$ref": "#/definitions/a",
+        },
+    ],
+)
+def test_a_ref_cycle_met_while_checking_a_file_is_an_error_in_bounded_time(
+    tmp_path: Path, root: object
+) -> None:
+    # check-jsonschema itself dies of a RecursionError on these
+    schema = load_schema(_write(tmp_path, json.dumps(root)), declare=False)
+    params = _write(tmp_path, "/**:\n  ros__parameters:\n    a: 1\n", "p.param.yaml")
+    start = time.monotonic()
+    with pytest.raises(FileFormatError, match=r"recurses without end \(a \$ref cycle\)"):
+        check_with_schema(schema, params)
+    assert time.monotonic() - start < 5.0
+
+
 def test_unknown_keyword_only_warns_with_lenient(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
     path = _write(
         tmp_path,

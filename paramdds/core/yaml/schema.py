@@ -62,7 +62,7 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import unquote, urlsplit
 
-from ...errors import FileFormatError, InvalidValueError, ParamddsError
+from ...errors import FileFormatError, ParamddsError
 from ..descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor
 from ..table import ParameterTable
 from ..values import INT64_MAX, INT64_MIN, NOT_SET, ParameterType, ParameterValue
@@ -591,7 +591,6 @@ class _Loader:
         from referencing.jsonschema import DRAFT7
 
         self.lenient = lenient
-        self.spec = DRAFT7
 
         loaded: dict[str, Resource[Any]] = {}
 
@@ -982,10 +981,3 @@ def _as_stored(value: ParameterValue, entry: SchemaEntry | None, name: str) -> P
         return value.coerce(entry.descriptor.type, name=name)
     except ParamddsError:
         return value  # the table refuses it when it is declared, with the type's reason
-
-
-def check_value_only(schema: NodeSchema, values: Mapping[str, ParameterValue]) -> None:
-    """Raise InvalidValueError listing every violation (for callers without a table)."""
-    found = schema.violations(values)
-    if found:
-        raise InvalidValueError("; ".join(str(v) for v in found))
