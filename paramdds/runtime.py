@@ -26,81 +26,22 @@ file (and the line when the format knows it); the server does not start.
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 from .core.descriptors import ParameterDescriptor
 from .core.table import ParameterTable
-from .core.values import Parameter, ParameterValue
+from .core.values import ParameterValue
+from .core.yaml.files import Entry, dump_text, parse_ros_text, read_entries
 from .errors import FileFormatError, ParamddsError
 from .journal import PersistError, PersistStore
 
 log = logging.getLogger(__name__)
 
-Entry = tuple[str, ParameterValue, ParameterDescriptor | None]
-Snapshot = list[tuple[str, ParameterValue, ParameterDescriptor]]
 
 
-# -- the YAML formats (paramdds.core), in one place ------------------------------------------
-
-
-def _entries(items: Sequence[Any]) -> list[Entry]:
-    """Normalise the loaders' entries to ``(name, value, descriptor or None)``."""
-    out: list[Entry] = []
-    for item in items:
-        if isinstance(item, tuple):
-            name, value, *rest = item
-            out.append((name, value, rest[0] if rest else None))
-        else:
-            out.append((item.name, item.value, getattr(item, "descriptor", None)))
-    return out
-
-
-def is_seed_format(text: str, source: str) -> bool:
-    """True when the document is a map with a top-level ``parameters:`` list (the seed format)."""
-    import yaml
-
-    from .core.yaml.base import Source, compose
-
-    node = compose(text, Source(source))
-    if not isinstance(node, yaml.MappingNode):
-        return False
-    return any(k.value == "parameters" and isinstance(v, yaml.SequenceNode) for k, v in node.value)
-
-
-def read_entries(path: str, node_id: str) -> list[Entry]:
-    """The entries a parameter file gives ``node_id``: every one of a seed file, in file
-    order, or those of the matching sections of a ROS 2 file."""
-    from .core.yaml.base import read_file
-
-    text = read_file(path)
-    if is_seed_format(text, path):
-        from .core.yaml.seed import load_seed_params_str
-
-        return _entries(load_seed_params_str(text, source=path))
-    return parse_ros_text(text, path, node_id)
-
-
-def parse_ros_text(text: str, source: str, node_id: str) -> list[Entry]:
-    """The entries for ``node_id`` in a ROS 2 parameter file's text."""
-    from .core.yaml.ros import load_ros_text_full
-
-    return _entries(load_ros_text_full(text, node_id, source=source))
-
-
-def read_values(path: str, node_id: str) -> list[Parameter]:
-    """A parameter file as parameters to set on ``node_id``, in file order."""
-    return [Parameter(name, value) for name, value, _ in read_entries(path, node_id)]
-
-
-def dump_text(state: Mapping[str, Snapshot], *, with_descriptors: bool = True) -> str:
-    """A ROS 2 parameter file holding every node of ``state`` (the dump format)."""
-    from .core.yaml.dump import dump_ros_params
-
-    return "".join(
-        dump_ros_params(node, snapshot, with_descriptors=with_descriptors) for node, snapshot in state.items()
-    )
+# -- the spec -------------------------------------------------------------------------------
 
 
 def _load_spec(path: str, strict: bool = False) -> Any:
@@ -222,7 +163,8 @@ def _retype(
         raise FileFormatError(exc.message, file=path) from exc
 
 
-def _persist_store(path: str) -> PersistStore:
+def persist_store(path: str) -> PersistStore:
+    """The journal of ``--persist``, reading and writing ROS 2 parameter files."""
     return PersistStore(
         path, dumper=lambda state: dump_text(state, with_descriptors=True), parser=parse_ros_text
     )
@@ -238,7 +180,7 @@ def prepare(options: ServerOptions) -> tuple[dict[str, ParameterTable], list[str
         from .core.yaml.schema import load_schema
 
         spec = load_schema(options.schema, lenient=options.lenient)
-    store = _persist_store(options.persist) if options.persist else None
+    store = persist_store(options.persist) if options.persist else None
     if store is not None:
         store.check_writable()
     tables: dict[str, ParameterTable] = {}

@@ -20,6 +20,7 @@ from paramdds.core.descriptors import ParameterDescriptor
 from paramdds.core.results import ChangeKind, ChangeSet, ParameterChange
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import NOT_SET, ParameterValue
+from paramdds.core.yaml.files import dump_text, parse_ros_text
 from paramdds.journal import (
     PersistError,
     PersistStore,
@@ -28,7 +29,6 @@ from paramdds.journal import (
     encode_record,
     read_journal,
 )
-from paramdds.runtime import dump_text, parse_ros_text
 
 from .core.test_yaml_dump import _NAMES, _VALUES, _descriptors, _floats
 

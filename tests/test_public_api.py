@@ -22,7 +22,8 @@ def test_import_paramdds_does_not_load_cyclonedds() -> None:
 def test_a_client_does_not_load_the_table() -> None:
     # `paramdds get` pays for every import: the table, its validation and YAML stay out
     code = (
-        "import sys, paramdds.cli._requests, paramdds.dds.client; "
+        "import sys, paramdds.cli, paramdds.cli._output, paramdds.cli._values, paramdds.cli.verbs.get, "
+        "paramdds.frontend.session, paramdds.frontend.shapes, paramdds.dds.client; "
         "print(sorted(m for m in sys.modules if m.startswith(('paramdds.core.table', 'yaml'))))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

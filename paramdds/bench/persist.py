@@ -102,13 +102,13 @@ def _journal_of(directory: Path, changes: int) -> Path:
     from ..core.results import ChangeKind, ChangeSet, ParameterChange
     from ..core.table import ParameterTable
     from ..core.values import ParameterType, ParameterValue
-    from ..runtime import _persist_store
+    from ..runtime import persist_store
 
     state = directory / "restart.yaml"
     table = ParameterTable(NODE)
     for i in range(RESTART_PARAMS):
         table.declare(f"p{i:05d}", i)
-    store = _persist_store(str(state))
+    store = persist_store(str(state))
     store.compact_every = changes + 1
     store.attach({NODE: table})
     sets = [

@@ -1,63 +1,33 @@
 """The ``paramdds`` command: one entry point, a verb per task (see ``paramdds --help``).
 
 Start-up time matters (``paramdds get`` should answer in a few hundred ms), so
-this package imports only argparse and the error tree up front; a verb's module,
-Cyclone and the DDS layer are imported when the verb runs, and ``--help`` never
-imports Cyclone.
+this package imports only argparse and the exit codes up front; building the
+parser imports every verb's module (:mod:`paramdds.cli.verbs`, argparse only at
+their top), and a verb imports Cyclone and the DDS layer when it runs, so
+``--help`` never imports Cyclone.
 
-Every verb is a function ``(args) -> int``; errors end up in :func:`main`, which
-maps them to the exit codes of :mod:`paramdds.cli._errors` and prints them as one
-line on stderr (with a traceback only under ``--log-level debug``).
+Every verb is a module of :mod:`paramdds.cli.verbs` whose ``run(args) -> int``
+returns the exit code; errors end up in :func:`main`, which maps them to the exit
+codes of :mod:`paramdds.frontend.exits` and prints them as one line on stderr (with
+a traceback only under ``--log-level debug``).
 """
 
 from __future__ import annotations
 
 import argparse
-import importlib
 import logging
 import signal
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from types import FrameType
 
-from ._errors import Exit, Refused, Terminated, UsageError, exit_code, is_dds_failure, one_line
-from ._parser import build_parser, find_verb, resolve_globals
+from ..frontend.exits import Exit, Refused, Terminated, UsageError, exit_code, is_dds_failure, one_line
+from ._parser import build_parser, resolve_globals
+from .verbs import verb
 
 __all__ = ["Exit", "main"]
 
 log = logging.getLogger("paramdds.cli")
-
-Verb = Callable[[argparse.Namespace], int]
-
-# verb -> "module:function", imported only when the verb runs
-_IMPLEMENTATIONS = {
-    "server": "paramdds.cli._serve:run_server",
-    "client": "paramdds.cli._demo:run_client",
-    "nodes": "paramdds.cli._requests:run_nodes",
-    "list": "paramdds.cli._requests:run_list",
-    "get": "paramdds.cli._requests:run_get",
-    "describe": "paramdds.cli._requests:run_describe",
-    "set": "paramdds.cli._requests:run_set",
-    "delete": "paramdds.cli._requests:run_delete",
-    "dump": "paramdds.cli._requests:run_dump",
-    "load": "paramdds.cli._requests:run_load",
-    "watch": "paramdds.cli._live:run_watch",
-    "assign": "paramdds.cli._live:run_assign",
-    "web": "paramdds.cli._web:run_web",
-    "keystore": "paramdds.secure.cli:run_keystore",
-    "ros2": "paramdds.cli._ros2:run_ros2",
-    "check": "paramdds.cli.verbs.check:run",
-    "schema": "paramdds.cli.verbs.schema:run",
-}
-
-
-def _implementation(args: argparse.Namespace) -> Verb:
-    func = getattr(args, "func", None)
-    if callable(func):
-        return func  # type: ignore[no-any-return]
-    module, _, name = _IMPLEMENTATIONS[args.verb].partition(":")
-    verb: Verb = getattr(importlib.import_module(module), name)
-    return verb
 
 
 def _setup_logging(level: str) -> None:
@@ -78,8 +48,7 @@ def _error(message: str) -> None:
 
 
 def _parse(argv: list[str]) -> argparse.Namespace:
-    parser = build_parser(with_bench=find_verb(argv) == "bench")
-    args = parser.parse_args(argv)
+    args = build_parser().parse_args(argv)
     resolve_globals(args)
     return args
 
@@ -98,7 +67,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     debug = args.log_level == "debug"
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
-        return int(_implementation(args)(args))
+        return int(verb(args.verb).run(args))
     except (KeyboardInterrupt, Terminated) as exc:
         return exit_code(exc)
     except Refused:

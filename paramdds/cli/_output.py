@@ -1,75 +1,21 @@
-"""What the CLI prints: the JSON shapes and their table and YAML renderings.
-
-JSON shapes (pinned by tests and documented in docs/cli.md, whose examples the tests run):
-
-* a value: bool, int, float (a double always has a ``.`` or an exponent: ``2.0``),
-  string, arrays as lists, byte arrays as lists of ints, non-finite doubles as the
-  strings ``"nan"``, ``"inf"``, ``"-inf"``; not_set is ``null``;
-* a descriptor: ``{"type", "description", "read_only", "dynamic_typing",
-  "integer_range", "floating_point_range", "additional_constraints",
-  "validators"}``, a range being ``{"from_value", "to_value", "step"}`` or ``null``
-  and a validator ``{"kind", "args": [values]}``.
+"""What the CLI prints: the JSON shapes (:mod:`paramdds.frontend.shapes`) rendered as
+tables, YAML or JSON, and one line on stderr per problem.
 
 Pure functions; no DDS here.
 """
 
 from __future__ import annotations
 
-import json
-import math
 import sys
-from collections.abc import Mapping
-from typing import Any
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
-from ..core.descriptors import ParameterDescriptor
 from ..core.values import ParameterType, ParameterValue
+from ..frontend.exits import one_line
+from ..frontend.shapes import dumps_json
 
-
-def json_scalar(v: object) -> object:
-    """One scalar in its JSON shape (non-finite doubles become strings)."""
-    if isinstance(v, float) and not math.isfinite(v):
-        return "nan" if math.isnan(v) else ("inf" if v > 0 else "-inf")
-    return v
-
-
-def json_value(value: ParameterValue | None) -> object:
-    """A parameter value in its JSON shape."""
-    if value is None or value.type is ParameterType.NOT_SET:
-        return None
-    v = value.value
-    if isinstance(v, bytes):
-        return list(v)
-    if isinstance(v, tuple):
-        return [json_scalar(x) for x in v]
-    return json_scalar(v)
-
-
-def json_descriptor(d: ParameterDescriptor) -> dict[str, object]:
-    """A descriptor in its JSON shape."""
-    ir, fr = d.integer_range, d.floating_point_range
-    return {
-        "type": d.type.label,
-        "description": d.description,
-        "read_only": d.read_only,
-        "dynamic_typing": d.dynamic_typing,
-        "integer_range": None
-        if ir is None
-        else {"from_value": ir.from_value, "to_value": ir.to_value, "step": ir.step},
-        "floating_point_range": None
-        if fr is None
-        else {
-            "from_value": json_scalar(fr.from_value),
-            "to_value": json_scalar(fr.to_value),
-            "step": json_scalar(fr.step),
-        },
-        "additional_constraints": d.additional_constraints,
-        "validators": [{"kind": v.kind, "args": [json_value(a) for a in v.args]} for v in d.validators],
-    }
-
-
-def dumps_json(obj: object, *, pretty: bool = True) -> str:
-    """JSON text; refuses NaN (values must go through :func:`json_value` first)."""
-    return json.dumps(obj, indent=2 if pretty else None, ensure_ascii=False, allow_nan=False)
+if TYPE_CHECKING:
+    from ..dds.client import SetReply
 
 
 def dumps_yaml(obj: object) -> str:
@@ -121,3 +67,36 @@ def results_table(results: Mapping[str, Mapping[str, object]], revision: int) ->
             lines.append(f"{name}: FAILED: {reason}")
     lines.append(f"revision: {revision}")
     return "\n".join(lines)
+
+
+def problem(message: str) -> None:
+    """One line on stderr about one thing that failed."""
+    sys.stderr.write(f"paramdds: error: {one_line(message)}\n")
+
+
+def report_missing(node: str, missing: Sequence[object]) -> int:
+    """One line on stderr per name the node lacks; the exit code (1 if any)."""
+    from ..frontend.exits import Exit
+
+    for r in missing:
+        problem(getattr(r, "reason", "") or f"{getattr(r, 'name', '?')}: not found on {node!r}")
+    return Exit.REFUSED if missing else Exit.OK
+
+
+def report_set(output: str, node: str, reply: SetReply) -> int:
+    """Print a set/delete/load reply; exit 1 when any parameter failed."""
+    from ..frontend.exits import Exit
+
+    results: dict[str, dict[str, object]] = {
+        r.name: {"successful": r.successful, "reason": r.reason} for r in reply.results
+    }
+    data: dict[str, object] = {**results, "revision": reply.revision}
+    emit(output, data, results_table(results, reply.revision))
+    failed = [r for r in reply.results if not r.successful]
+    if failed:
+        problem(
+            f"{len(failed)} of {len(reply.results)} parameters refused by node {node!r}: "
+            + "; ".join(f"{r.name}: {r.reason}" for r in failed)
+        )
+        return Exit.REFUSED
+    return Exit.OK

@@ -5,40 +5,19 @@ defines them with real defaults and every verb's parser repeats them with
 ``SUPPRESS`` defaults, so a value given after the verb overrides one given
 before it and an absent one leaves the top-level value alone. Environment
 defaults (``PARAMDDS_DOMAIN``, ``PARAMDDS_LOCALHOST``) are applied by
-:func:`resolve_globals` once parsing is done.
+:func:`resolve_globals` once parsing is done. Each verb adds its own arguments
+(:mod:`paramdds.cli.verbs`).
 """
 
 from __future__ import annotations
 
 import argparse
-import importlib
 import os
 import sys
-from collections.abc import Sequence
 from typing import NoReturn
 
-from ._errors import UsageError
+from ..frontend.exits import UsageError
 
-VERBS = (
-    "server",
-    "client",
-    "nodes",
-    "list",
-    "get",
-    "describe",
-    "set",
-    "delete",
-    "dump",
-    "load",
-    "watch",
-    "assign",
-    "web",
-    "keystore",
-    "ros2",
-    "bench",
-    "check",
-    "schema",
-)
 OUTPUTS = ("table", "yaml", "json")
 LOG_LEVELS = ("debug", "info", "warning", "error", "critical")
 DEFAULT_DOMAIN = 1
@@ -111,147 +90,10 @@ def _add_globals(p: argparse.ArgumentParser, *, top: bool) -> None:
     )
 
 
-def _verb(sub: argparse._SubParsersAction[Parser], name: str, help_text: str) -> Parser:
-    p: Parser = sub.add_parser(name, help=help_text, description=help_text)
-    _add_globals(p, top=False)
-    return p
+def build_parser() -> Parser:
+    """The whole parser: the global options, then every verb of :data:`~paramdds.cli.verbs.VERBS`."""
+    from .verbs import VERBS, verb
 
-
-def _server(p: Parser) -> None:
-    p.add_argument(
-        "-n",
-        "--node-name",
-        action="append",
-        dest="node_names",
-        metavar="NAME",
-        help=f"a node to host; repeat for several (default {DEFAULT_NODE})",
-    )
-    p.add_argument(
-        "-p",
-        "--params-file",
-        action="append",
-        dest="params_files",
-        default=[],
-        metavar="FILE",
-        help="parameter file (seed or ROS 2 format); repeat, later wins",
-    )
-    p.add_argument("--spec", metavar="FILE", help="generate_parameter_library spec declaring the parameters")
-    p.add_argument(
-        "--schema",
-        metavar="FILE",
-        help="JSON Schema (Autoware's FILE.schema.json) declaring the parameters and checking every change",
-    )
-    p.add_argument(
-        "--lenient",
-        action="store_true",
-        help="--schema: warn on unknown keywords; start without file values the schema refuses",
-    )
-    p.add_argument(
-        "--validators",
-        action="append",
-        default=[],
-        metavar="MODULE",
-        help="import MODULE (a Python module name) that registers custom spec validators; repeat for several",
-    )
-    p.add_argument(
-        "--strict-spec",
-        action="store_true",
-        help="refuse a spec naming a custom validator nobody registered (default: warn, not enforced)",
-    )
-    p.add_argument(
-        "--persist",
-        metavar="FILE",
-        help="keep runtime changes in FILE (created if missing, reloaded at start)",
-    )
-    p.add_argument("--allow-undeclared", action="store_true", help="accept sets of undeclared names")
-    p.add_argument("--strict-types", action="store_true", help="never widen an integer to a double")
-    p.add_argument("--read-only", action="store_true", help="serve reads, refuse every set and delete")
-    p.add_argument("--use-sim-time", action="store_true", help="declare use_sim_time (bool, false)")
-
-
-def _client(p: Parser) -> None:
-    p.add_argument(
-        "-t",
-        "--target",
-        default=DEFAULT_NODE,
-        metavar="NAME",
-        help=f"the node to talk to (default {DEFAULT_NODE})",
-    )
-    p.add_argument("-p", "--params-file", metavar="FILE", help="parameters to set on the target, in order")
-    p.add_argument("--once", action="store_true", help="exit after the demo instead of watching")
-    p.add_argument(
-        "--wait",
-        type=float,
-        default=10.0,
-        metavar="SECONDS",
-        help="how long to wait for the target to appear (default 10)",
-    )
-
-
-def _keystore(p: Parser) -> None:
-    actions = p.add_subparsers(dest="action", metavar="ACTION", parser_class=Parser)
-    actions.required = True
-    a = actions.add_parser("init", help="create the CAs and the signed governance in a new keystore")
-    a.add_argument("keystore", metavar="KEYSTORE")
-    a = actions.add_parser("add", help="issue an identity for a role and node-id globs")
-    a.add_argument("keystore", metavar="KEYSTORE")
-    a.add_argument("name", metavar="NAME")
-    a.add_argument("--role", required=True, choices=("server", "operator", "viewer", "admin"))
-    a.add_argument(
-        "--nodes", action="append", required=True, metavar="GLOB", help="node ids granted (repeat; '*': all)"
-    )
-    a = actions.add_parser("install", help="build Cyclone DDS C with security and rebuild the binding on it")
-    a.add_argument("--source", metavar="TARBALL|DIR", help="Cyclone DDS C 11.0.1 sources (default: upstream)")
-    a.add_argument("--prefix", metavar="DIR", required=True, help="where to install the secure build")
-def _ros2(p: Parser) -> None:
-    p.add_argument(
-        "--mirror",
-        action="append",
-        default=[],
-        metavar="GLOB",
-        help="ROS 2 nodes (/ns/name globs) to mirror on paramdds; repeat (default: every node)",
-    )
-    p.add_argument(
-        "--exclude", action="append", default=[], metavar="GLOB", help="ROS 2 nodes never mirrored; repeat"
-    )
-    p.add_argument(
-        "--no-mirror", action="store_true", help="mirror no ROS 2 node (only expose paramdds nodes)"
-    )
-    p.add_argument(
-        "--expose",
-        action="append",
-        default=[],
-        metavar="GLOB",
-        help="paramdds nodes (globs) to serve to ROS 2 tools; repeat (default: none)",
-    )
-    p.add_argument(
-        "--ros-domain",
-        type=int,
-        metavar="N",
-        help="the ROS 2 domain (default: ROS_DOMAIN_ID, else 0); may differ from -d",
-    )
-    p.add_argument(
-        "--ros-timeout",
-        type=float,
-        default=5.0,
-        metavar="SECONDS",
-        help="how long a forwarded call waits for a ROS 2 node (default %(default)s)",
-    )
-    p.add_argument(
-        "--resync",
-        type=float,
-        default=60.0,
-        metavar="SECONDS",
-        help="re-read each mirrored node this often, 0 never (default %(default)s)",
-    )
-
-
-def _assignment_values(p: Parser) -> None:
-    p.add_argument("assignments", nargs="*", metavar="NAME=VALUE", help="values typed as YAML scalars")
-
-
-def build_parser(*, with_bench: bool = False) -> Parser:
-    """The whole parser. ``with_bench`` imports the bench verb's own parser."""
     top = Parser(
         prog="paramdds",
         description="ROS 2 parameters over seven keyed DDS topics (Cyclone DDS).",
@@ -261,109 +103,12 @@ def build_parser(*, with_bench: bool = False) -> Parser:
     _add_globals(top, top=True)
     sub = top.add_subparsers(dest="verb", metavar="VERB", parser_class=Parser)
     sub.required = True
-
-    _server(_verb(sub, "server", "host one or more nodes and serve their parameters"))
-    _client(_verb(sub, "client", "the seed demo: list, get and set on a target, printing events"))
-    _verb(sub, "nodes", "every node alive now: online, parameter count, host, pid, revision")
-
-    p = _verb(sub, "list", "parameter names of a node")
-    p.add_argument("node", metavar="NODE")
-    p.add_argument("--prefix", action="append", dest="prefixes", default=[], metavar="P")
-    p.add_argument("--depth", type=int, default=0, metavar="D", help="0: every level (default)")
-
-    for verb, text in (
-        ("get", "values of parameters"),
-        ("describe", "descriptors of parameters"),
-        ("delete", "delete (undeclare) parameters"),
-    ):
-        p = _verb(sub, verb, text)
-        p.add_argument("node", metavar="NODE")
-        p.add_argument("names", nargs="+", metavar="NAME")
-
-    p = _verb(sub, "set", "set parameters (each on its own, or --atomic)")
-    p.add_argument("node", metavar="NODE")
-    p.add_argument("assignments", nargs="+", metavar="NAME=VALUE", help="values typed as YAML scalars")
-    p.add_argument("--atomic", action="store_true", help="all or nothing")
-    p.add_argument(
-        "--if-revision",
-        metavar="[INCARNATION:]N",
-        help="apply only while the node is still at that state: INCARNATION:N (the 'at' of "
-        "`paramdds nodes -o json`) also fails after a restart; a bare N compares the revision alone",
-    )
-
-    p = _verb(sub, "dump", "a node's parameters as a ROS 2 parameter file on stdout")
-    p.add_argument("node", metavar="NODE")
-    p.add_argument("--no-descriptors", action="store_true", help="values only")
-
-    p = _verb(sub, "load", "set a node's parameters from a parameter file")
-    p.add_argument("node", metavar="NODE")
-    p.add_argument("file", metavar="FILE")
-    p.add_argument("--atomic", action="store_true", help="all or nothing")
-
-    p = _verb(sub, "watch", "current state, then every change, until Ctrl-C")
-    p.add_argument("nodes", nargs="*", metavar="NODE", help="only these nodes (default: all)")
-    p.add_argument("--prefix", action="append", dest="prefixes", default=[], metavar="P")
-
-    p = _verb(sub, "assign", "hold values for a node; they reach it whenever it starts (until Ctrl-C)")
-    p.add_argument("node", metavar="NODE")
-    _assignment_values(p)
-    p.add_argument("--file", metavar="FILE", help="a parameter file with more values (command line wins)")
-
-    p = _verb(sub, "web", "a live browser console for every node's parameters (needs the web extra)")
-    p.add_argument(
-        "--bind", default="127.0.0.1:8800", metavar="HOST:PORT", help="where to listen (default %(default)s)"
-    )
-    p.add_argument("--read-only", action="store_true", help="serve no write endpoint")
-    p.add_argument(
-        "--token-file",
-        metavar="FILE",
-        help="a bearer token (one word, 16+ characters) required for writes; "
-        "required on a non-loopback --bind, where reads need it too",
-    )
-    p.add_argument(
-        "--allow-host",
-        action="append",
-        metavar="NAME",
-        help="another name the console is reached under (checked against the Host header: "
-        "a DNS alias or a proxy's name; the bind address is always allowed); repeatable",
-    )
-    p.add_argument(
-        "--schema",
-        action="append",
-        metavar="NODE=FILE",
-        help="check writes to NODE against the JSON Schema FILE before sending them (the node checks too)",
-    )
-
-    _keystore(_verb(sub, "keystore", "secure mode: CAs, governance and identities; the secure Cyclone build"))
-
-    _ros2(_verb(sub, "ros2", "mirror ROS 2 nodes on paramdds, expose paramdds nodes to ROS 2 (ros2 extra)"))
-
-    for name in ("check", "schema"):  # verbs in the one-module-per-verb shape (paramdds/cli/verbs/)
-        module = importlib.import_module(f"paramdds.cli.verbs.{name}")
-        module.add_arguments(_verb(sub, name, module.HELP))
-
-    if with_bench:
-        _register_bench(sub)
-    else:
-        sub.add_parser("bench", help="benchmarks (see 'paramdds bench --help')", add_help=False)
+    for name in VERBS:
+        module = verb(name)
+        p: Parser = sub.add_parser(name, help=module.HELP, description=module.HELP)
+        _add_globals(p, top=False)
+        module.add_arguments(p)
     return top
-
-
-def _register_bench(sub: argparse._SubParsersAction[Parser]) -> None:
-    """Let the bench module add its own parser, then give it the global options."""
-    try:
-        from ..bench.cli import register  # type: ignore[import-not-found,unused-ignore]
-    except ImportError as exc:
-        raise UsageError(f"the bench verb is not available in this installation ({exc})") from exc
-    register(sub)
-    bench = sub.choices.get("bench")
-    if bench is not None:
-        _add_globals(bench, top=False)
-
-
-def find_verb(argv: Sequence[str]) -> str | None:
-    """The first argument that names a verb (good enough to decide on lazy parts)."""
-    return next((a for a in argv if a in VERBS), None)
 
 
 def resolve_globals(args: argparse.Namespace, environ: dict[str, str] | None = None) -> None:

@@ -1,4 +1,4 @@
-"""``NAME=VALUE`` arguments: split, typed from YAML scalars, checked before anything is sent.
+"""Node ids and ``NAME=VALUE`` arguments: split, typed from YAML scalars, checked before anything is sent.
 
 Values are typed by the same resolver as parameter files (it mirrors rcl):
 ``1`` is an integer, ``1.5`` a double, ``true`` a bool, ``[1, 2]`` an integer
@@ -7,7 +7,8 @@ array, ``"on"`` quoted stays a string. Where that is ambiguous the node decides:
 
 Two cases need the node's descriptor first and are resolved by
 :func:`needs_descriptor` / :func:`fit_to_type`: an empty list ``[]`` (no element
-type of its own) and an integer list for a byte_array parameter.
+type of its own) and an integer list for a byte_array parameter (the rule is
+:mod:`paramdds.core.fit`, which the web console and the ROS 2 bridge use too).
 """
 
 from __future__ import annotations
@@ -17,8 +18,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from ..core.values import ParameterType, ParameterValue
-from ..errors import NotFoundError, ParamddsError, TypeMismatchError
-from ._errors import UsageError
+from ..errors import NotFoundError, ParamddsError
+from ..frontend.exits import UsageError
 
 _EMPTY_LIST = re.compile(r"^\s*\[\s*\]\s*$")
 
@@ -30,6 +31,16 @@ class Assignment:
     name: str
     text: str
     value: ParameterValue | None
+
+
+def node_arg(text: str) -> str:
+    """A node id from the command line, canonical (UsageError when invalid)."""
+    from ..core.names import canonical_node_id
+
+    try:
+        return canonical_node_id(text)
+    except ParamddsError as exc:
+        raise UsageError(f"invalid node name {text!r}: {exc.message}") from exc
 
 
 def parse_value(text: str) -> ParameterValue:
@@ -83,17 +94,18 @@ def fit_to_type(a: Assignment, target: ParameterType | None) -> ParameterValue:
     """The value of ``a`` for a parameter of type ``target`` (None: the node lacks it).
 
     An empty list takes the parameter's array type; an integer list becomes a byte
-    array for a byte_array parameter. Everything else is left to the node.
+    array for a byte_array parameter (:func:`paramdds.core.fit.fit_value`). Everything
+    else is left to the node, widening included (it refuses it under ``--strict-types``).
     """
+    from ..core.descriptors import ParameterDescriptor
+    from ..core.fit import EMPTY_LIST, fit_value
+
+    if a.value is None and target is None:
+        raise NotFoundError(f"cannot type the empty list for {a.name!r}: the node does not declare it")
+    descriptor = None if target is None else ParameterDescriptor(a.name, target)
     if a.value is None:
-        if target is None:
-            raise NotFoundError(f"cannot type the empty list for {a.name!r}: the node does not declare it")
-        if not target.is_array:
-            raise TypeMismatchError(f"parameter {a.name!r} is a {target.label}; an empty list needs an array")
-        return ParameterValue.of(target, ())
-    if a.value.type is ParameterType.INTEGER_ARRAY and target is ParameterType.BYTE_ARRAY:
-        try:
-            return ParameterValue.of(ParameterType.BYTE_ARRAY, a.value.value)
-        except ParamddsError as exc:
-            raise UsageError(f"{a.name}: {exc.message}") from exc
-    return a.value
+        return fit_value(a.name, EMPTY_LIST, descriptor, widen=False)
+    try:
+        return fit_value(a.name, a.value, descriptor, widen=False)
+    except ParamddsError as exc:
+        raise UsageError(f"{a.name}: {exc.message}") from exc

@@ -16,6 +16,7 @@ never be one step (another ROS 2 client may set in between).
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import threading
 from collections.abc import Callable, Mapping, Sequence
@@ -24,6 +25,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from ..core.descriptors import ParameterDescriptor
+from ..core.fit import fit_value
 from ..core.limits import MAX_PARAMETERS_PER_REQUEST
 from ..core.names import canonical_node_id, is_valid_name
 from ..core.results import SetOutcome, SetResult
@@ -182,17 +184,13 @@ class MirrorTable(ParameterTable):
         return SetOutcome(done, change.revision if change is not None else self.revision, change)
 
     def _widened(self, p: Parameter) -> Parameter:
-        """paramdds widens an integer to a double; ROS 2 refuses it: widen before forwarding."""
+        """paramdds widens an integer to a double; ROS 2 refuses it: type the value as every
+        front end does (core.fit) before forwarding; what does not fit, the node refuses."""
         with self._lock:
             current = self._params.get(p.name)
         value = p.value if isinstance(p.value, ParameterValue) else ParameterValue.from_python(p.value)
-        if current is not None and not current[1].dynamic_typing:
-            want = current[1].type
-            if (value.type, want) in (
-                (ParameterType.INTEGER, ParameterType.DOUBLE),
-                (ParameterType.INTEGER_ARRAY, ParameterType.DOUBLE_ARRAY),
-            ):
-                value = value.coerce(want)
+        with contextlib.suppress(ParamddsError):
+            value = fit_value(p.name, value, current[1] if current is not None else None)
         return Parameter(p.name, value)
 
     def _entry_after(self, p: Parameter) -> Entry | None:

@@ -90,7 +90,7 @@ def revision_field(body: dict[str, Any]) -> int | Revision | None:
 
 def file_entries(text: str, node: str) -> list[tuple[str, ParameterValue, ParameterDescriptor | None]]:
     """The entries an uploaded parameter file gives ``node`` (seed or ROS 2 format, as ``paramdds load``)."""
-    from ..runtime import is_seed_format, parse_ros_text
+    from ..core.yaml.files import is_seed_format, parse_ros_text
 
     source = "upload"
     if is_seed_format(text, source):

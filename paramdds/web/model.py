@@ -5,13 +5,14 @@ Shapes (documented in docs/web.md):
 * a node summary: ``{"node", "online", "host", "pid", "revision", "parameters",
   "request_filter", "incarnation", "origin"}`` (the incarnation in 16 hex digits);
 * a parameter row: ``{"name", "value", "type", "descriptor"}`` with the value and
-  descriptor in the CLI's JSON shapes (:mod:`paramdds.cli._output`: byte arrays as
+  descriptor in the CLI's JSON shapes (:mod:`paramdds.frontend.shapes`: byte arrays as
   lists of ints, non-finite doubles as ``"nan"``/``"inf"``/``"-inf"``);
 * a set result: ``{"name", "successful", "reason", "code"}``.
 
 Values sent by a browser are typed by the parameter's descriptor
-(:func:`typed_value`): ``1`` for a double parameter is ``1.0``, a byte array may be
-a hex string, and the value is checked against the descriptor with the same core
+(:func:`typed_value`, with the rule every front end shares, :mod:`paramdds.core.fit`):
+``1`` for a double parameter is ``1.0``, a byte array may be a hex string, and the
+value is checked against the descriptor with the same core
 validation the node runs, so a value the node would refuse never leaves this
 process and the reason shown is the node's own wording.
 """
@@ -23,8 +24,8 @@ import re
 from collections.abc import Iterable, Mapping
 from dataclasses import asdict
 
-from ..cli._output import json_descriptor, json_value
 from ..core.descriptors import ParameterDescriptor
+from ..core.fit import EMPTY_LIST, EmptyList, fit_value
 from ..core.limits import check_value
 from ..core.names import validate_name
 from ..core.results import SetResult
@@ -33,6 +34,7 @@ from ..core.validation import validate
 from ..core.values import ParameterType, ParameterValue
 from ..dds.client import NodeInfo
 from ..errors import InvalidValueError, TypeMismatchError
+from ..frontend.shapes import json_descriptor, json_value
 
 Row = dict[str, object]
 _HEX = re.compile(r"^(?:0x)?((?:[0-9a-fA-F]{2})*)$")
@@ -138,29 +140,30 @@ def typed_value(name: str, raw: object, descriptor: ParameterDescriptor | None) 
     validate_name(name)
     if raw is None:
         raise InvalidValueError(f"Parameter {name!r}: null is not a value (delete the parameter instead)")
-    dynamic = descriptor is None or descriptor.dynamic_typing or descriptor.type is ParameterType.NOT_SET
-    if dynamic:
-        if isinstance(raw, list) and not raw:
-            raise TypeMismatchError(f"Parameter {name!r}: an empty list has no type of its own")
-        if isinstance(raw, dict):
-            raise TypeMismatchError(f"Parameter {name!r}: cannot make a parameter value of an object")
-        value = ParameterValue.from_python(raw)
-    else:
-        assert descriptor is not None
+    fixed = descriptor is not None and not descriptor.dynamic_typing
+    value: ParameterValue | EmptyList
+    if isinstance(raw, list) and not raw:
+        value = EMPTY_LIST  # its type is the descriptor's (core.fit)
+    elif fixed and descriptor is not None and descriptor.type is not ParameterType.NOT_SET:
         value = _as_type(name, descriptor.type, raw)
+    elif isinstance(raw, dict):
+        raise TypeMismatchError(f"Parameter {name!r}: cannot make a parameter value of an object")
+    else:
+        value = ParameterValue.from_python(raw)
     return checked(name, value, descriptor)
 
 
-def checked(name: str, value: ParameterValue, descriptor: ParameterDescriptor | None) -> ParameterValue:
-    """``value`` widened to the declared type where the node would widen it, then checked
-    against our size limits and the descriptor (the node's own rules, in the core)."""
-    fixed = descriptor is not None and not descriptor.dynamic_typing
-    if fixed and descriptor is not None and descriptor.type is not ParameterType.NOT_SET:
-        value = value.coerce(descriptor.type, name=name)
-    check_value(name, value)
+def checked(
+    name: str, value: ParameterValue | EmptyList, descriptor: ParameterDescriptor | None
+) -> ParameterValue:
+    """``value`` typed against the descriptor as every front end types it
+    (:func:`paramdds.core.fit.fit_value`: an empty list, bytes, an integer for a double), then
+    checked against our size limits and the descriptor (the node's own rules, in the core)."""
+    typed = fit_value(name, value, descriptor)
+    check_value(name, typed)
     if descriptor is not None:
-        validate(name, value, descriptor)
-    return value
+        validate(name, typed, descriptor)
+    return typed
 
 
 def typed_values(

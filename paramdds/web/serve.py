@@ -23,8 +23,8 @@ import h11
 import uvicorn
 from uvicorn.protocols.http.h11_impl import H11Protocol
 
-from ..cli._errors import Exit, UsageError
-from ..cli._session import Session
+from ..frontend.exits import Exit, UsageError
+from ..frontend.session import Session
 from .app import WebOptions, build_app
 from .guard import LOOPBACK_NAMES, SECURITY_HEADERS
 from .hub import Hub
@@ -139,16 +139,19 @@ def options_from(args: argparse.Namespace, host: str) -> WebOptions:
 
 def _schemas(given: Sequence[str]) -> tuple[tuple[str, object], ...]:
     """``--schema NODE=FILE`` values, each schema loaded (a bad one: exit 2 naming it)."""
+    from ..core.names import canonical_node_id
     from ..core.yaml.schema import load_schema
+    from ..errors import InvalidNameError
 
     out = []
     for text in given:
         node, sep, path = text.partition("=")
         if not sep or not node or not path:
             raise UsageError(f"--schema takes NODE=FILE, got {text!r}")
-        from ..cli._requests import node_arg
-
-        out.append((node_arg(node), load_schema(path)))
+        try:
+            out.append((canonical_node_id(node), load_schema(path)))
+        except InvalidNameError as exc:
+            raise UsageError(f"--schema {text}: {exc.message}") from exc
     return tuple(out)
 
 

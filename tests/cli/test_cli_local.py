@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import argparse
+import ast
 import json
 import math
 import subprocess
@@ -11,10 +13,9 @@ from pathlib import Path
 import pytest
 
 from paramdds.cli import main
-from paramdds.cli._errors import Exit, UsageError, exit_code
-from paramdds.cli._output import dumps_json, json_descriptor, json_value
 from paramdds.cli._parser import build_parser, resolve_globals
 from paramdds.cli._values import fit_to_type, parse_assignment, parse_assignments
+from paramdds.cli.verbs import VERBS, verb
 from paramdds.core.descriptors import FloatingPointRange, ParameterDescriptor, Validator
 from paramdds.core.values import ParameterType, ParameterValue
 from paramdds.errors import (
@@ -26,6 +27,8 @@ from paramdds.errors import (
     TypeMismatchError,
     UnavailableError,
 )
+from paramdds.frontend.exits import Exit, UsageError, exit_code
+from paramdds.frontend.shapes import dumps_json, json_descriptor, json_value
 from paramdds.journal import HEADER, PersistError, atomic_write, frame, unframe
 
 PV = ParameterValue
@@ -85,6 +88,31 @@ def test_help_does_not_import_cyclonedds() -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=30)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip().endswith("ok 0")
+
+
+def test_every_verb_is_one_module_with_its_help_arguments_and_run() -> None:
+    parser = build_parser()
+    verbs = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    assert list(verbs.choices) == list(VERBS)
+    for name in VERBS:
+        module = verb(name)
+        assert isinstance(module.HELP, str) and module.HELP, name
+        assert callable(module.add_arguments) and callable(module.run), name
+
+
+def test_help_imports_the_verbs_and_nothing_they_run() -> None:
+    # a verb's module imports argparse at its top, everything else in run()
+    code = (
+        "import sys\nfrom paramdds.cli import main\n"
+        "try:\n    main(['--help'])\nexcept SystemExit:\n    pass\n"
+        "print(sorted(m for m in sys.modules if m.startswith(('paramdds.', 'yaml'))))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=30)
+    assert out.returncode == 0, out.stderr
+    loaded = set(ast.literal_eval(out.stdout.strip().splitlines()[-1]))
+    light = {"paramdds._lazy", "paramdds.core", "paramdds.errors", "paramdds.frontend"}
+    light.add("paramdds.frontend.exits")
+    assert {m for m in loaded if not m.startswith("paramdds.cli")} <= light
 
 
 # -- NAME=VALUE ---------------------------------------------------------------------------------

@@ -63,7 +63,7 @@ def test_validators_module_is_enforced_and_an_unknown_one_is_logged_not_enforced
         refused = run_cli(domain, "set", "arm", "k=5")
         assert refused.returncode == 1 and "must be even" in refused.stdout + refused.stderr
         described = json.loads(run_cli(domain, "describe", "arm", "k", "-o", "json").stdout)["k"]
-        # the spec's own text only, as generate_parameter_library (issue 20); the server's log says it
+        # the spec's own text only, as generate_parameter_library; the server's log says it
         assert described["additional_constraints"] == ""
         assert [v["kind"] for v in described["validators"]] == ["acme_cli::even", "acme_cli::unknown"]
     finally:

@@ -154,7 +154,11 @@ class Oracle:
         import time
 
         deadline = time.monotonic() + TIMEOUT
-        while not self.node.get_publishers_info_by_topic("/parameter_events") and time.monotonic() < deadline:
+        def publishing() -> bool:  # the node's own writer, not just any (every rclpy node has one)
+            infos = self.node.get_publishers_info_by_topic("/parameter_events")
+            return any(f"{i.node_namespace.rstrip('/')}/{i.node_name}" == fqn for i in infos)
+
+        while not publishing() and time.monotonic() < deadline:
             self.rclpy.spin_once(self.node, timeout_sec=0.05)
         for _ in range(10):  # let the match settle both ways
             self.rclpy.spin_once(self.node, timeout_sec=0.05)

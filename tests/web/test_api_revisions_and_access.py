@@ -1,5 +1,7 @@
-"""The API's answers to the second round of operator findings (issue 21), against a real
-console, real servers and real Cyclone on loopback. Each test failed before its fix."""
+"""The API on revisions and access, against a real console, real servers and real Cyclone
+on loopback: compare-and-set across a restart, writes to an offline node, loading a node's
+own dump, malformed requests and revisions, the Host check and the token off loopback, a
+node hosted twice."""
 
 from __future__ import annotations
 

@@ -1,5 +1,7 @@
-"""The page's answers to the second round of operator findings (issue 21), in headless
-Chromium against a real console and real servers. Each test failed before its fix."""
+"""The page with hard values and restarts, in headless Chromium against a real console and
+real servers: its own writes and the others' edits, integers beyond 2**53, long and
+unprintable text, its own refusals worded as the node's, a bad link, a restart, a node
+mirrored from ROS 2, and the token asked for off loopback."""
 
 from __future__ import annotations
 

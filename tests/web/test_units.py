@@ -11,11 +11,11 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from paramdds.cli._errors import UsageError
 from paramdds.core.descriptors import FloatingPointRange, ParameterDescriptor
 from paramdds.core.values import ParameterType, ParameterValue
 from paramdds.dds.monitor import EventKind, MonitorEvent
 from paramdds.errors import ErrorCode, OutOfRangeError, TypeMismatchError
+from paramdds.frontend.exits import UsageError
 from paramdds.web.hub import Hub
 from paramdds.web.model import typed_value
 from paramdds.web.serve import is_loopback, options_from, parse_bind
@@ -126,14 +126,14 @@ def test_a_burst_is_coalesced_into_one_message_per_kind() -> None:
 def test_a_missing_web_extra_is_a_clear_usage_error(monkeypatch: pytest.MonkeyPatch) -> None:
     import importlib.util
 
-    from paramdds.cli import _web
+    from paramdds.cli.verbs import web
 
     real = importlib.util.find_spec
     monkeypatch.setattr(
         importlib.util, "find_spec", lambda name, *a: None if name == "uvicorn" else real(name, *a)
     )
     with pytest.raises(UsageError, match=r"uvicorn not installed.*pip install 'paramdds\[web\]'"):
-        _web.run_web(argparse.Namespace())
+        web.run(argparse.Namespace())
 
 
 def test_the_view_follows_a_restart_instead_of_keeping_the_highest_revision() -> None:

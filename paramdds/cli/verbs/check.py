@@ -36,7 +36,7 @@ def run(args: argparse.Namespace) -> int:
     from ...core.yaml.schema import load_schema
     from ...core.yaml.schema_check import Finding, autoware_pairs, check_with_schema, check_with_spec
     from ...errors import ParamddsError
-    from .._errors import Exit, UsageError
+    from ...frontend.exits import Exit, UsageError
 
     report: list[dict[str, Any]] = []
     worst = Exit.OK

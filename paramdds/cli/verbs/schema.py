@@ -26,7 +26,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ...core.yaml.ros import DESCRIPTORS_KEY
     from ...core.yaml.schema_export import derive_schema
-    from .._errors import UsageError
+    from ...frontend.exits import UsageError
 
     if bool(args.spec) == bool(args.node):
         raise UsageError("give a NODE or --spec FILE (one of them)")
@@ -48,8 +48,8 @@ def run(args: argparse.Namespace) -> int:
     else:
         from ...core.descriptors import ParameterDescriptor
         from ...core.values import ParameterType
-        from .._requests import node_arg
-        from .._session import Session
+        from ...frontend.session import Session
+        from .._values import node_arg
 
         node = node_arg(args.node)
         with Session(args) as session:

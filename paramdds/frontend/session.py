@@ -1,4 +1,5 @@
-"""A verb's DDS session: one participant, created on first use, closed in order.
+"""A command's DDS session (a CLI verb, the web console): one participant, created on first use,
+closed in order.
 
 Cyclone and the DDS layer are imported here, when a verb first needs them, so
 parsing and ``--help`` stay light. Entities are closed in reverse order of

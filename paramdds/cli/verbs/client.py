@@ -20,16 +20,14 @@ import sys
 import threading
 from typing import TYPE_CHECKING
 
-from ._errors import Exit
-from ._live import wait_until_interrupted
-from ._output import typed
-from ._requests import node_arg
-from ._session import Session
+from .._parser import DEFAULT_NODE
 
 if TYPE_CHECKING:
-    from ..core.values import Parameter
-    from ..dds.client import ParameterClient
-    from ..dds.monitor import MonitorEvent, ParameterMonitor
+    from ...core.values import Parameter
+    from ...dds.client import ParameterClient
+    from ...dds.monitor import MonitorEvent, ParameterMonitor
+
+HELP = "the seed demo: list, get and set on a target, printing events"
 
 SETTLE = 2.0  # seconds --once waits at most for the events of its own set
 
@@ -71,8 +69,31 @@ class DemoPrinter:
         sys.stdout.flush()
 
 
-def run_client(args: argparse.Namespace) -> int:
-    from ..runtime import read_values
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "-t",
+        "--target",
+        default=DEFAULT_NODE,
+        metavar="NAME",
+        help=f"the node to talk to (default {DEFAULT_NODE})",
+    )
+    p.add_argument("-p", "--params-file", metavar="FILE", help="parameters to set on the target, in order")
+    p.add_argument("--once", action="store_true", help="exit after the demo instead of watching")
+    p.add_argument(
+        "--wait",
+        type=float,
+        default=10.0,
+        metavar="SECONDS",
+        help="how long to wait for the target to appear (default 10)",
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    from ...core.yaml.files import read_values
+    from ...frontend.exits import Exit
+    from ...frontend.session import Session
+    from .._live import wait_until_interrupted
+    from .._values import node_arg
 
     target = node_arg(args.target)
     params = read_values(args.params_file, target) if args.params_file else []
@@ -98,6 +119,8 @@ def _demo(
     timeout: float,
 ) -> bool:
     """The LIST, GET and SET sections; True when every set succeeded."""
+    from .._output import typed
+
     names = sorted(client.list(target).names)
     printer.section(
         "=== LIST PARAMETERS ===",

@@ -1,16 +1,13 @@
-"""The ``paramdds bench`` verb: its parser, and the dispatch to a scenario module.
-
-The CLI calls :func:`register` only when the verb is ``bench`` and then adds the
-global options itself (``-d``, ``-o``, ``--localhost``, ``--timeout``…), so they
-are not defined here. Each scenario lives in ``paramdds.bench.<scenario>`` and
-has ``run(args) -> int``; it prints a table, or one JSON object with ``-o json``.
+"""``paramdds bench SCENARIO``: its arguments and the scenario table; the scenarios live in
+:mod:`paramdds.bench` (one module each, ``run(args) -> int``), each printing a table, or one
+JSON object with ``-o json``.
 """
 
 from __future__ import annotations
 
 import argparse
-import importlib
-from typing import Any
+
+HELP = "benchmarks (see 'paramdds bench --help')"
 
 SCENARIOS = {
     "latency": "round trip of a get and of a set of 10 vs a raw echo and a 10 ms polling client",
@@ -60,16 +57,13 @@ def _positive_float(text: str) -> float:
     return value
 
 
-def register(subparsers: Any) -> None:
-    """Add the ``bench`` sub-parser (its handler is ``args.func``)."""
+def add_arguments(p: argparse.ArgumentParser) -> None:
     lines = "\n".join(f"  {name:<11} {text}" for name, text in SCENARIOS.items())
-    p = subparsers.add_parser(
-        "bench",
-        help="benchmarks against baselines measured in the same run",
-        description="Benchmarks. Servers, echo peers and monitors run as separate processes; "
-        "each scenario measures paramdds and its baseline in the same run.\n\n" + lines,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+    p.description = (
+        "Benchmarks. Servers, echo peers and monitors run as separate processes; "
+        "each scenario measures paramdds and its baseline in the same run.\n\n" + lines
     )
+    p.formatter_class = argparse.RawDescriptionHelpFormatter
     p.add_argument("scenario", choices=list(SCENARIOS), metavar="SCENARIO", help=", ".join(SCENARIOS))
     p.add_argument("--quick", action="store_true", help="a short run for smoke tests (rough figures)")
     p.add_argument(
@@ -105,13 +99,10 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--seconds", type=_positive_float, metavar="S", help="throughput, persist: measured seconds per round"
     )
-    p.set_defaults(func=run)
+
 
 
 def run(args: argparse.Namespace) -> int:
-    from ._common import start_probe
+    from ... import bench
 
-    module = importlib.import_module(f"paramdds.bench.{args.scenario}")
-    start_probe()
-    result: int = module.run(args)
-    return result
+    return bench.run_scenario(args.scenario, args)

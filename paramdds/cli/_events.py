@@ -1,0 +1,111 @@
+"""What ``paramdds watch`` prints: monitor events as JSON lines or one readable line each."""
+
+from __future__ import annotations
+
+import sys
+import threading
+import time
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+from ..frontend.shapes import dumps_json, json_value
+from ._output import typed
+
+if TYPE_CHECKING:
+    from ..dds.monitor import MonitorEvent
+
+
+def matches_prefix(name: str, prefixes: Sequence[str]) -> bool:
+    """ROS list semantics: ``robot`` matches ``robot`` and ``robot.x``, not ``robotic``."""
+    if not prefixes:
+        return True
+    for p in prefixes:
+        p = p.rstrip(".")
+        if not p or name == p or name.startswith(p + "."):
+            return True
+    return False
+
+
+class EventPrinter:
+    """Prints monitor events as ``watch`` does: JSON lines or one readable line each.
+
+    Called on the monitor's threads; one lock keeps lines whole. Node presence events
+    are printed only after ``synced`` (before it, the ``added`` events are the state).
+    """
+
+    def __init__(self, output: str, prefixes: Sequence[str]) -> None:
+        self._json = output == "json"
+        self._prefixes = list(prefixes)
+        self._lock = threading.Lock()
+        self._synced = False
+        self.broken = threading.Event()
+        self.last_event = time.monotonic()
+
+    def __call__(self, event: MonitorEvent) -> None:
+        from ..dds.monitor import EventKind
+
+        self.last_event = time.monotonic()
+        if event.event is EventKind.SYNCED:
+            return  # printed by :meth:`synced`, once the state has settled (see settle())
+        if event.event in (EventKind.ONLINE, EventKind.OFFLINE):
+            if self._synced:
+                self._write(self._node_line(event))
+            return
+        if matches_prefix(event.name, self._prefixes):
+            self._write(self._parameter_line(event))
+
+    def synced(self, settled: bool = True, waited: float = 0.0) -> None:
+        """Print the ``synced`` line: the current state has been printed. When discovery
+        did not settle within the timeout, say so (``not_synced``) instead."""
+        with self._lock:
+            self._synced = True
+        if settled:
+            self._write('{"event": "synced"}' if self._json else "synced")
+        elif self._json:
+            self._write(dumps_json({"event": "not_synced", "waited": round(waited, 3)}, pretty=False))
+        else:
+            self._write(f"not synced: the state did not settle within {waited:g} s; it may be incomplete")
+
+    def _node_line(self, e: MonitorEvent) -> str:
+        if self._json:
+            return dumps_json(
+                {
+                    "event": e.event.value,
+                    "node": e.node,
+                    "name": None,
+                    "type": None,
+                    "value": None,
+                    "revision": e.revision,
+                    "stamp": e.stamp,
+                },
+                pretty=False,
+            )
+        return f"{e.event.value:<8} {e.node}"
+
+    def _parameter_line(self, e: MonitorEvent) -> str:
+        from ..dds.monitor import EventKind
+
+        value = None if e.event is EventKind.DELETED else e.value
+        if self._json:
+            return dumps_json(
+                {
+                    "event": e.event.value,
+                    "node": e.node,
+                    "name": e.name,
+                    "type": value.type.label if value is not None else "not_set",
+                    "value": json_value(value),
+                    "revision": e.revision,
+                    "stamp": e.stamp,
+                },
+                pretty=False,
+            )
+        shown = "" if value is None else f" = {typed(value)}"
+        return f"{e.event.value:<8} {e.node} {e.name}{shown}  (rev {e.revision})"
+
+    def _write(self, line: str) -> None:
+        with self._lock:
+            try:
+                sys.stdout.write(line + "\n")
+                sys.stdout.flush()
+            except OSError:
+                self.broken.set()

@@ -1,0 +1,26 @@
+"""``paramdds describe``: descriptors of parameters; a name the node lacks: one line on stderr, exit 1."""
+
+from __future__ import annotations
+
+import argparse
+
+HELP = "descriptors of parameters"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("node", metavar="NODE")
+    p.add_argument("names", nargs="+", metavar="NAME")
+
+
+def run(args: argparse.Namespace) -> int:
+    from ...frontend.session import Session
+    from ...frontend.shapes import json_descriptor
+    from .._output import describe_table, emit, report_missing
+    from .._values import node_arg
+
+    node = node_arg(args.node)
+    with Session(args) as session:
+        reply = session.client().get(node, args.names, with_descriptors=True)
+    found = {r.name: json_descriptor(r.descriptor) for r in reply.results if r.descriptor is not None}
+    emit(args.output, found, describe_table(found))
+    return report_missing(node, reply.missing())

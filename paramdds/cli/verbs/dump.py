@@ -1,0 +1,36 @@
+"""``paramdds dump``: a node's parameters as a ROS 2 parameter file on stdout (what ``load`` reads)."""
+
+from __future__ import annotations
+
+import argparse
+
+HELP = "a node's parameters as a ROS 2 parameter file on stdout"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("node", metavar="NODE")
+    p.add_argument("--no-descriptors", action="store_true", help="values only")
+
+
+def run(args: argparse.Namespace) -> int:
+    import sys
+
+    from ...core.descriptors import ParameterDescriptor
+    from ...core.yaml.files import dump_text
+    from ...frontend.session import Session
+    from .._output import report_missing
+    from .._values import node_arg
+
+    node = node_arg(args.node)
+    with Session(args) as session:
+        client = session.client()
+        names = client.list(node).names
+        reply = client.get(node, list(names), with_descriptors=True)
+    snapshot = [
+        (r.name, r.value, r.descriptor or ParameterDescriptor(r.name, r.value.type))
+        for r in reply.results
+        if r.value is not None
+    ]
+    sys.stdout.write(dump_text({node: snapshot}, with_descriptors=not args.no_descriptors))
+    sys.stdout.flush()
+    return report_missing(node, reply.missing())

@@ -1,0 +1,71 @@
+"""``paramdds nodes``: every node alive now, once the monitor holds their state (or a short wait)."""
+
+from __future__ import annotations
+
+import argparse
+
+HELP = "every node alive now: online, parameter count, host, pid, revision"
+
+NODES_SETTLE = 2.0  # seconds `nodes` waits at most for the monitor to hold every node's state
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    pass
+
+
+def run(args: argparse.Namespace) -> int:
+    import logging
+    import time
+
+    from ...core.revision import Revision, incarnation_text
+    from ...frontend.exits import Exit
+    from ...frontend.session import Session
+    from .._live import settle
+    from .._output import emit
+
+    last = [time.monotonic()]
+    with Session(args) as session:
+        started = time.monotonic()
+        monitor = session.monitor(on_event=lambda _e: last.__setitem__(0, time.monotonic()))
+        if not settle(monitor, started, min(args.timeout, NODES_SETTLE), lambda: last[0]):
+            logging.getLogger(__name__).warning(
+                "the node list may be incomplete: discovery did not settle in time"
+            )
+        states = monitor.snapshot()
+    rows: list[dict[str, object]] = [
+        {
+            "node": st.node,
+            "online": st.online,
+            "parameters": st.announced if st.announced >= 0 else len(st.parameters),
+            "host": st.host,
+            "pid": st.pid,
+            "revision": st.revision,
+            "also_hosted_by": list(st.duplicates),  # other processes hosting the same node id
+            "request_filter": st.request_filter,  # "native", "handler", or None: the server does not say
+            "incarnation": incarnation_text(st.incarnation),  # the server's for the node, new on every start
+            "at": str(Revision(st.incarnation, st.revision)),  # what `set --if-revision` takes
+            "origin": st.origin,  # the presence tag "origin" ("ros2": mirrored by the bridge), or None
+        }
+        for st in sorted(states.values(), key=lambda st: st.node)
+        if st.online
+    ]
+    emit(args.output, rows, _nodes_table(rows))
+    return Exit.OK
+
+
+def _nodes_table(rows: list[dict[str, object]]) -> str:
+    header = ("NODE", "ONLINE", "PARAMS", "HOST", "PID", "REVISION")
+    cells = [header] + [
+        (
+            str(r["node"]),
+            "yes" if r["online"] else "no",
+            str(r["parameters"]),
+            str(r["host"]),
+            str(r["pid"]),
+            str(r["revision"]),
+        )
+        for r in rows
+    ]
+    widths = [max(len(row[i]) for row in cells) for i in range(len(header))]
+    lines = ("  ".join(c.ljust(w) for c, w in zip(row, widths, strict=True)) for row in cells)
+    return "\n".join(line.rstrip() for line in lines)

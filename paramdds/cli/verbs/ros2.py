@@ -1,0 +1,96 @@
+"""``paramdds ros2``: the bridge lives in :mod:`paramdds.ros2`; this verb checks the extra and runs it."""
+
+from __future__ import annotations
+
+import argparse
+
+HELP = "mirror ROS 2 nodes on paramdds, expose paramdds nodes to ROS 2 (ros2 extra)"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--mirror",
+        action="append",
+        default=[],
+        metavar="GLOB",
+        help="ROS 2 nodes (/ns/name globs) to mirror on paramdds; repeat (default: every node)",
+    )
+    p.add_argument(
+        "--exclude", action="append", default=[], metavar="GLOB", help="ROS 2 nodes never mirrored; repeat"
+    )
+    p.add_argument(
+        "--no-mirror", action="store_true", help="mirror no ROS 2 node (only expose paramdds nodes)"
+    )
+    p.add_argument(
+        "--expose",
+        action="append",
+        default=[],
+        metavar="GLOB",
+        help="paramdds nodes (globs) to serve to ROS 2 tools; repeat (default: none)",
+    )
+    p.add_argument(
+        "--ros-domain",
+        type=int,
+        metavar="N",
+        help="the ROS 2 domain (default: ROS_DOMAIN_ID, else 0); may differ from -d",
+    )
+    p.add_argument(
+        "--ros-timeout",
+        type=float,
+        default=5.0,
+        metavar="SECONDS",
+        help="how long a forwarded call waits for a ROS 2 node (default %(default)s)",
+    )
+    p.add_argument(
+        "--resync",
+        type=float,
+        default=60.0,
+        metavar="SECONDS",
+        help="re-read each mirrored node this often, 0 never (default %(default)s)",
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    import sys
+
+    from ...frontend.exits import Exit, UsageError
+    from ...frontend.session import Session
+    from ...ros2 import missing
+    from ...ros2.bridge import SECURE_REFUSED
+    from .._live import wait_until_interrupted
+
+    if args.identity:  # before the extra or the secure library are looked for
+        raise UsageError(SECURE_REFUSED)
+    reason = missing()
+    if reason:
+        raise UsageError(f"'paramdds ros2' cannot run: {reason}")
+    if args.ros_timeout <= 0:
+        raise UsageError(f"--ros-timeout must be a positive number of seconds, got {args.ros_timeout}")
+    if args.ros_domain is not None and not 0 <= args.ros_domain <= 232:
+        raise UsageError(f"the ROS 2 domain id must be between 0 and 232, got {args.ros_domain}")
+    from ...ros2.bridge import Bridge, BridgeOptions
+
+    options = BridgeOptions(
+        mirror=() if args.no_mirror else tuple(args.mirror or ["*"]),
+        exclude=tuple(args.exclude),
+        expose=tuple(args.expose),
+        timeout=args.ros_timeout,
+        resync=max(0.0, args.resync),
+        ros_domain=args.ros_domain,
+    )
+    session = Session(args, app_name="paramdds-ros2")
+    bridge = Bridge(session.participant, session.qos, options)
+    try:
+        bridge.start()
+        mirrored = ", ".join(options.mirror) or "nothing"
+        exposed = ", ".join(options.expose) or "nothing"
+        sys.stdout.write(
+            f"[ROS2] bridging ROS 2 domain {bridge.ros.domain} and paramdds domain {args.domain}: "
+            f"mirroring {mirrored}, exposing {exposed}\n"
+        )
+        sys.stdout.flush()
+        wait_until_interrupted()
+    finally:
+        bridge.close()
+        session.close()
+    return Exit.OK
