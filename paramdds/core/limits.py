@@ -22,6 +22,7 @@ __all__ = [
     "MAX_PARAMETERS_PER_REQUEST",
     "MAX_STRING_BYTES",
     "MAX_VALUE_BYTES",
+    "check_request_size",
     "check_text",
     "check_value",
     "value_size",
@@ -32,6 +33,18 @@ MAX_NODE_ID_BYTES = 255
 MAX_PARAMETERS_PER_REQUEST = 65536
 MAX_VALUE_BYTES = 4 * 1024 * 1024
 MAX_STRING_BYTES = 64 * 1024  # descriptions and additional_constraints
+
+
+def check_request_size(count: int, what: str = "set") -> None:
+    """The one home of the request-size rule: a set of more than
+    :data:`MAX_PARAMETERS_PER_REQUEST` parameters, or a get of more names, is refused whole
+    with TOO_LARGE, before anything runs. Every entry point calls this: the table (each
+    parameter's result says it), the client (raised before sending), the server (the
+    reply's code), the ROS 2 mirror (as the table)."""
+    if count > MAX_PARAMETERS_PER_REQUEST:
+        unit = "names" if what == "get" else "parameters"
+        raise TooLargeError(f"a {what} of {count} {unit} exceeds the limit of {MAX_PARAMETERS_PER_REQUEST}")
+
 
 _FIXED = {
     ParameterType.NOT_SET: 0,

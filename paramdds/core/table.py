@@ -82,6 +82,7 @@ import threading
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import replace
+from types import MappingProxyType
 
 from ..errors import (
     AlreadyDeclaredError,
@@ -91,11 +92,12 @@ from ..errors import (
     NotFoundError,
     ParamddsError,
     ReadOnlyError,
+    TooLargeError,
     TypeMismatchError,
     error_for,
 )
 from .descriptors import ParameterDescriptor
-from .limits import MAX_PARAMETERS_PER_REQUEST, check_text, check_value
+from .limits import check_request_size, check_text, check_value
 from .listing import list_names
 from .names import is_valid_name, validate_name
 from .results import (
@@ -520,6 +522,34 @@ class ParameterTable:
             change, _ = self._commit(stage, [], post_set=False)
             return change
 
+    # --- extending: a table whose sets are applied elsewhere ---------------------------------
+    #
+    # A subclass that forwards sets to the node it mirrors (the ROS 2 bridge's MirrorTable)
+    # overrides set and set_atomically, and uses these instead of the table's internals:
+    # screen (the whole-request refusals a set would give), entry (what is held for one
+    # name), mirror (commit what the node accepted) and mirror_from (commit entries computed
+    # from what is held, under the lock).
+
+    def screen(self, params: object) -> tuple[_Objects, SetOutcome | None]:
+        """``params`` as a request list, and the outcome :meth:`set` gives when the whole
+        request is refused before anything runs (too many parameters; None when it is not)."""
+        request = self._request(params)
+        with self._lock:
+            return request, self._refuse_all(request, None)
+
+    def entry(self, name: str) -> _Entry | None:
+        """The value and descriptor held for ``name`` (None when it is not declared)."""
+        with self._lock:
+            return self._params.get(name)
+
+    def mirror_from(
+        self, compute: Callable[[Mapping[str, _Entry]], Mapping[str, _Entry | None]]
+    ) -> ChangeSet | None:
+        """:meth:`mirror` the entries ``compute`` derives from what the table holds (a
+        read-only view), under the table's lock, so nothing commits in between."""
+        with self._lock:
+            return self.mirror(compute(MappingProxyType(self._params)))
+
     # --- setting ---------------------------------------------------------------------------
 
     def set(self, params: Sequence[Parameter], *, expected_revision: int | None = None) -> SetOutcome:
@@ -576,14 +606,13 @@ class ParameterTable:
                 f"not the expected {expected_revision}"
             )
             code: ErrorCode = ErrorCode.CONFLICT
-        elif len(request) > MAX_PARAMETERS_PER_REQUEST:
-            reason = (
-                f"not applied: a set of {len(request)} parameters exceeds the limit of "
-                f"{MAX_PARAMETERS_PER_REQUEST}"
-            )
-            code = ErrorCode.TOO_LARGE
         else:
-            return None
+            try:
+                check_request_size(len(request))
+            except TooLargeError as exc:
+                reason, code = f"not applied: {exc.message}", exc.code
+            else:
+                return None
         results = tuple(SetResult(_name_of(p), False, reason, code) for p in request)
         return SetOutcome(results, self.revision, None)
 

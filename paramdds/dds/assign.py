@@ -13,42 +13,36 @@ from __future__ import annotations
 
 import itertools
 import secrets
-from typing import Any
 
-from cyclonedds.pub import DataWriter
-from cyclonedds.topic import Topic
+from cyclonedds.domain import DomainParticipant
 
 from ..core.names import canonical_node_id
-from ..secure.scope import scope_of
-from .client import ParamsArg, _to_parameters
+from ..core.request import ParamsArg, to_parameters
 from .qos import QosProfiles
+from .transport import Writers, transport_of
 from .wire import types as wire
 from .wire.convert import parameter_to_wire
 
 
 class Assigner:
-    def __init__(self, participant: Any, qos: QosProfiles | None = None) -> None:
-        qos = qos or QosProfiles.load()
-        topic = Topic(participant, "SetParametersRequest", wire.SetParametersRequest)
-        # secure mode: a writer per node, in its partition (paramdds.secure.scope), made on use
-        self._scope = scope_of(participant)
-        self._topic, self._qos = topic, qos.assignment_writer()
-        if self._scope is None:
-            self._writer = DataWriter(participant, topic, self._qos)
+    def __init__(self, participant: DomainParticipant, qos: QosProfiles | None = None) -> None:
+        self._qos = (qos or QosProfiles.load()).assignment_writer()
+        # plain: the one writer, made now; secure: a writer per node, in its partition, made on use
+        self._writers = Writers(transport_of(participant))
+        self._writers.early("SetParametersRequest", self._qos)
         self.client_id = secrets.randbits(64) or 1
         self._ids = itertools.count(1)
 
     def assign(self, node: str, params: ParamsArg) -> None:
         """Retain ``params`` for ``node`` (replacing what this assigner held for it)."""
         node = canonical_node_id(node)
-        scope = self._scope
-        writer = self._writer if scope is None else scope.writer("SetParametersRequest", node, self._qos)
+        writer = self._writers.get("SetParametersRequest", node, self._qos)
         writer.write(
             wire.SetParametersRequest(
                 node_id=node,
                 client_id=self.client_id,
                 request_id=next(self._ids),
                 retained=True,
-                parameters=[parameter_to_wire(p) for p in _to_parameters(params)],
+                parameters=[parameter_to_wire(p) for p in to_parameters(params)],
             )
         )

@@ -31,20 +31,18 @@ import logging
 import secrets
 import threading
 import time
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Iterator, Sequence
 from concurrent.futures import Future
 from concurrent.futures import TimeoutError as FutureTimeout
 from dataclasses import dataclass
 from typing import Any
 
-from cyclonedds.core import DDSException, InstanceState, Policy
-from cyclonedds.pub import DataWriter
-from cyclonedds.qos import Qos
-from cyclonedds.sub import DataReader
-from cyclonedds.topic import Topic
+from cyclonedds.core import DDSException, InstanceState
+from cyclonedds.domain import DomainParticipant
 
-from ..core.limits import MAX_PARAMETERS_PER_REQUEST, check_value
-from ..core.names import canonical_node_id, validate_name
+from ..core.limits import check_request_size
+from ..core.names import canonical_node_id
+from ..core.request import ParamsArg, to_parameters
 from ..core.results import GetResult, ListResult, SetResult
 from ..core.revision import Revision
 from ..core.values import NOT_SET, Parameter, ParameterValue
@@ -52,17 +50,16 @@ from ..errors import (
     NotFoundError,
     ParamddsError,
     TimeoutError_,
-    TooLargeError,
     UnavailableError,
     code_of,
     error_for,
 )
-from ..secure.scope import guard_samples, scope_of
 from .discovery import MIN_QUIET, DiscoveryState, DiscoveryWatch, Presence
 from .dispatch import Dispatcher
 from .filters import NativeFilter, filtered_topic, origin_of, request_filter_of
 from .participant import peer_mismatches
 from .qos import QosProfiles
+from .transport import Writers, transport_of
 from .wire import types as wire
 from .wire.cdr import is_malformed
 from .wire.convert import descriptor_from_wire, parameter_to_wire, value_from_wire
@@ -75,10 +72,7 @@ _READ_ALL = 1 << 24  # "every sample" for read(); Cyclone refuses N >= 2**28
 PRESENCE_POLL = 0.02  # seconds between presence checks in wait_for_node
 RESEND_AFTER = 0.2  # seconds without a reply before a call checks presence and resends
 MATCH_POLL = 0.02  # seconds between checks, while a call waits, for a newly matched server
-SECURE_DEPTH = 4  # secure mode: presence samples kept per node (see _believed)
 REQUEST_TOPICS = ("SetParametersRequest", "GetParametersRequest", "ListParametersRequest")
-
-ParamsArg = Mapping[str, object] | Iterable[Parameter]
 
 
 class _At:
@@ -133,21 +127,6 @@ class SetReply(_At):
         return all(r.successful for r in self.results)
 
 
-def _to_parameters(params: ParamsArg) -> list[Parameter]:
-    if isinstance(params, Mapping):
-        items = [Parameter(name, ParameterValue.from_python(v)) for name, v in params.items()]
-    else:
-        items = list(params)
-    if len(items) > MAX_PARAMETERS_PER_REQUEST:
-        raise TooLargeError(
-            f"a set of {len(items)} parameters exceeds the limit of {MAX_PARAMETERS_PER_REQUEST}"
-        )
-    for p in items:
-        validate_name(p.name)
-        check_value(p.name, p.value)
-    return items
-
-
 class _Pending:
     __slots__ = ("future", "matched", "node", "sample", "topic", "writer")
 
@@ -171,7 +150,7 @@ class ParameterClient:
 
     def __init__(
         self,
-        participant: Any,
+        participant: DomainParticipant,
         qos: QosProfiles | None = None,
         *,
         timeout: float = DEFAULT_TIMEOUT,
@@ -187,9 +166,9 @@ class ParameterClient:
         self._ids_lock = threading.Lock()
         self._pending: dict[int, _Pending] = {}
         self._closing = threading.Event()
-        # secure mode (paramdds.secure.scope): a writer per target node, each in that node's
-        # partition, and a topic's endpoints made on its first call (a viewer may never set)
-        self._scope = scope_of(participant)
+        # secure mode (.transport): a writer per target node, each in that node's partition,
+        # and a topic's endpoints made on its first call (a viewer may never set)
+        self._transport = transport_of(participant)
         self._writers: dict[str, Any] = {}
         self._dispatcher = Dispatcher(participant, "paramdds-client")
         self._reply_filter = NativeFilter("client")
@@ -197,9 +176,11 @@ class ParameterClient:
         self._reply_readers: dict[str, Any] = {}  # by request topic
         self._match_counts: dict[int, int] = {}  # by id() of the request writer (one per node when secure)
         self._endpoints_lock = threading.Lock()
-        if self._scope is None:
-            for request in REQUEST_TOPICS:
-                self._open_topic(request)
+        self._made = Writers(self._transport, opening=self._open_topic)
+        for request in REQUEST_TOPICS:  # plain: one writer per topic, made now
+            writer = self._made.early(request, self._qos.writer(request))
+            if writer is not None:
+                self._writers[request] = writer
         self._presence_filter = NativeFilter("presence")
         self._presence_filter.set_nodes(None)  # every node's presence, no parameter samples
         self._presence_args = (participant, presence_grace)
@@ -211,25 +192,19 @@ class ParameterClient:
         self._dispatcher.start()
 
     def _open_topic(self, request: str) -> None:
-        """The request writer (not secure) and the reply reader of one request topic."""
-        participant = self._dp
-        if self._scope is None:
-            topic = Topic(participant, request, wire.TOPICS[request])
-            self._writers[request] = DataWriter(participant, topic, self._qos.writer(request))
+        """The reply reader of one request topic (made before its first request writer)."""
         name = request.replace("Request", "Response")
-        if self._scope is None:
-            reader = DataReader(participant, self._own_replies(name), self._qos.reader(name))
-        else:
-            reader = self._scope.reader(self._own_replies(name), self._qos.reader(name))
+        reader = self._transport.reader(self._own_replies(name), self._qos.reader(name))
         self._reply_readers[request] = reader
-        self._dispatcher.add(reader, guard_samples(self._scope, reader, self._on_replies))
+        self._dispatcher.add(reader, self._transport.guard(reader, self._on_replies))
 
     def _writer_for(self, topic: str, node: str) -> Any:
         """The writer of ``topic`` for ``node``: the one writer, or in secure mode that node's."""
-        if self._scope is None:
-            return self._writers[topic]
+        found = self._writers.get(topic)
+        if found is not None:
+            return found
         with self._endpoints_lock:
-            return self._scope.writer(topic, node, self._qos.writer(topic), opening=self._open_topic)
+            return self._made.get(topic, node, self._qos.writer(topic))
 
     def _watch(self) -> DiscoveryWatch:
         """The presence reader's discovery watch, creating both on first use.
@@ -245,11 +220,9 @@ class ParameterClient:
                 topic = filtered_topic(
                     participant, "ParameterEvents", wire.ParameterEvent, self._presence_filter
                 )
-                if self._scope is None:
-                    self._presence = DataReader(participant, topic, self._qos.reader("ParameterEvents"))
-                else:  # a few samples per instance, to skip one a writer had no right to write
-                    qos = self._qos.reader("ParameterEvents") + Qos(Policy.History.KeepLast(SECURE_DEPTH))
-                    self._presence = self._scope.reader(topic, qos)
+                # secure: a few samples per instance, to skip one a writer had no right to write
+                qos = self._transport.history(self._qos.reader("ParameterEvents"))
+                self._presence = self._transport.reader(topic, qos)
                 self._discovery = DiscoveryWatch(
                     participant,
                     self._presence,
@@ -292,8 +265,9 @@ class ParameterClient:
         if handle is None:
             return None
         try:
-            depth = 1 if self._scope is None else SECURE_DEPTH
-            samples: list[Any] = self._presence.read(N=depth, instance_handle=handle)
+            samples: list[Any] = self._presence.read(
+                N=self._transport.samples_per_instance, instance_handle=handle
+            )
         except DDSException:
             # the handle is process-wide: another entity here may know the key while
             # this reader holds no such instance (PRECONDITION_NOT_MET)
@@ -305,14 +279,7 @@ class ParameterClient:
     def _believed(self, samples: list[Any]) -> list[Any]:
         """Secure mode: the presence samples whose writers may write their node's partition
         (a sample without data, which names no node, says nothing and is dropped)."""
-        scope = self._scope
-        if scope is None:
-            return samples
-        return [
-            s
-            for s in samples
-            if s.sample_info.valid_data and scope.allows(self._presence, s.node_id, s.sample_info)
-        ]
+        return self._transport.believed(self._presence, samples)
 
     def nodes(self) -> list[NodeInfo]:
         """Every node whose presence this client holds (alive or not), sorted by name."""
@@ -440,10 +407,7 @@ class ParameterClient:
 
     def _send_get(self, node: str, names: Sequence[str], with_descriptors: bool) -> tuple[str, int, _Pending]:
         node = canonical_node_id(node)
-        if len(names) > MAX_PARAMETERS_PER_REQUEST:
-            raise TooLargeError(
-                f"a get of {len(names)} names exceeds the limit of {MAX_PARAMETERS_PER_REQUEST}"
-            )
+        check_request_size(len(names), "get")
         sample = wire.GetParametersRequest(
             node_id=node,
             client_id=self.client_id,
@@ -464,7 +428,7 @@ class ParameterClient:
             request_id=self._next_id(),
             atomic=atomic,
             expected_revision=expected.revision,
-            parameters=[parameter_to_wire(p) for p in _to_parameters(params)],
+            parameters=[parameter_to_wire(p) for p in to_parameters(params)],
             expected_incarnation=expected.incarnation,
         )
         return self._send("SetParametersRequest", node, sample)

@@ -95,6 +95,7 @@ from typing import Any
 
 from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsParticipant
 from cyclonedds.core import DDSException, Entity, InstanceState, ReadCondition, SampleState, ViewState
+from cyclonedds.domain import DomainParticipant
 
 from ._binding import matched_publications, read_new_infos
 
@@ -199,7 +200,7 @@ class DiscoveryWatch:
 
     def __init__(
         self,
-        participant: Any,
+        participant: DomainParticipant,
         presence_reader: Any,
         endpoints: Sequence[Any] = (),
         *,

@@ -37,6 +37,7 @@ from cyclonedds.core import (
     ViewState,
     WaitSet,
 )
+from cyclonedds.domain import DomainParticipant
 from cyclonedds.internal import InvalidSample
 from cyclonedds.util import duration
 
@@ -56,7 +57,7 @@ _ANY = SampleState.Any | ViewState.Any | InstanceState.Any
 class Dispatcher:
     def __init__(
         self,
-        participant: Any,
+        participant: DomainParticipant,
         name: str,
         *,
         tick: Callable[[], None] | None = None,

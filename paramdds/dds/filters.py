@@ -27,6 +27,7 @@ import logging
 from collections.abc import Iterable
 from typing import Any
 
+from cyclonedds.domain import DomainParticipant
 from cyclonedds.topic import Topic
 
 from ._binding import install_native_filter
@@ -181,7 +182,7 @@ class NativeFilter:
         return int(accepted), int(rejected), int(unparsed)
 
 
-def filtered_topic(participant: Any, name: str, data_type: type, flt: NativeFilter) -> Any:
+def filtered_topic(participant: DomainParticipant, name: str, data_type: type, flt: NativeFilter) -> Any:
     """A Topic entity of its own for one reader, with ``flt`` installed when native.
 
     Create the reader on it right away; the topic keeps ``flt`` alive.

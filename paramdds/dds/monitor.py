@@ -26,18 +26,18 @@ from functools import partial
 from typing import Any
 
 from cyclonedds.core import InstanceState, Policy
+from cyclonedds.domain import DomainParticipant
 from cyclonedds.qos import Qos
-from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 
 from ..core.descriptors import ParameterDescriptor
 from ..core.names import canonical_node_id
 from ..core.values import ParameterValue
-from ..secure.scope import guard_raw, scope_of
 from .dispatch import Dispatcher
 from .filters import gone_of, origin_of, process_label, request_filter_of
 from .participant import poll_peers
 from .qos import QosProfiles
+from .transport import transport_of
 from .wire import types as wire
 from .wire.state import StateKey, StateSample, decode_key, decode_state
 
@@ -98,7 +98,7 @@ EventCallback = Callable[[MonitorEvent], None]
 class ParameterMonitor:
     def __init__(
         self,
-        participant: Any,
+        participant: DomainParticipant,
         qos: QosProfiles | None = None,
         *,
         nodes: Iterable[str] | None = None,
@@ -120,12 +120,9 @@ class ParameterMonitor:
         # depth 4, not 1: a late joiner must see the presence samples of every writer of one
         # node (two processes hosting one node id), not only the last one delivered
         reader_qos = qos.reader("ParameterEvents") + Qos(Policy.History.KeepLast(4))
-        scope = scope_of(participant)  # secure mode: the identity's node partitions, checked per sample
-        if scope is None:
-            reader = DataReader(participant, topic, reader_qos)
-        else:
-            reader = scope.reader(topic, reader_qos)
-        self._dispatcher.add_raw(reader, _decode, guard_raw(scope, reader, self._on_samples))
+        transport = transport_of(participant)  # secure: the identity's node partitions, checked per sample
+        reader = transport.reader(topic, reader_qos)
+        self._dispatcher.add_raw(reader, _decode, transport.guard_raw(reader, self._on_samples))
         self._dispatcher.start()
         self._closed = False
         self._sync_thread = threading.Thread(target=self._watch_sync, name="paramdds-sync", daemon=True)

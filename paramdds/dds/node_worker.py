@@ -32,22 +32,29 @@ log = logging.getLogger(__name__)
 Job = Callable[[], None]
 
 
-class CommitSink(Protocol):
-    """What a worker needs of its server (the server's own, private, methods)."""
+class Persists(Protocol):
+    """Where a worker persists its node's changes (:class:`.publication.Persistence`)."""
 
-    def _persist(self, table: ParameterTable, changes: Sequence[ChangeSet]) -> str: ...
+    def persist(self, table: ParameterTable, changes: Sequence[ChangeSet]) -> str:
+        """Persist ``changes``; what failed ("" when nothing did)."""
+        ...
 
-    def _publish(self, table: ParameterTable, changes: Sequence[ChangeSet]) -> None: ...
 
-    def _write_presence(self, table: ParameterTable) -> None: ...
+class Publishes(Protocol):
+    """Where a worker publishes its node's changes and presence (:class:`.publication.StatePublication`)."""
+
+    def publish(self, table: ParameterTable, changes: Sequence[ChangeSet]) -> None: ...
+
+    def write_presence(self, table: ParameterTable, *tags: str) -> None: ...
 
 
 class NodeWorker:
     """One hosted node's commit path: a job queue and a thread of its own (started lazily)."""
 
-    def __init__(self, server: CommitSink, table: ParameterTable) -> None:
+    def __init__(self, persistence: Persists, publication: Publishes, table: ParameterTable) -> None:
         self.table = table
-        self._server = server
+        self._persistence = persistence
+        self._publication = publication
         self._jobs: queue.SimpleQueue[Job | None] = queue.SimpleQueue()
         self._lock = threading.Lock()
         self._pending: list[ChangeSet] = []
@@ -90,7 +97,7 @@ class NodeWorker:
         """Persist and publish changes made outside a request (the application's own)."""
         changes = self.take_pending()
         if changes:
-            failure = self._server._persist(self.table, changes)
+            failure = self._persistence.persist(self.table, changes)
             if failure:
                 log.error(
                     "%s: changes up to revision %d are not persisted: %s",
@@ -98,7 +105,7 @@ class NodeWorker:
                     changes[-1].revision,
                     failure,
                 )
-            self._server._publish(self.table, changes)
+            self._publication.publish(self.table, changes)
 
     def _run(self) -> None:
         while True:
@@ -119,7 +126,7 @@ class NodeWorker:
                     recovered, self.stalled = self.stalled, False
                 if recovered:
                     log.warning("node %r is responsive again", self.table.node_id)
-                    self._server._write_presence(self.table)
+                    self._publication.write_presence(self.table)
 
     def check_stall(self, now: float, limit: float) -> bool:
         """Mark the worker stalled once its current job has run for ``limit`` seconds."""

@@ -33,8 +33,8 @@ Configuration layers, later ones overriding earlier ones:
 When none of 2, 3 and 4 applies no ``Domain`` is created and Cyclone's normal
 configuration is used untouched. Otherwise a :class:`cyclonedds.domain.Domain`
 is created with the combined configuration. Deleting a ``Domain`` deletes every
-participant in it, so the Domain is kept alive by the participants (an
-attribute on each) and shared by all participants of that domain id in this
+participant in it, so the Domain is kept alive by the participants (their
+``domain``) and shared by all participants of that domain id in this
 process; Cyclone allows one configuration per domain id per process.
 
 Every participant reports peers whose type or QoS does not match ours
@@ -57,8 +57,8 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from cyclonedds.domain import Domain, DomainParticipant
 
-    from ..secure.identity import Identity
-    from .peers import PeerMismatch
+    from .peers import PeerMismatch, PeerWatch
+    from .transport import Grants, Participant
 
 __all__ = [
     "LOCALHOST_ENV",
@@ -168,12 +168,13 @@ def make_participant(
     app_name: str = "paramdds",
     topic_discovery: bool = False,
     short_lived: bool = False,
-    identity: Identity | None = None,
-) -> DomainParticipant:
+    identity: Grants | None = None,
+) -> Participant:
     """A participant on ``domain_id`` (0..232), configured as the module docstring says.
 
-    With an ``identity`` (:mod:`paramdds.secure`) the participant authenticates with it,
-    and readers, writers and samples are scoped by node partitions (``secure.scope``).
+    With an ``identity`` (:func:`paramdds.secure.identity.load_identity`) the participant
+    authenticates with it, and its transport is the secure one: readers, writers and samples
+    are scoped by node partitions (:mod:`.transport`).
 
     Raises ``ValueError`` for a domain id out of range, or when this process
     already uses ``domain_id`` with a different configuration (Cyclone allows
@@ -181,34 +182,20 @@ def make_participant(
     """
     if not 0 <= domain_id <= MAX_DOMAIN_ID:
         raise ValueError(f"DDS domain id must be in 0..{MAX_DOMAIN_ID}, got {domain_id}")
-    from cyclonedds.domain import DomainParticipant
     from cyclonedds.qos import Policy, Qos
 
+    from .transport import Participant
+
     qos = Qos(Policy.EntityName(app_name), Policy.Property("__ProcessName", app_name, propagate=True))
-    from .peers import PeerWatch
-
-    security = ""
-    if identity is not None:
-        from ..secure.hooks import prepare_secure
-
-        security = prepare_secure(identity, domain_id)
+    security = "" if identity is None else identity.security_config(domain_id)
     config = domain_config(
         localhost=localhost, topic_discovery=topic_discovery, short_lived=short_lived, security=security
     )
     if config is None:
-        participant = DomainParticipant(domain_id, qos=qos)
-    else:
-        with _lock:
-            domain = _domain(domain_id, config)
-            if identity is None:
-                participant = DomainParticipant(domain_id, qos=qos)
-            else:
-                from ..secure.hooks import secure_participant
-
-                participant = secure_participant(domain_id, qos, identity)
-        participant._paramdds_domain = domain  # type: ignore[attr-defined]  # keeps the Domain (and so the participant) alive
-    participant._paramdds_peers = PeerWatch(participant)  # type: ignore[attr-defined]
-    return participant
+        return Participant(domain_id, qos, grants=identity)
+    with _lock:
+        domain = _domain(domain_id, config)
+        return Participant(domain_id, qos, domain=domain, grants=identity)
 
 
 def peer_mismatches(participant: DomainParticipant) -> list[PeerMismatch]:
@@ -216,15 +203,21 @@ def peer_mismatches(participant: DomainParticipant) -> list[PeerMismatch]:
 
     Looks into new incompatible-QoS events first, on this thread.
     """
-    watch = getattr(participant, "_paramdds_peers", None)
+    watch = _peers(participant)
     return [] if watch is None else watch.check()
 
 
 def poll_peers(participant: DomainParticipant) -> None:
     """Look into new incompatible-QoS events in the background (a dispatch loop's tick)."""
-    watch = getattr(participant, "_paramdds_peers", None)
+    watch = _peers(participant)
     if watch is not None:
         watch.poll()
+
+
+def _peers(participant: DomainParticipant) -> PeerWatch | None:
+    from .transport import Participant
+
+    return participant.peers if isinstance(participant, Participant) else None
 
 
 def _domain(domain_id: int, config: str) -> Domain:
@@ -263,7 +256,7 @@ def close_participant(participant: DomainParticipant) -> None:
     """
     from cyclonedds.core import Entity
 
-    watch = getattr(participant, "_paramdds_peers", None)
+    watch = _peers(participant)
     if watch is not None:
         watch.close()
     Entity.__del__(participant)

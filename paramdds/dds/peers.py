@@ -36,6 +36,7 @@ import threading
 from dataclasses import dataclass
 from typing import Any
 
+from cyclonedds.domain import DomainParticipant
 from cyclonedds.sub import DataReader
 
 from ._binding import entity_handle, live_endpoints, matched_publications, matched_subscriptions
@@ -141,7 +142,7 @@ def _meets_by_design(ours: Any) -> bool:
 class PeerWatch:
     """Reports mismatched peers of one participant (see the module doc)."""
 
-    def __init__(self, participant: Any) -> None:
+    def __init__(self, participant: DomainParticipant) -> None:
         self._dp = participant
         self._own = participant.guid
         self._events: queue.SimpleQueue[bool] = queue.SimpleQueue()  # True: scan, False: stop

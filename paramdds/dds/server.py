@@ -49,9 +49,6 @@ How it works:
 from __future__ import annotations
 
 import logging
-import os
-import secrets
-import socket
 import threading
 import time
 from collections import OrderedDict
@@ -60,30 +57,32 @@ from functools import partial
 from typing import Any
 
 from cyclonedds.core import InstanceState, Policy, SampleState, ViewState
+from cyclonedds.domain import DomainParticipant
 from cyclonedds.pub import DataWriter
 from cyclonedds.qos import Qos
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
-from ..core.limits import MAX_PARAMETERS_PER_REQUEST
+from ..core.limits import check_request_size
 from ..core.names import canonical_node_id
-from ..core.results import ChangeKind, ChangeSet, SetResult
+from ..core.results import SetResult
 from ..core.revision import incarnation_text
 from ..core.table import ParameterTable
 from ..core.values import Parameter, ParameterType
-from ..errors import ErrorCode, NotPermittedError, ParamddsError
-from ..secure.scope import guard_raw, guard_samples, permitted, scope_of
-from ._binding import assert_liveliness, take_serialized, unregister_serialized, write_serialized
+from ..errors import ErrorCode, ParamddsError
+from ._binding import take_serialized
 from .dispatch import SERIALIZED, Dispatcher
 from .filters import NativeFilter, filter_tag, filtered_topic, gone_tag
 from .node_worker import NodeWorker
 from .participant import poll_peers
+from .publication import Persistence, StatePublication
 from .qos import QosProfiles
+from .transport import transport_of
 from .wire import types as wire
 from .wire.cdr import MalformedSample, encode
-from .wire.convert import descriptor_to_wire, parameter_from_wire, state_descriptor_to_wire, value_to_wire
-from .wire.state import StateKey, StateSample, decode_key, decode_state, encode_key, encode_state
+from .wire.convert import descriptor_to_wire, parameter_from_wire, value_to_wire
+from .wire.state import StateKey, StateSample, decode_key, decode_state
 
 log = logging.getLogger(__name__)
 
@@ -92,19 +91,6 @@ DEDUP_BYTES = 16 * 1024 * 1024  # and at most this many bytes of request content
 RETAINED_NODES = 1024  # nodes not hosted (yet) whose retained assignments are kept
 DUPLICATE_CHECK = 2.0  # seconds after start() during which another host of our nodes is looked for
 LEASE = 1.0  # seconds: the state writer's liveliness lease, asserted from the dispatch loop
-# persist the changes of one node (called on its worker, before the reply); raising means
-# the changes are applied but not persisted (NOT_PERSISTED)
-Persister = Callable[[ParameterTable, Sequence[ChangeSet]], None]
-
-
-def new_incarnation() -> int:
-    """A random non-zero 64-bit incarnation (0 means "none" on the wire)."""
-    return secrets.randbits(64) or 1
-
-
-def now_stamp() -> wire.Time:
-    ns = time.time_ns()
-    return wire.Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
 
 
 class ParameterServer:
@@ -112,22 +98,19 @@ class ParameterServer:
 
     def __init__(
         self,
-        participant: Any,
+        participant: DomainParticipant,
         qos: QosProfiles | None = None,
         *,
         nodes: Iterable[str] | None = None,
         tags: Sequence[str] = (),
     ) -> None:
         """``nodes``: the node ids this server will host; needed in secure mode only, where
-        its writers are created in those nodes' partitions (see :mod:`paramdds.secure.scope`).
+        its writers are created in those nodes' partitions (see :mod:`.transport`).
         ``tags``: more ``name=value`` items for its presence value (``origin=ros2``)."""
         self._dp = participant
         self._qos = qos or QosProfiles.load()
         self._tables: dict[str, ParameterTable] = {}
         self._workers: dict[str, NodeWorker] = {}
-        self._incarnations: dict[str, int] = {}  # node -> its incarnation here (see the module doc)
-        self._host = socket.gethostname()
-        self._pid = os.getpid()
         self._replies_lock = threading.Lock()
         # (node, client_id, request_id) -> (encoded request, reply), for retried requests
         self._replies: OrderedDict[tuple[str, int, int], tuple[bytes, Any]] = OrderedDict()
@@ -135,7 +118,8 @@ class ParameterServer:
         self._retained: OrderedDict[str, list[Any]] = OrderedDict()  # node -> assignments
         self._hosting = threading.Lock()  # guards _workers/_tables/_retained changes
         self._logged_bad: set[str] = set()
-        self.persisters: list[Persister] = []
+        self.persistence = Persistence()
+        self.persisters = self.persistence.persisters  # the hooks: append a Persister
         self._started = False
         self._closed = False
         self._filter = NativeFilter("nodes")  # the request readers' filter: the nodes hosted here
@@ -143,9 +127,7 @@ class ParameterServer:
         # what the presence value says about this server (a string array of name=value tags):
         # how it filters, and the caller's (``origin=ros2`` for the ROS 2 bridge's mirrors)
         tags = [filter_tag(self._filter.native), *tags]
-        self._presence_tags = wire.ParameterValue(
-            type=int(ParameterType.STRING_ARRAY), string_array_value=tags
-        )
+        presence_tags = wire.ParameterValue(type=int(ParameterType.STRING_ARRAY), string_array_value=tags)
         self._twins.set_nodes(())
         self._twins_seen: set[tuple[str, str, int]] = set()
         self._twin_of: dict[str, tuple[str, int]] = {}  # node -> (host, pid) of its other live host
@@ -154,17 +136,18 @@ class ParameterServer:
         self._last_tick = time.monotonic()
 
         # secure mode: writers and readers in the partitions of the nodes hosted here
-        self._scope = scope_of(participant)
-        self._scoped = None if self._scope is None else self._scope_nodes(nodes)
-        self._pub = participant if self._scope is None else self._scope.publisher(self._scoped or ())
-        self._sub = participant if self._scope is None else self._scope.subscriber(self._scoped)
+        self._transport = transport_of(participant)
+        self._where = self._transport.hosting(nodes)
+        self._pub = self._where.publisher
+        self._sub = self._where.subscriber
         state_qos = self._qos.writer("ParameterEvents")
         # liveliness is asserted by our dispatch loop, not by Cyclone's threads (see above)
         state_qos += _manual_liveliness()
-        with permitted(self._scope, f"serving nodes {sorted(self._scoped or ())}"):
-            self._state_writer = DataWriter(
+        with self._transport.refused(f"serving nodes {sorted(self._where.nodes or ())}"):
+            state_writer = DataWriter(
                 self._pub, Topic(participant, "ParameterEvents", wire.ParameterEvent), state_qos
             )
+            self.publication = StatePublication(state_writer, presence_tags, self._tables.__contains__)
             replies = ("SetParametersResponse", "GetParametersResponse", "ListParametersResponse")
             self._reply_writers = {
                 name: DataWriter(self._pub, Topic(self._dp, name, wire.TOPICS[name]), self._qos.writer(name))
@@ -177,15 +160,10 @@ class ParameterServer:
             "ListParametersRequest": self._on_list,
         }
         for name, handler in handlers.items():
-            with permitted(self._scope, f"reading {name}"):
-                reader = DataReader(self._sub, self._request_topic(name), self._qos.reader(name))
-            self._dispatcher.add(reader, guard_samples(self._scope, reader, handler))
-
-    @staticmethod
-    def _scope_nodes(nodes: Iterable[str] | None) -> frozenset[str]:
-        if not nodes:
-            raise NotPermittedError("in secure mode a server is created with its node ids (nodes=...)")
-        return frozenset(canonical_node_id(n) for n in nodes)
+            reader = self._transport.reader(
+                self._request_topic(name), self._qos.reader(name), self._where.nodes
+            )
+            self._dispatcher.add(reader, self._transport.guard(reader, handler))
 
     def _request_topic(self, name: str) -> Any:
         return filtered_topic(self._dp, name, wire.TOPICS[name], self._filter)
@@ -200,17 +178,11 @@ class ParameterServer:
     def add_node(self, table: ParameterTable) -> None:
         """Host ``table``: publish its state and presence and serve its requests."""
         node_id = table.node_id
-        if self._scoped is not None and node_id not in self._scoped:
-            raise NotPermittedError(
-                f"node {node_id!r} is not among the node ids this secure server was created with"
-            )
+        self._where.admit(node_id)
         if node_id in self._tables:
             raise ParamddsError(f"node {node_id!r} is already hosted by this server")
-        worker = NodeWorker(self, table)
-        self._incarnations[node_id] = new_incarnation()
-        for name, value, descriptor in table.snapshot():
-            self._write_state(table, name, value, descriptor, table.revision)
-        self._write_presence(table)
+        worker = NodeWorker(self.persistence, self.publication, table)
+        self.publication.begin(table)
         with self._hosting:  # against _on_assignment: no assignment falls between the two
             self._workers[node_id] = worker
             self._tables[node_id] = table
@@ -226,9 +198,7 @@ class ParameterServer:
             worker = self._workers.pop(node_id)
             self._refilter()
         worker.close(timeout=2.0)
-        for name in [*table.names(), ""]:
-            unregister_serialized(self._state_writer, encode_key(node_id, name))
-        self._incarnations.pop(node_id, None)
+        self.publication.end(node_id, table.names())
 
     def forget(self, node_id: str, names: Sequence[str]) -> None:
         """Dispose the state of ``names``, which hosted ``node_id`` no longer has: for a node
@@ -238,7 +208,7 @@ class ParameterServer:
             return
         for name in names:
             if name and not self._tables[node_id].has(name):
-                self._state_writer.dispose(wire.ParameterEvent(node_id=node_id, name=name))
+                self.publication.dispose(node_id, name)
 
     @property
     def nodes(self) -> dict[str, ParameterTable]:
@@ -246,7 +216,7 @@ class ParameterServer:
 
     def incarnation(self, node_id: str) -> int:
         """The incarnation of a node hosted here (0 for one that is not)."""
-        return self._incarnations.get(node_id, 0)
+        return self.publication.incarnation(node_id)
 
     def _refilter(self) -> None:
         """The filters accept the nodes hosted now; before :meth:`start` nothing is served,
@@ -264,11 +234,13 @@ class ParameterServer:
         # not filtered: assignments for nodes not hosted yet are kept for when they are added
         topic = Topic(self._dp, "SetParametersRequest", wire.SetParametersRequest)
         reader = DataReader(self._sub, topic, self._qos.assignment_reader())
-        self._dispatcher.add(reader, guard_samples(self._scope, reader, self._on_assignment))
+        self._dispatcher.add(reader, self._transport.guard(reader, self._on_assignment))
         if self._twins.native:  # other processes' presence of our nodes, and nothing else
             twins = filtered_topic(self._dp, "ParameterEvents", wire.ParameterEvent, self._twins)
             reader = DataReader(self._sub, twins, self._twin_qos())
-            self._dispatcher.add_raw(reader, _decode_presence, guard_raw(self._scope, reader, self._on_twins))
+            self._dispatcher.add_raw(
+                reader, _decode_presence, self._transport.guard_raw(reader, self._on_twins)
+            )
         self._last_tick = time.monotonic()
         self._dispatcher.start()
         if not self._twins.native:  # without the filter, following presence would cost every change
@@ -300,12 +272,16 @@ class ParameterServer:
                 twin = self._twin_of.pop(sample.node_id, None)
                 if twin is not None and info.instance_state != InstanceState.Alive:
                     self._presence_again(worker, gone_tag(*twin))
-            elif (sample.host, sample.pid) != (self._host, self._pid):
+            elif (sample.host, sample.pid) != (self.publication.host, self.publication.pid):
                 self._twin_of[sample.node_id] = (sample.host, sample.pid)
                 self._warn_twin(sample.node_id, sample.host, sample.pid)
 
     def _warn_twin(self, node: str, host: str, pid: int) -> None:
-        if (host, pid) == (self._host, self._pid) or (node, host, pid) in self._twins_seen:
+        if (host, pid) == (self.publication.host, self.publication.pid) or (
+            node,
+            host,
+            pid,
+        ) in self._twins_seen:
             return
         self._twins_seen.add((node, host, pid))
         log.warning(
@@ -367,7 +343,7 @@ class ParameterServer:
 
     def _tick(self) -> None:
         """From the dispatch loop: we are alive; a node whose worker is stuck is not."""
-        assert_liveliness(self._state_writer)
+        self.publication.assert_alive()
         now = time.monotonic()
         late, self._last_tick = now - self._last_tick, now
         # a gap near the lease may already have let a monitor's lease run out (it starts on
@@ -384,7 +360,7 @@ class ParameterServer:
                     node,
                     LEASE,
                 )
-                self._state_writer.unregister_instance(wire.ParameterEvent(node_id=node, name=""))
+                self.publication.offline(node)
 
     def _present_again(self, late: float) -> None:
         """After the whole loop stalled near or past the lease: write every node's presence again.
@@ -402,82 +378,9 @@ class ParameterServer:
     def _presence_again(self, worker: NodeWorker, *tags: str) -> None:
         """Write a node's presence again: now when its worker is idle, else after its jobs."""
         if worker.idle():
-            self._write_presence(worker.table, *tags)
+            self.publication.write_presence(worker.table, *tags)
         else:
-            worker.submit(partial(self._write_presence, worker.table, *tags))
-
-    # -- state publication ---------------------------------------------------------
-
-    def _write_state(
-        self, table: ParameterTable, name: str, value: Any, descriptor: Any, revision: int
-    ) -> None:
-        """Publish one parameter's state; the common shape is encoded without a wire object."""
-        sec, nanosec = divmod(time.time_ns(), 1_000_000_000)
-        incarnation = self.incarnation(table.node_id)
-        data = encode_state(table.node_id, name, revision, sec, nanosec, value, descriptor, incarnation)
-        if data is not None:
-            write_serialized(self._state_writer, data)
-            return
-        self._state_writer.write(
-            wire.ParameterEvent(
-                node_id=table.node_id,
-                name=name,
-                kind=wire.EVENT_PARAMETER,
-                revision=revision,
-                stamp=wire.Time(sec, nanosec),
-                value=value_to_wire(value),
-                descriptor=state_descriptor_to_wire(descriptor, value),
-                incarnation=incarnation,
-            )
-        )
-
-    def _write_presence(self, table: ParameterTable, *tags: str) -> None:
-        """The node's presence sample; ``tags`` are said once, beside the server's own."""
-        value = self._presence_tags
-        if tags:
-            value = wire.ParameterValue(
-                type=value.type, string_array_value=[*value.string_array_value, *tags]
-            )
-        self._state_writer.write(
-            wire.ParameterEvent(
-                node_id=table.node_id,
-                name="",
-                kind=wire.EVENT_PRESENCE,
-                revision=table.revision,
-                stamp=now_stamp(),
-                host=self._host,
-                pid=self._pid,
-                parameter_count=len(table),
-                value=value,
-                incarnation=self.incarnation(table.node_id),
-            )
-        )
-
-    def _publish(self, table: ParameterTable, changes: Sequence[ChangeSet]) -> None:
-        if table.node_id not in self._tables:
-            return
-        try:
-            for change in changes:
-                for item in change.changes:
-                    if item.kind is ChangeKind.DELETED:
-                        self._state_writer.dispose(
-                            wire.ParameterEvent(node_id=change.node_id, name=item.name)
-                        )
-                    else:
-                        self._write_state(table, item.name, item.value, item.descriptor, change.revision)
-            self._write_presence(table)
-        except Exception as exc:  # a local DDS failure: the table is right, the events are late
-            self._log_once("publish", "could not publish the state of %s: %s", table.node_id, exc)
-
-    def _persist(self, table: ParameterTable, changes: Sequence[ChangeSet]) -> str:
-        """Run the persisters; what failed ("" when every one succeeded)."""
-        for persist in self.persisters if changes else []:
-            try:
-                persist(table, changes)
-            except Exception as exc:
-                log.exception("persisting %s at revision %d failed", table.node_id, changes[-1].revision)
-                return str(exc) or type(exc).__name__
-        return ""
+            worker.submit(partial(self.publication.write_presence, worker.table, *tags))
 
     # -- requests -------------------------------------------------------------------
 
@@ -553,7 +456,7 @@ class ParameterServer:
             response.code, response.reason = ErrorCode.INTERNAL.value, f"internal error: {exc}"
             response.revision = table.revision
         changes = worker.take_pending()
-        failure = self._persist(table, changes)
+        failure = self.persistence.persist(table, changes)
         if failure:
             response.results = [_not_persisted(r, changes[-1].revision, failure) for r in response.results]
         if reply:
@@ -562,15 +465,10 @@ class ParameterServer:
         elif not all(r.successful for r in response.results) or response.code:
             log.warning("assignment for %s partly refused: %s", table.node_id, _summary(response))
         if changes:
-            self._publish(table, changes)
+            self.publication.publish(table, changes)
 
     def _apply_set(self, table: ParameterTable, request: Any) -> tuple[list[Any], int]:
-        count = len(request.parameters)
-        if count > MAX_PARAMETERS_PER_REQUEST:
-            raise ParamddsError(
-                f"a set of {count} parameters exceeds the limit of {MAX_PARAMETERS_PER_REQUEST}",
-                code=ErrorCode.TOO_LARGE,
-            )
+        check_request_size(len(request.parameters))
         params: list[Parameter | None] = []
         bad: dict[int, SetResult] = {}
         for i, p in enumerate(request.parameters):
@@ -712,11 +610,7 @@ Fill = Callable[[ParameterTable, Any, Any], None]
 
 
 def _fill_get(table: ParameterTable, request: Any, response: Any) -> None:
-    if len(request.names) > MAX_PARAMETERS_PER_REQUEST:
-        raise ParamddsError(
-            f"a get of {len(request.names)} names exceeds the limit of {MAX_PARAMETERS_PER_REQUEST}",
-            code=ErrorCode.TOO_LARGE,
-        )
+    check_request_size(len(request.names), "get")
     results = table.get_many(list(request.names), with_descriptors=request.with_descriptors)
     response.results = [
         wire.GetParameterResult(

@@ -25,13 +25,15 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from cyclonedds.domain import DomainParticipant
+
 from ..core.names import canonical_node_id
 from ..dds.client import ParameterClient
 from ..dds.filters import origin_tag
 from ..dds.qos import QosProfiles
 from ..dds.server import ParameterServer
+from ..dds.transport import SecureTransport, transport_of
 from ..errors import NotPermittedError, ParamddsError
-from ..secure.scope import scope_of
 from .mirror import Mirror
 from .rosside import ENCLAVE, RosSide
 
@@ -69,8 +71,10 @@ def matches(fqn: str, include: Sequence[str], exclude: Sequence[str]) -> bool:
 class Bridge:
     """Mirror ROS 2 nodes on paramdds and expose paramdds nodes to ROS 2 until :meth:`close`."""
 
-    def __init__(self, participant: Any, qos: QosProfiles | None, options: BridgeOptions) -> None:
-        if scope_of(participant) is not None:  # before anything starts (rclpy included)
+    def __init__(
+        self, participant: DomainParticipant, qos: QosProfiles | None, options: BridgeOptions
+    ) -> None:
+        if isinstance(transport_of(participant), SecureTransport):  # before anything starts (rclpy included)
             raise NotPermittedError(SECURE_REFUSED)
         self.options = options
         self._qos = qos or QosProfiles.load()

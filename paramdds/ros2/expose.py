@@ -16,6 +16,8 @@ import threading
 from dataclasses import dataclass
 from typing import Any
 
+from cyclonedds.domain import DomainParticipant
+
 from ..core.descriptors import ParameterDescriptor
 from ..core.values import Parameter
 from ..dds.client import ParameterClient
@@ -38,7 +40,9 @@ class Exposed:
 class Exposer:
     """Serves the ROS 2 parameter services of the paramdds nodes :meth:`update` is given."""
 
-    def __init__(self, ros: RosSide, participant: Any, qos: QosProfiles, timeout: float) -> None:
+    def __init__(
+        self, ros: RosSide, participant: DomainParticipant, qos: QosProfiles, timeout: float
+    ) -> None:
         from rcl_interfaces.msg import ParameterEvent
         from rclpy.qos import qos_profile_parameter_events
 

@@ -26,7 +26,6 @@ from typing import Any
 
 from ..core.descriptors import ParameterDescriptor
 from ..core.fit import fit_value
-from ..core.limits import MAX_PARAMETERS_PER_REQUEST
 from ..core.names import canonical_node_id, is_valid_name
 from ..core.results import SetOutcome, SetResult
 from ..core.table import ParameterTable
@@ -149,14 +148,11 @@ class MirrorTable(ParameterTable):
     def _forward(
         self, params: Sequence[Parameter], expected_revision: int | None, atomic: bool
     ) -> SetOutcome:
-        request = self._request(params)
+        request, refused = self.screen(params)
         if expected_revision is not None:
             raise ParamddsError(CAS_REFUSED, code=ErrorCode.INVALID_VALUE)
-        if len(request) > MAX_PARAMETERS_PER_REQUEST:
-            raise ParamddsError(
-                f"a set of {len(request)} parameters exceeds the limit of {MAX_PARAMETERS_PER_REQUEST}",
-                code=ErrorCode.TOO_LARGE,
-            )
+        if refused is not None:  # too many parameters: refused as the table refuses it
+            return refused
         results: list[SetResult | None] = [None] * len(request)
         send: list[tuple[int, Parameter]] = []
         for i, p in enumerate(request):
@@ -186,8 +182,7 @@ class MirrorTable(ParameterTable):
     def _widened(self, p: Parameter) -> Parameter:
         """paramdds widens an integer to a double; ROS 2 refuses it: type the value as every
         front end does (core.fit) before forwarding; what does not fit, the node refuses."""
-        with self._lock:
-            current = self._params.get(p.name)
+        current = self.entry(p.name)
         value = p.value if isinstance(p.value, ParameterValue) else ParameterValue.from_python(p.value)
         with contextlib.suppress(ParamddsError):
             value = fit_value(p.name, value, current[1] if current is not None else None)
@@ -197,8 +192,7 @@ class MirrorTable(ParameterTable):
         """What the table holds once the node accepted ``p`` (None: deleted)."""
         value = p.value
         assert isinstance(value, ParameterValue)
-        with self._lock:
-            current = self._params.get(p.name)
+        current = self.entry(p.name)
         if value.type is ParameterType.NOT_SET:
             return None
         if current is None:
@@ -210,12 +204,13 @@ class MirrorTable(ParameterTable):
 
     def apply_event(self, new: Sequence[Any], changed: Sequence[Any], deleted: Sequence[Any]) -> list[str]:
         """Commit one ``/parameter_events`` message; the names that still need a descriptor."""
-        entries: dict[str, Entry | None] = {}
         fresh: list[str] = []
-        with self._lock:
+
+        def merged(held: Mapping[str, Entry]) -> dict[str, Entry | None]:
+            entries: dict[str, Entry | None] = {}
             for p in [*new, *changed]:
                 value = value_from_ros(p.value)
-                current = self._params.get(p.name)
+                current = held.get(p.name)
                 if current is None:
                     entries[p.name] = (value, ParameterDescriptor(p.name, value.type))
                     fresh.append(p.name)
@@ -226,14 +221,14 @@ class MirrorTable(ParameterTable):
                 entries[p.name] = (value, desc)
             for p in deleted:
                 entries[p.name] = None
-            self.mirror(entries)
+            return entries
+
+        self.mirror_from(merged)
         return fresh
 
     def resync(self, entries: Mapping[str, Entry]) -> None:
         """Make the table hold exactly ``entries`` (a fresh fetch of the node)."""
-        with self._lock:
-            gone: dict[str, Entry | None] = {n: None for n in self._params if n not in entries}
-            self.mirror({**entries, **gone})
+        self.mirror_from(lambda held: {**entries, **{n: None for n in held if n not in entries}})
 
 
 def _all_failed(request: Sequence[object], results: Sequence[SetResult | None]) -> list[SetResult]:

@@ -3,7 +3,7 @@
 :func:`load_identity` reads ``DIR/paramdds.json`` (name, role, node globs, written by
 :mod:`.keystore`) and checks the files DDS needs are there; :meth:`Identity.security_xml`
 is the Cyclone ``<Security>`` element for them. The grants in ``paramdds.json`` only
-choose which partitions this process reads (:mod:`.scope`); what it may do is decided
+choose which partitions this process reads (:mod:`paramdds.dds.transport`); what it may do is decided
 by DDS from the signed ``permissions.p7s``, on this side and on every peer.
 """
 
@@ -16,7 +16,7 @@ from fnmatch import fnmatchcase
 from pathlib import Path
 
 from ..errors import ErrorCode, ParamddsError
-from .keystore import GOVERNANCE_MAX_DOMAIN, META, ROLES
+from .roles import GOVERNANCE_MAX_DOMAIN, META, ROLES
 
 __all__ = ["IDENTITY_ENV", "Identity", "identity_from_env", "load_identity", "require_secure_library"]
 
@@ -54,6 +54,13 @@ class Identity:
             f"<Permissions>{uri('permissions.p7s')}</Permissions>"
             "</AccessControl></Security>"
         )
+
+    def security_config(self, domain_id: int) -> str:
+        """For :func:`paramdds.dds.participant.make_participant`: check the domain id and the
+        library (a secure Cyclone build), then the ``<Security>`` element."""
+        check_domain(domain_id)
+        require_secure_library()
+        return self.security_xml()
 
     def covers(self, node: str) -> bool:
         """Whether ``node`` matches one of the granted globs (DDS decides; this words errors)."""

@@ -22,7 +22,7 @@ ENCRYPT); whole RTPS messages are signed (``rtps_protection_kind`` SIGN). These 
 defaults SROS2 generates for ROS 2.
 
 Roles (each grant lists the node-id globs an identity is given; partitions carry node
-ids, see :mod:`.scope`):
+ids, see :mod:`paramdds.dds.transport`):
 
 ========  ==========================================================================
 server    publish state and replies, read requests (and state), for its globs
@@ -40,11 +40,11 @@ import os
 import re
 import shutil
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 from xml.sax.saxutils import escape
 
-if TYPE_CHECKING:
-    from .identity import Identity
+from .identity import Identity
+from .roles import GOVERNANCE_MAX_DOMAIN, META, ROLES
 
 __all__ = [
     "GOVERNANCE_MAX_DOMAIN",
@@ -55,22 +55,9 @@ __all__ = [
     "permissions_xml",
 ]
 
-GOVERNANCE_MAX_DOMAIN = 230  # Cyclone refuses a governance with domain ids above 230
-STATE = "ParameterEvents"
-REQUESTS = {"set": "SetParametersRequest", "get": "GetParametersRequest", "list": "ListParametersRequest"}
-REPLIES = {"set": "SetParametersResponse", "get": "GetParametersResponse", "list": "ListParametersResponse"}
-
-# role -> (topics published, topics subscribed)
-ROLES: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
-    "server": ((STATE, *REPLIES.values()), (*REQUESTS.values(), STATE)),
-    "operator": (tuple(REQUESTS.values()), (*REPLIES.values(), STATE)),
-    "viewer": ((REQUESTS["get"], REQUESTS["list"]), (REPLIES["get"], REPLIES["list"], STATE)),
-    "admin": ((STATE, *REQUESTS.values(), *REPLIES.values()), (STATE, *REQUESTS.values(), *REPLIES.values())),
-}
 _NAME = re.compile(r"[A-Za-z0-9_.-]{1,64}")
 _GLOB = re.compile(r"[A-Za-z0-9_/*?]{1,255}")
 _ORG = "paramdds"
-META = "paramdds.json"
 
 
 class KeystoreError(Exception):
@@ -272,7 +259,6 @@ def check_globs(globs: list[str]) -> tuple[str, ...]:
 
 def add_identity(root: Path, name: str, role: str, globs: list[str], *, days: int = 825) -> Identity:
     """Issue identity ``name`` with ``role`` for the node ids matching ``globs`` (replaces one)."""
-    from .identity import Identity  # it imports this module
     if not _NAME.fullmatch(name):
         raise KeystoreError(f"identity name {name!r}: use 1-64 letters, digits, '_', '.', '-'")
     if role not in ROLES:

@@ -79,7 +79,7 @@ class DdsSession:
     def close(self) -> None:
         while self._closers:
             self._closers.pop().close()
-        domains = {id(d): d for d in (getattr(p, "_paramdds_domain", None) for p in self._participants) if d}
+        domains = {id(d): d for d in (getattr(p, "domain", None) for p in self._participants) if d}
         for dp in self._participants:
             close_participant(dp)  # deletes the participant and every entity in it now, not at gc
         for domain in domains.values():

@@ -360,7 +360,7 @@ def test_a_lazy_client_is_sent_no_state_until_a_call_needs_presence(dds: DdsSess
     server = dds.server(table)
 
     def state_readers() -> int:
-        return len(matched_subscriptions(server._state_writer))
+        return len(matched_subscriptions(server.publication.writer))
 
     lazy = dds.client(timeout=5.0, lazy_presence=True)
     assert lazy.get_value("lazy", "p7").value == 7

@@ -89,7 +89,7 @@ dp = make_participant(int(sys.argv[2]), localhost=True, identity=load_identity(s
 qos = QosProfiles.load()
 # robot1 is granted: a writer in its partition is allowed, and it names other nodes
 topic = Topic(dp, "ParameterEvents", wire.ParameterEvent)
-writer = DataWriter(dp._paramdds_scope.publisher(["robot1"]), topic, qos.writer("ParameterEvents"))
+writer = DataWriter(dp.transport.publisher(["robot1"]), topic, qos.writer("ParameterEvents"))
 value = wire.ParameterValue(type=4, string_value="rogue-value")
 for _ in range(20):
     writer.write(wire.ParameterEvent(node_id="robot2", name="robot.name", kind=wire.EVENT_PARAMETER,
@@ -180,7 +180,7 @@ from paramdds.dds.wire.convert import parameter_to_wire
 from paramdds.core.values import Parameter, ParameterValue
 
 dp = make_participant(int(sys.argv[2]), localhost=True, identity=load_identity(sys.argv[1]))
-writer = dp._paramdds_scope.writer("SetParametersRequest", "robot3", None)  # granted: robot3
+writer = dp.transport.writer("SetParametersRequest", "robot3", None)  # granted: robot3
 for request_id, node in enumerate(["robot4", "robot3"] * 10, start=1):
     param = parameter_to_wire(Parameter("robot.mode", ParameterValue.from_python("via-robot3")))
     request = wire.SetParametersRequest(node_id=node, client_id=7, request_id=request_id, parameters=[param])

@@ -1,0 +1,184 @@
+"""The server's parts a node's commit path calls: persistence hooks, and state and presence.
+
+:class:`~.node_worker.NodeWorker` (one per hosted node) talks to these through their
+public methods (the :class:`~.node_worker.Persists` and :class:`~.node_worker.Publishes`
+protocols), never to the server:
+
+* :class:`Persistence` runs the ``persisters`` (``--persist``'s journal) on a node's
+  changes, after the commit and before the reply; a failure is reported, not raised.
+* :class:`StatePublication` owns the ``ParameterEvents`` writer of one server: each
+  parameter's state keyed by (node_id, name) (a change writes, a delete disposes), each
+  node's presence instance (name ``""``: host, pid, revision, count, tags), the
+  incarnation drawn for each node it starts publishing, and the writer's
+  MANUAL_BY_TOPIC liveliness (asserted by the server's dispatch loop).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import secrets
+import socket
+import time
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from ..core.results import ChangeKind, ChangeSet
+from ..core.table import ParameterTable
+from ._binding import assert_liveliness, unregister_serialized, write_serialized
+from .wire import types as wire
+from .wire.convert import state_descriptor_to_wire, value_to_wire
+from .wire.state import encode_key, encode_state
+
+__all__ = ["Persistence", "Persister", "StatePublication", "new_incarnation", "now_stamp"]
+
+log = logging.getLogger(__name__)
+
+# persist the changes of one node (called on its worker, before the reply); raising means
+# the changes are applied but not persisted (NOT_PERSISTED)
+Persister = Callable[[ParameterTable, Sequence[ChangeSet]], None]
+
+
+def new_incarnation() -> int:
+    """A random non-zero 64-bit incarnation (0 means "none" on the wire)."""
+    return secrets.randbits(64) or 1
+
+
+def now_stamp() -> wire.Time:
+    ns = time.time_ns()
+    return wire.Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+
+
+class Persistence:
+    """The persistence hooks of one server: ``persisters``, run on every node's changes."""
+
+    def __init__(self) -> None:
+        self.persisters: list[Persister] = []
+
+    def persist(self, table: ParameterTable, changes: Sequence[ChangeSet]) -> str:
+        """Run the persisters; what failed ("" when every one succeeded)."""
+        for persist in self.persisters if changes else []:
+            try:
+                persist(table, changes)
+            except Exception as exc:
+                log.exception("persisting %s at revision %d failed", table.node_id, changes[-1].revision)
+                return str(exc) or type(exc).__name__
+        return ""
+
+
+class StatePublication:
+    """State and presence of the nodes one server hosts, on its ``ParameterEvents`` writer.
+
+    ``hosted(node_id)`` says whether the server still hosts a node: changes of a node it
+    stopped hosting are not published. ``tags`` is the presence value (a string array).
+    """
+
+    def __init__(self, writer: Any, tags: Any, hosted: Callable[[str], bool]) -> None:
+        self.writer = writer
+        self.host = socket.gethostname()
+        self.pid = os.getpid()
+        self._tags = tags
+        self._hosted = hosted
+        self._incarnations: dict[str, int] = {}  # node -> its incarnation here
+        self._logged = False
+
+    # -- incarnations ---------------------------------------------------------------
+
+    def begin(self, table: ParameterTable) -> None:
+        """Start publishing ``table``'s node: a new incarnation, its state and its presence."""
+        self._incarnations[table.node_id] = new_incarnation()
+        for name, value, descriptor in table.snapshot():
+            self.write_state(table, name, value, descriptor, table.revision)
+        self.write_presence(table)
+
+    def end(self, node_id: str, names: Sequence[str]) -> None:
+        """Stop publishing: unregister the node's instances (readers see "no writers")."""
+        for name in [*names, ""]:
+            unregister_serialized(self.writer, encode_key(node_id, name))
+        self._incarnations.pop(node_id, None)
+
+    def incarnation(self, node_id: str) -> int:
+        """The incarnation of a node published here (0 for one that is not)."""
+        return self._incarnations.get(node_id, 0)
+
+    # -- samples --------------------------------------------------------------------
+
+    def write_state(
+        self, table: ParameterTable, name: str, value: Any, descriptor: Any, revision: int
+    ) -> None:
+        """Publish one parameter's state; the common shape is encoded without a wire object."""
+        sec, nanosec = divmod(time.time_ns(), 1_000_000_000)
+        incarnation = self.incarnation(table.node_id)
+        data = encode_state(table.node_id, name, revision, sec, nanosec, value, descriptor, incarnation)
+        if data is not None:
+            write_serialized(self.writer, data)
+            return
+        self.writer.write(
+            wire.ParameterEvent(
+                node_id=table.node_id,
+                name=name,
+                kind=wire.EVENT_PARAMETER,
+                revision=revision,
+                stamp=wire.Time(sec, nanosec),
+                value=value_to_wire(value),
+                descriptor=state_descriptor_to_wire(descriptor, value),
+                incarnation=incarnation,
+            )
+        )
+
+    def write_presence(self, table: ParameterTable, *tags: str) -> None:
+        """The node's presence sample; ``tags`` are said once, beside the server's own."""
+        value = self._tags
+        if tags:
+            value = wire.ParameterValue(
+                type=value.type, string_array_value=[*value.string_array_value, *tags]
+            )
+        self.writer.write(
+            wire.ParameterEvent(
+                node_id=table.node_id,
+                name="",
+                kind=wire.EVENT_PRESENCE,
+                revision=table.revision,
+                stamp=now_stamp(),
+                host=self.host,
+                pid=self.pid,
+                parameter_count=len(table),
+                value=value,
+                incarnation=self.incarnation(table.node_id),
+            )
+        )
+
+    def publish(self, table: ParameterTable, changes: Sequence[ChangeSet]) -> None:
+        """Publish committed changes of a hosted node, then its presence (a local DDS failure is
+        logged once: the table is right, the events are late)."""
+        if not self._hosted(table.node_id):
+            return
+        try:
+            for change in changes:
+                for item in change.changes:
+                    if item.kind is ChangeKind.DELETED:
+                        self.dispose(change.node_id, item.name)
+                    else:
+                        self.write_state(table, item.name, item.value, item.descriptor, change.revision)
+            self.write_presence(table)
+        except Exception as exc:
+            if not self._logged:  # once: a faulty peer or a closing participant cannot flood the log
+                self._logged = True
+                log.warning(
+                    "could not publish the state of %s: %s (further ones are not logged)", table.node_id, exc
+                )
+
+    def dispose(self, node_id: str, name: str) -> None:
+        """A deleted parameter: dispose its instance."""
+        self.writer.dispose(wire.ParameterEvent(node_id=node_id, name=name))
+
+    # -- liveliness -----------------------------------------------------------------
+
+    def assert_alive(self) -> None:
+        """The writer's MANUAL_BY_TOPIC liveliness: this server's loop runs."""
+        assert_liveliness(self.writer)
+
+    def offline(self, node_id: str) -> None:
+        """Unregister a node's presence (its worker is stalled): monitors show it offline
+        until its next presence sample."""
+        self.writer.unregister_instance(wire.ParameterEvent(node_id=node_id, name=""))
