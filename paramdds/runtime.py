@@ -2,8 +2,10 @@
 
 Sources, lowest precedence first (each later one overrides the values before it):
 
-1. the spec's defaults (``--spec``, a generate_parameter_library file): it
-   declares the parameters, with their descriptors and validators;
+1. the spec's defaults (``--spec``, a generate_parameter_library file, or
+   ``--schema``, a JSON Schema as Autoware writes them): it declares the parameters,
+   with their descriptors and validators (a schema also checks the whole node on
+   every change, see :mod:`paramdds.core.yaml.schema`);
 2. the parameter files (``--params-file``), in order: a file with a top-level
    ``parameters:`` list is in the seed format and applies to every hosted node;
    any other file is a ROS 2 parameter file and only the sections matching the
@@ -48,9 +50,16 @@ def _load_spec(path: str, strict: bool = False) -> Any:
     return yaml_spec.load_spec(path, strict=strict)
 
 
-def _declare_spec(table: ParameterTable, spec: Any) -> None:
+def _declare_spec(
+    table: ParameterTable, spec: Any, values: Mapping[str, ParameterValue], options: ServerOptions
+) -> None:
+    from .core.yaml import schema as yaml_schema
     from .core.yaml import spec as yaml_spec
 
+    if isinstance(spec, yaml_schema.NodeSchema):  # --schema: a JSON Schema declares the node
+        for note in yaml_schema.declare_schema(table, spec, values, lenient=options.lenient):
+            log.warning("%s: %s", options.schema, note)
+        return
     yaml_spec.declare_spec(table, spec)
 
 
@@ -63,6 +72,8 @@ class ServerOptions:
     params_files: list[str] = field(default_factory=list)
     spec: str | None = None
     strict_spec: bool = False  # refuse a spec naming a custom validator nobody registered
+    schema: str | None = None  # a JSON Schema (Autoware's) declaring the parameters, instead of a spec
+    lenient: bool = False  # --schema: unknown keywords warn; file values it refuses are left out
     persist: str | None = None
     allow_undeclared: bool = False
     strict_types: bool = False
@@ -114,7 +125,7 @@ def build_table(
     )
     gone = set(sources.deleted) if with_persisted else set()
     if spec is not None:
-        _declare_spec(table, spec)
+        _declare_spec(table, spec, values, options)
         for name in sorted(gone & set(table.names())):
             try:
                 table.undeclare(name)  # deleted at runtime: the spec allowed it then
@@ -128,7 +139,7 @@ def build_table(
                 "%s: %r is not declared by the spec %s; skipped (use --allow-undeclared)",
                 origin[name],
                 name,
-                options.spec,
+                options.spec or options.schema,
             )
             continue
         try:
@@ -165,6 +176,10 @@ def prepare(options: ServerOptions) -> tuple[dict[str, ParameterTable], list[str
     Returns the tables, the ``[SERVER] Loaded ...`` lines and the persistence store.
     """
     spec = _load_spec(options.spec, options.strict_spec) if options.spec else None
+    if options.schema:
+        from .core.yaml.schema import load_schema
+
+        spec = load_schema(options.schema, lenient=options.lenient)
     store = persist_store(options.persist) if options.persist else None
     if store is not None:
         store.check_writable()

@@ -60,6 +60,16 @@ declared with a type and no value. It is listed and described, ``get_many``
 reports its value as NOT_SET, ``get`` raises until it is set, and only a value
 of its type sets it.
 
+Whole-node validator: :meth:`ParameterTable.set_node_validator` installs one function
+that sees the node as a request would leave it (every value, after step 3, before the
+on-set callbacks) and the names the request touches with their values before it (None:
+absent), and returns ``(name, reason)`` to refuse it (``name`` is the parameter at
+fault, ``""`` for all of them) or None.
+It runs for every unit of a set (so per parameter for :meth:`ParameterTable.set`, once
+for an atomic set), for declarations and for undeclare; a refusal is INVALID_VALUE.
+A JSON Schema uses it (:mod:`.yaml.schema`): checks such as ``required`` or
+``oneOf`` concern several parameters at once.
+
 Threads: every request runs under one re-entrant lock, so it is applied atomically
 with respect to other threads; reads take the same lock. Callbacks and listeners
 run under it too, so keep them short.
@@ -110,6 +120,11 @@ PreSetCallback = Callable[[list[Parameter]], list[Parameter]]
 OnSetCallback = Callable[[list[Parameter]], SetVeto]
 PostSetCallback = Callable[[list[Parameter]], None]
 ChangeListener = Callable[[ChangeSet], None]
+# (the node's values as the request would leave them, {touched name: its value before or None})
+#   -> (name at fault, reason) or None
+NodeValidator = Callable[
+    [Mapping[str, ParameterValue], Mapping[str, "ParameterValue | None"]], "tuple[str, str] | None"
+]
 
 _Entry = tuple[ParameterValue, ParameterDescriptor]
 
@@ -158,6 +173,27 @@ class _Stage:
     def keep(self) -> None:
         assert self.parent is not None
         self.parent.pending.update(self.pending)
+
+    def before(self, name: str) -> ParameterValue | None:
+        """The value of ``name`` without this stage's own writes (None: absent)."""
+        entry = self.parent.get(name) if self.parent is not None else self.base.get(name)
+        return None if entry is None else entry[0]
+
+    def values(self) -> dict[str, ParameterValue]:
+        """Every value as this stage would leave the table."""
+        layers = []
+        stage: _Stage | None = self
+        while stage is not None:
+            layers.append(stage.pending)
+            stage = stage.parent
+        out = {name: entry[0] for name, entry in self.base.items()}
+        for pending in reversed(layers):
+            for name, entry in pending.items():
+                if entry is None:
+                    out.pop(name, None)
+                else:
+                    out[name] = entry[0]
+        return out
 
 
 # Aliases: inside ParameterTable, ``list`` names the method.
@@ -224,6 +260,7 @@ class ParameterTable:
         self._listeners: list[_Handle] = []
         self._hooks: list[_Handle] = []
         self._in_hooks = False
+        self._node_validator: NodeValidator | None = None
         self._overrides: dict[str, ParameterValue] = {}
         for name, value in (overrides or {}).items():
             v = value if isinstance(value, ParameterValue) else ParameterValue.from_python(value)
@@ -444,6 +481,7 @@ class ParameterTable:
     def _commit_declared(self, stage: _Stage) -> None:
         params = [Parameter(n, e[0]) for n, e in stage.pending.items() if e is not None]
         try:
+            self._check_node(stage, [p.name for p in params])
             self._run_on_set(params)
         except _UnitFailed as failed:
             raise failed.error from None
@@ -463,6 +501,10 @@ class ParameterTable:
                 )
             stage = _Stage(self._params)
             stage.pending[name] = None
+            try:
+                self._check_node(stage, [name])
+            except _UnitFailed as failed:
+                raise failed.error from None
             self._commit(stage, [], post_set=False)
 
     def mirror(self, entries: Mapping[str, _Entry | None]) -> ChangeSet | None:
@@ -605,7 +647,17 @@ class ParameterTable:
                 raise _UnitFailed(_name_of(p), exc) from None
             stage.pending[name] = entry
             planned.append(Parameter(name, entry[0] if entry is not None else NOT_SET))
+        self._check_node(stage, [p.name for p in planned])
         return planned, self._run_on_set(planned)
+
+    def _check_node(self, stage: _Stage, names: Sequence[str]) -> None:
+        """The whole-node validator (see the module doc) on the state ``stage`` would leave."""
+        if self._node_validator is None:
+            return
+        refusal = self._node_validator(stage.values(), {n: stage.before(n) for n in names})
+        if refusal is not None:
+            name, reason = refusal
+            raise _UnitFailed(name or None, InvalidValueError(reason))
 
     def _check_access(self, p: object, stage: _Stage) -> None:
         """rclcpp's first pass over a request (set_parameters_atomically): a name that is not
@@ -826,6 +878,12 @@ class ParameterTable:
             handle = _Handle("commit hook", fn)
             self._hooks.append(handle)
             return handle
+
+    def set_node_validator(self, fn: NodeValidator | None) -> None:
+        """Install (None: remove) the whole-node validator (see the module doc)."""
+        with self._lock:
+            self._guard("set the node validator")
+            self._node_validator = fn
 
     def remove_callback(self, handle: object) -> None:
         with self._lock:

@@ -43,7 +43,7 @@ from starlette.types import ASGIApp
 
 from ..core.names import validate_name
 from ..core.revision import Revision, incarnation_text
-from ..core.values import Parameter
+from ..core.values import NOT_SET, Parameter
 from ..errors import ErrorCode, FileFormatError, ParamddsError
 from .guard import LOOPBACK_NAMES, Guard, error_response
 from .hub import Hub, sse
@@ -74,6 +74,7 @@ class WebOptions:
     allowed_hosts: tuple[str, ...] = LOOPBACK_NAMES  # the Host names accepted (DNS rebinding)
     timeout: float = 5.0
     token_for_reads: bool = False  # a bind other machines reach: reads need the token as well
+    schemas: tuple[tuple[str, Any], ...] = ()  # --schema NODE=FILE: (node, NodeSchema) checked before a write
 
 
 # -- errors ------------------------------------------------------------------------------
@@ -318,14 +319,30 @@ class Console:
         if_revision = revision_field(body)
         detail = self._online(node)
         typed = typed_values(values, detail.parameters)
+        params, refused = self._precheck(node, detail, [Parameter(n, v) for n, v in typed.items()], atomic)
+        if not params:
+            return self._set_response(node, detail.summary.at, refused)
         reply = await self.client.set(
             node,
-            [Parameter(n, v) for n, v in typed.items()],
+            params,
             atomic=atomic,
             if_revision=if_revision,
             timeout=self.options.timeout,
         )
-        return self._set_response(node, reply.at, [result_row(r) for r in reply.results])
+        return self._set_response(
+            node, reply.at, _in_order(typed, [result_row(r) for r in reply.results] + refused)
+        )
+
+    def _precheck(
+        self, node: str, detail: NodeDetail, params: list[Parameter], atomic: bool
+    ) -> tuple[list[Parameter], list[Row]]:
+        """--schema NODE=FILE: what the node's schema lets through, and the rows of the rest."""
+        schema = dict(self.options.schemas).get(node)
+        if schema is None:
+            return params, []
+        from .schema_guard import precheck
+
+        return precheck(schema, detail.parameters, params, atomic)
 
     async def delete(self, request: Request) -> Response:
         """Delete parameters.
@@ -341,9 +358,15 @@ class Console:
             raise WebError(WebCode.BAD_REQUEST, "'names' must be a non-empty list of strings")
         for n in names:
             validate_name(n)
-        self._online(node)
-        reply = await self.client.delete(node, names, timeout=self.options.timeout)
-        return self._set_response(node, reply.at, [result_row(r) for r in reply.results])
+        detail = self._online(node)
+        asked = dict.fromkeys(names)
+        deletes, refused = self._precheck(node, detail, [Parameter(n, NOT_SET) for n in asked], False)
+        if not deletes:
+            return self._set_response(node, detail.summary.at, refused)
+        reply = await self.client.delete(node, [p.name for p in deletes], timeout=self.options.timeout)
+        return self._set_response(
+            node, reply.at, _in_order(asked, [result_row(r) for r in reply.results] + refused)
+        )
 
     async def load(self, request: Request) -> Response:
         """Set a node's parameters from the text of a parameter file.
@@ -378,6 +401,8 @@ class Console:
                 refused.append(
                     {"name": name, "successful": False, "reason": exc.message, "code": code_of(exc)}
                 )
+        sendable, unfit = self._precheck(node, detail, sendable, atomic)
+        refused += unfit
         if refused and atomic:
             return self._set_response(node, detail.summary.at, refused + unchanged)
         results: list[Row] = refused + unchanged
@@ -409,6 +434,11 @@ class Console:
                 body["summary"] = summary_json(detail.summary)
                 body["rows"] = self._rows(detail)
         return JSONResponse(body, status_code=status_of(code))
+
+
+def _in_order(requested: dict[str, Any], rows: list[Row]) -> list[Row]:
+    order = {name: i for i, name in enumerate(requested)}
+    return sorted(rows, key=lambda r: order.get(str(r["name"]), len(order)))
 
 
 def build_app(view: StateView, hub: Hub, client: Any, options: WebOptions) -> ASGIApp:

@@ -16,6 +16,7 @@ import ipaddress
 import json
 import socket
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 import h11
@@ -132,7 +133,26 @@ def options_from(args: argparse.Namespace, host: str) -> WebOptions:
         allowed_hosts=tuple(dict.fromkeys(h.lower() for h in allowed)),
         timeout=args.timeout,
         token_for_reads=not loopback,
+        schemas=_schemas(getattr(args, "schema", None) or ()),
     )
+
+
+def _schemas(given: Sequence[str]) -> tuple[tuple[str, object], ...]:
+    """``--schema NODE=FILE`` values, each schema loaded (a bad one: exit 2 naming it)."""
+    from ..core.names import canonical_node_id
+    from ..core.yaml.schema import load_schema
+    from ..errors import InvalidNameError
+
+    out = []
+    for text in given:
+        node, sep, path = text.partition("=")
+        if not sep or not node or not path:
+            raise UsageError(f"--schema takes NODE=FILE, got {text!r}")
+        try:
+            out.append((canonical_node_id(node), load_schema(path)))
+        except InvalidNameError as exc:
+            raise UsageError(f"--schema {text}: {exc.message}") from exc
+    return tuple(out)
 
 
 def served_names(host: str) -> tuple[str, ...]:

@@ -38,6 +38,8 @@ VERBS = (
     "keystore",
     "ros2",
     "bench",
+    "check",
+    "schema",
 )
 
 

@@ -20,6 +20,8 @@ SCENARIOS = {
     "fleet": "10 server processes x 1,000 nodes x 20 params: monitor synced, `paramdds get` vs an empty "
     "system, a server's CPU under foreign traffic (native filter vs handler), loopback bytes per request",
     "persist": "sets/s with --persist at 10 and 1,000 params vs without; restart from a 100k-change journal",
+    "schema": "a set on the node of the largest Autoware JSON Schema vs the equivalent spec node; "
+    "paramdds check --autoware on every realworld pair",
     "ros2": "real ROS 2 (rclpy from PyPI) vs paramdds at N = 10, 100, 300 real nodes: fresh state, "
     "fresh get, warm get/set, graph size, a host killed, the bridge (needs the ros2 extra)",
 }

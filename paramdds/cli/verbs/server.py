@@ -40,6 +40,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--spec", metavar="FILE", help="generate_parameter_library spec declaring the parameters")
     p.add_argument(
+        "--schema",
+        metavar="FILE",
+        help="JSON Schema (Autoware's FILE.schema.json) declaring the parameters and checking every change",
+    )
+    p.add_argument(
+        "--lenient",
+        action="store_true",
+        help="--schema: warn on unknown keywords; start without file values the schema refuses",
+    )
+    p.add_argument(
         "--validators",
         action="append",
         default=[],
@@ -65,7 +75,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     import sys
 
-    from ...frontend.exits import Exit
+    from ...frontend.exits import Exit, UsageError
     from ...frontend.session import Session
     from ...runtime import ServerOptions, ServerProcess, prepare
     from .._live import wait_until_interrupted
@@ -73,12 +83,16 @@ def run(args: argparse.Namespace) -> int:
 
     for module in args.validators:
         import_validators(module)
+    if args.spec and args.schema:
+        raise UsageError("--spec and --schema both declare the parameters: give one")
     names = [node_arg(n) for n in (args.node_names or [DEFAULT_NODE])]
     options = ServerOptions(
         node_names=list(dict.fromkeys(names)),
         params_files=list(args.params_files),
         spec=args.spec,
         strict_spec=args.strict_spec,
+        schema=args.schema,
+        lenient=args.lenient,
         persist=args.persist,
         allow_undeclared=args.allow_undeclared,
         strict_types=args.strict_types,

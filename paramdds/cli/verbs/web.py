@@ -27,6 +27,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="another name the console is reached under (checked against the Host header: "
         "a DNS alias or a proxy's name; the bind address is always allowed); repeatable",
     )
+    p.add_argument(
+        "--schema",
+        action="append",
+        metavar="NODE=FILE",
+        help="check writes to NODE against the JSON Schema FILE before sending them (the node checks too)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
