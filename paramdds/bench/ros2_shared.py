@@ -249,7 +249,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                 for i in range(args.starts):
                     if bridge is not None:
                         stop_bridge(bridge, monitor, nodes)
-                    took, bridge = bridge_start(env, nodes, monitor, glob=glob)
+                    took, bridge = bridge_start(env, nodes, monitor, glob=glob, timeout=args.start_timeout)
                     times.append(took)
                     print(f"start {i + 1}: {took if took is not None else 'INCOMPLETE'} s", file=sys.stderr)
                 for _ in range(args.tools):
@@ -285,6 +285,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--nodes", type=int, default=0, help="N synthetic nodes instead of a parameter file")
     ap.add_argument("--starts", type=int, default=10)
     ap.add_argument("--tools", type=int, default=3)
+    ap.add_argument("--start-timeout", type=float, default=START_TIMEOUT, help="seconds (%(default)s)")
     ap.add_argument(
         "--cyclone-uri",
         default="",
