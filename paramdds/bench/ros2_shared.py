@@ -7,7 +7,7 @@ file of ``realworld/``, or ``--nodes N`` synthetic nodes), a ``paramdds server``
 
 * ``--starts`` bridge starts: ``paramdds ros2`` mirroring the host's nodes, timed from its
   start until this process's monitor holds every node mirrored (online, complete, origin
-  ``ros2``), then stopped (SIGINT), and the next start waits until every mirror is offline;
+  ``ros2``), then stopped (SIGTERM), and the next start waits until every mirror is offline;
 * ``--tools`` fresh rclpy processes (what ``ros2 param list`` does: learn the graph, then
   a parameter client per node) that list the parameters of every node, with the bridge
   of the last start still up.
@@ -61,7 +61,7 @@ def _python(*args: str) -> list[str]:
 
 
 class _Proc:
-    """A process started in its own session, stopped with SIGINT (then killed) at the end."""
+    """A process started in its own session, stopped with SIGTERM (then killed) at the end."""
 
     def __init__(
         self, cmd: Sequence[str], env: dict[str, str], ready: str = "", timeout: float = 60.0
@@ -91,11 +91,13 @@ class _Proc:
         if self.proc.poll() is None:
             try:
                 assert self.proc.stdin is not None
-                self.proc.stdin.write("quit\n")
+                self.proc.stdin.write("quit\n")  # the rclpy host shuts down cleanly on it
                 self.proc.stdin.close()
-            except OSError:
+                self.proc.wait(timeout=5 if self.first.startswith("ready") else 0.01)
+            except (OSError, subprocess.TimeoutExpired):
                 pass
-            self.proc.send_signal(signal.SIGINT)
+            if self.proc.poll() is None:
+                self.proc.send_signal(signal.SIGTERM)  # SIGINT is ignored in a background job
             try:
                 self.proc.wait(timeout=20)
             except subprocess.TimeoutExpired:
