@@ -280,7 +280,8 @@ def build_parser(*, with_bench: bool = False) -> Parser:
 
     p = _verb(sub, "dump", "a node's parameters as a ROS 2 parameter file on stdout")
     p.add_argument("node", metavar="NODE")
-    p.add_argument("--no-descriptors", action="store_true", help="values only")
+    p.add_argument("--descriptors", action="store_true", help="add the descriptors (a map ROS 2 cannot read)")
+    p.add_argument("--no-descriptors", action="store_true", help=argparse.SUPPRESS)  # the default now
 
     p = _verb(sub, "load", "set a node's parameters from a parameter file")
     p.add_argument("node", metavar="NODE")

@@ -233,6 +233,6 @@ def run_dump(args: argparse.Namespace) -> int:
         for r in reply.results
         if r.value is not None
     ]
-    sys.stdout.write(dump_text({node: snapshot}, with_descriptors=not args.no_descriptors))
+    sys.stdout.write(dump_text({node: snapshot}, with_descriptors=args.descriptors))
     sys.stdout.flush()
     return _report_missing(node, reply.missing())
