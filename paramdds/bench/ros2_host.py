@@ -5,11 +5,13 @@ own YAML parser) is created with ``automatically_declare_parameters_from_overrid
 it holds exactly the file's parameters; ``--node NAME`` adds nodes with no file entry.
 ``--rich NAME`` gives a node parameters with full descriptors (ranges, read-only,
 description, dynamic typing, a constraint its callback enforces); ``--hang NAME`` makes
-a node's set callback sleep 60 s when a parameter named ``hang`` is set.
+a node's set callback sleep 60 s when a parameter named ``hang`` is set; ``--mute NAME``
+makes a node without parameter services (until ``serve``).
 
 Prints ``ready /ns/a /ns/b ...`` once its nodes exist, then reads commands on stdin:
 ``set FQN NAME YAML`` sets a parameter from inside the node (as its own code would),
-``get FQN NAME`` prints its value as JSON, ``quit`` (or end of input) shuts down cleanly.
+``get FQN NAME`` prints its value as JSON, ``serve FQN`` starts a muted node's parameter
+services, ``quit`` (or end of input) shuts down cleanly.
 """
 
 from __future__ import annotations
@@ -103,6 +105,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--node", action="append", default=[], help="a node with no file entry (/ns/name)")
     ap.add_argument("--rich", action="append", default=[], help="a node with full descriptors (/ns/name)")
     ap.add_argument("--hang", action="append", default=[], help="a node whose callback hangs on 'hang'")
+    ap.add_argument("--mute", action="append", default=[], help="a node without parameter services")
     ap.add_argument("--threads", type=int, default=4, help="executor threads (1: single-threaded)")
     args = ap.parse_args(argv)
 
@@ -115,13 +118,19 @@ def main(argv: list[str] | None = None) -> int:
         ros_args += ["--params-file", f]
     rclpy.init(args=ros_args)
     wanted = names_in(args.params_file)
-    for fqn in [*args.node, *args.rich, *args.hang]:
+    for fqn in [*args.node, *args.rich, *args.hang, *args.mute]:
         ns, _, name = fqn.rpartition("/")
         if (ns or "/", name) not in wanted:
             wanted.append((ns or "/", name))
     nodes: dict[str, Any] = {}
+    muted = {tuple(f.rpartition("/")[::2]) for f in args.mute}
     for ns, name in wanted:
-        node = rclpy.create_node(name, namespace=ns, automatically_declare_parameters_from_overrides=True)
+        node = rclpy.create_node(
+            name,
+            namespace=ns,
+            automatically_declare_parameters_from_overrides=True,
+            start_parameter_services=((ns if ns != "/" else ""), name) not in muted,
+        )
         nodes[node.get_fully_qualified_name()] = node
     for fqn in args.rich:
         _rich(nodes[fqn])
@@ -144,6 +153,12 @@ def main(argv: list[str] | None = None) -> int:
                 node = nodes[words[1]]
                 result = node.set_parameters([Parameter(words[2], value=yaml.safe_load(words[3]))])[0]
                 print("set", "ok" if result.successful else f"refused {result.reason}", flush=True)
+            if words[0] == "serve" and len(words) == 2:
+                from rclpy.parameter_service import ParameterService
+
+                node = nodes[words[1]]
+                node._parameter_service = ParameterService(node)
+                print("served", flush=True)
             if words[0] == "get" and len(words) == 3:
                 value = nodes[words[1]].get_parameter(words[2]).value
                 if not isinstance(value, (bool, int, float, str)):

@@ -53,6 +53,8 @@ __all__ = [
     "process_label",
     "request_filter_of",
     "status",
+    "status_of",
+    "status_tag",
 ]
 
 log = logging.getLogger(__name__)
@@ -75,6 +77,9 @@ _TAG = "request_filter="
 # stopped: "gone=pid N on HOST", so monitors drop that process from the node's hosts
 GONE_TAG = "gone="
 ORIGIN_TAG = "origin="  # a presence tag: where the node comes from ("origin=ros2": a mirrored ROS 2 node)
+# a presence tag: the node is known but its parameters are not ("status=unreachable": a ROS 2
+# node the bridge sees whose parameter services do not answer)
+STATUS_TAG = "status="
 
 
 def filter_tag(native: bool) -> str:
@@ -97,6 +102,16 @@ def origin_of(tags: Iterable[object]) -> str | None:
     """The presence tag ``origin`` (``"ros2"`` for a node mirrored from ROS 2 by the bridge);
     None when the node does not say (a node served here, or an older server)."""
     return _tag_value(tags, ORIGIN_TAG)
+
+
+def status_tag(status: str) -> str:
+    """The presence tag of a node that is there but cannot be read (``status=unreachable``)."""
+    return STATUS_TAG + status
+
+
+def status_of(tags: Iterable[object]) -> str | None:
+    """The presence tag ``status`` (``"unreachable"``); None for a node that is what it says."""
+    return _tag_value(tags, STATUS_TAG)
 
 
 def _tag_value(tags: Iterable[object], prefix: str) -> str | None:

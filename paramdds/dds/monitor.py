@@ -34,7 +34,7 @@ from ..core.descriptors import ParameterDescriptor
 from ..core.names import canonical_node_id
 from ..core.values import ParameterValue
 from .dispatch import Dispatcher
-from .filters import gone_of, origin_of, process_label, request_filter_of
+from .filters import gone_of, origin_of, process_label, request_filter_of, status_of
 from .participant import poll_peers
 from .qos import QosProfiles
 from .transport import transport_of
@@ -84,6 +84,9 @@ class NodeState:
     # revisions start again (compare-and-set compares both; see ParameterClient.set)
     incarnation: int = 0
     origin: str | None = None  # the presence tag "origin" ("ros2": mirrored by the bridge); None if unsaid
+    # the presence tag "status": "unreachable" for a ROS 2 node the bridge sees but cannot read
+    # (no parameters; requests fail with UNAVAILABLE); None for a node that is what it says
+    status: str | None = None
     parameters: dict[str, tuple[ParameterValue, ParameterDescriptor]] = field(default_factory=dict)
 
     @property
@@ -265,6 +268,7 @@ class ParameterMonitor:
         state.incarnation = s.incarnation
         state.request_filter = request_filter_of(tags)
         state.origin = origin_of(tags)
+        state.status = status_of(tags)
         return self._set_online(state, info.instance_state == InstanceState.Alive)
 
     def _set_online(self, state: NodeState, online: bool) -> MonitorEvent | None:

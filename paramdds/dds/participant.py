@@ -2,6 +2,20 @@
 
 Configuration layers, later ones overriding earlier ones:
 
+0. Always (:data:`ROS_COEXISTENCE_XML`, :func:`participant_config`): Cyclone ignores
+   the XTypes type information in Fast DDS's discovery data, so that a paramdds process never disturbs a ROS 2
+   graph (rmw_fastrtps) on its domain id. Cyclone reads every type lookup request
+   and answers each, also those Fast DDS addresses to another participant, with the
+   type objects it holds; Fast DDS takes the first answer to its request from anyone,
+   and an answer holding some of a ROS type's objects but not all (Cyclone learns
+   them from the replies Fast DDS participants send each other) leaves the remote
+   endpoint unmatched for good: a ROS 2 service never becomes available. Ignoring
+   that type information, Cyclone never holds a ROS type, its answers are empty, and
+   Fast DDS then matches the endpoint by type name, as without type lookup. Fast DDS
+   peers of paramdds's own topics are matched by type name too. ``CYCLONEDDS_URI``
+   may set the option again (empty: take Fast DDS's type information into account).
+   Not part of :func:`domain_config`, which other programs may be given (a Cyclone
+   older than 11 refuses the option).
 1. Cyclone's own defaults and ``CYCLONEDDS_URI`` (the user's configuration).
 2. With ``localhost=True`` (or ``PARAMDDS_LOCALHOST=1``, read by the CLI through
    :func:`localhost_from_env`): loopback only and unicast only. Traffic stays on
@@ -30,12 +44,11 @@ Configuration layers, later ones overriding earlier ones:
    request anyway. With ten busy server processes that wait was 100 to 190 ms of a
    ``paramdds get``.
 
-When none of 2, 3 and 4 applies no ``Domain`` is created and Cyclone's normal
-configuration is used untouched. Otherwise a :class:`cyclonedds.domain.Domain`
-is created with the combined configuration. Deleting a ``Domain`` deletes every
-participant in it, so the Domain is kept alive by the participants (their
-``domain``) and shared by all participants of that domain id in this
-process; Cyclone allows one configuration per domain id per process.
+A :class:`cyclonedds.domain.Domain` is created with the combined configuration.
+Deleting a ``Domain`` deletes every participant in it, so the Domain is kept
+alive by the participants (their ``domain``) and shared by all participants
+of that domain id in this process; Cyclone allows one configuration per domain
+id per process.
 
 Every participant reports peers whose type or QoS does not match ours
 (:mod:`.peers`): a warning per peer endpoint, and :func:`peer_mismatches`.
@@ -64,16 +77,24 @@ __all__ = [
     "LOCALHOST_ENV",
     "MAX_DOMAIN_ID",
     "MAX_PARTICIPANT_INDEX",
+    "ROS_COEXISTENCE_XML",
     "SHORT_LIVED_SPDP_INTERVAL",
     "close_participant",
     "domain_config",
     "localhost_from_env",
     "make_participant",
+    "participant_config",
     "peer_mismatches",
     "poll_peers",
 ]
 
 LOCALHOST_ENV = "PARAMDDS_LOCALHOST"
+FAST_DDS_VENDOR = "1.15"  # eProsima's RTPS vendor id (rmw_fastrtps, the default ROS 2 middleware)
+ROS_COEXISTENCE_XML = (
+    '<CycloneDDS><Domain id="any"><Compatibility>'
+    f"<IgnoreTypeInformation>{FAST_DDS_VENDOR}</IgnoreTypeInformation>"
+    "</Compatibility></Domain></CycloneDDS>"
+)
 MAX_DOMAIN_ID = 232  # Cyclone's default port mapping fits domain ids 0..232
 # Unicast discovery ports are 7400 + 250*domain + 10 + 2*index (+1): indices up
 # to 119 stay inside the domain's own block of 250 ports, so parallel test runs
@@ -139,6 +160,17 @@ def domain_config(
     return f"{user},{ours}" if user else ours
 
 
+def participant_config(
+    *, localhost: bool = False, topic_discovery: bool = False, short_lived: bool = False, security: str = ""
+) -> str:
+    """The whole configuration of a paramdds participant's domain: :data:`ROS_COEXISTENCE_XML`
+    first (the user's ``CYCLONEDDS_URI`` may set it again), then :func:`domain_config`."""
+    rest = domain_config(
+        localhost=localhost, topic_discovery=topic_discovery, short_lived=short_lived, security=security
+    ) or os.environ.get("CYCLONEDDS_URI", "").strip()
+    return f"{ROS_COEXISTENCE_XML},{rest}" if rest else ROS_COEXISTENCE_XML
+
+
 _SELECTS_LOOPBACK = re.compile(
     r"""<NetworkInterface\b[^>]*\b(?:name\s*=\s*["']lo["']|address\s*=\s*["']127\.)"""
     r"|<NetworkInterfaceAddress>\s*(?:lo|127\.[0-9.]+)\s*<",
@@ -188,11 +220,9 @@ def make_participant(
 
     qos = Qos(Policy.EntityName(app_name), Policy.Property("__ProcessName", app_name, propagate=True))
     security = "" if identity is None else identity.security_config(domain_id)
-    config = domain_config(
+    config = participant_config(
         localhost=localhost, topic_discovery=topic_discovery, short_lived=short_lived, security=security
     )
-    if config is None:
-        return Participant(domain_id, qos, grants=identity)
     with _lock:
         domain = _domain(domain_id, config)
         return Participant(domain_id, qos, domain=domain, grants=identity)

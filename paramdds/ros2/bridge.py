@@ -6,7 +6,9 @@ One loop, every :data:`POLL` seconds, reads the ROS 2 graph (node names and encl
 * **mirrored**: a ROS 2 node matching the mirror globs, not of the bridge enclave
   (the bridge itself, the nodes any bridge exposes) and not already on paramdds from
   another process. It is hosted by the bridge's ParameterServer with the presence
-  tag ``origin=ros2``; it goes offline when it leaves the ROS 2 graph.
+  tag ``origin=ros2``; it goes offline when it leaves the ROS 2 graph. One whose
+  parameter services do not answer is hosted meanwhile by a second server whose presence
+  also says ``status=unreachable`` (see :mod:`.mirror`).
 * **exposed**: a paramdds node matching the expose globs that is not a mirror
   (``origin`` unset) and not a ROS 2 node. See :mod:`.expose`.
 
@@ -28,13 +30,14 @@ from typing import Any
 from cyclonedds.domain import DomainParticipant
 
 from ..core.names import canonical_node_id
+from ..core.table import ParameterTable
 from ..dds.client import ParameterClient
-from ..dds.filters import origin_tag
+from ..dds.filters import origin_tag, status_tag
 from ..dds.qos import QosProfiles
 from ..dds.server import ParameterServer
 from ..dds.transport import SecureTransport, transport_of
 from ..errors import NotPermittedError, ParamddsError
-from .mirror import Mirror
+from .mirror import UNREACHABLE, Mirror
 from .rosside import ENCLAVE, RosSide
 
 SECURE_REFUSED = (
@@ -81,6 +84,9 @@ class Bridge:
         self.ros = RosSide(options.ros_domain, options.name)
         self.server = ParameterServer(participant, self._qos, tags=[origin_tag(ORIGIN)])
         self.client = ParameterClient(participant, self._qos)
+        self._participant = participant
+        self._unreachable: ParameterServer | None = None  # made when a node first needs it
+        self._unreachable_lock = threading.Lock()
         self.mirror = Mirror(
             self.ros,
             self.server.add_node,
@@ -88,6 +94,8 @@ class Bridge:
             self.server.forget,
             timeout=options.timeout,
             resync=options.resync,
+            show_unreachable=self._show_unreachable,
+            hide_unreachable=self._hide_unreachable,
         )
         self.exposer: Any = None
         if options.expose:
@@ -102,6 +110,26 @@ class Bridge:
         self._thread = threading.Thread(target=self._run, name="paramdds-ros2-bridge", daemon=True)
         self._thread.start()
         return self
+
+    def _show_unreachable(self, table: ParameterTable) -> None:
+        """Host a node whose services do not answer, with ``status=unreachable`` in its presence."""
+        with self._unreachable_lock:
+            if self._unreachable is None:
+                tags = [origin_tag(ORIGIN), status_tag(UNREACHABLE)]
+                self._unreachable = ParameterServer(self._participant, self._qos, tags=tags).start()
+            if table.node_id not in self._unreachable.nodes:
+                self._unreachable.add_node(table)
+
+    def _hide_unreachable(self, node_id: str) -> None:
+        with self._unreachable_lock:
+            if self._unreachable is not None and node_id in self._unreachable.nodes:
+                self._unreachable.remove_node(node_id)
+
+    @property
+    def unreachable(self) -> list[str]:
+        """The node ids shown unreachable now."""
+        with self._unreachable_lock:
+            return [] if self._unreachable is None else sorted(self._unreachable.nodes)
 
     def _run(self) -> None:
         # learn what paramdds already holds before mirroring anything (never host a node twice)
@@ -119,7 +147,7 @@ class Bridge:
         """One look at both graphs (the loop's body)."""
         graph = self.ros.graph()
         writers = self.ros.event_publishers()
-        ours = self.server.nodes  # the mirrors this bridge hosts
+        ours = {*self.server.nodes, *self.unreachable}  # the mirrors this bridge hosts
         on_paramdds = {
             info.node: info for info in self.client.nodes() if info.online and info.node not in ours
         }
@@ -154,6 +182,9 @@ class Bridge:
         if self.exposer is not None:
             self.exposer.close()
         self.mirror.close()
+        with self._unreachable_lock:
+            if self._unreachable is not None:
+                self._unreachable.close()
         self.server.close()
         self.client.close()
         self.ros.close()

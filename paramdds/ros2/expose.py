@@ -6,13 +6,19 @@ in the bridge's enclave, with ``list_parameters``, ``get_parameters``,
 ``set_parameters_atomically``; each call becomes a paramdds request (bounded by the
 bridge's timeout). Answers follow rclpy's parameter services: an unknown name in a
 get, describe or types request makes the whole answer empty. The node's changes, as
-a paramdds monitor sees them, are published on ``/parameter_events`` under its name.
+a paramdds monitor sees them, are published on ``/parameter_events`` under its name,
+one message per change as rclpy sends them: the parameters of one set (an atomic set's
+every parameter) share a revision, and a message goes out when the node's next change
+begins or :data:`GROUP_WAIT` after the last of its parameters arrived (a server writes
+one change's parameters back to back). A deletion carries no revision of its own (it is
+a dispose): it joins the change being gathered.
 """
 
 from __future__ import annotations
 
 import logging
 import threading
+import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -29,12 +35,24 @@ from .rosside import RosSide
 
 log = logging.getLogger(__name__)
 
+GROUP_WAIT = 0.02  # seconds without more of a node's change before its message goes out
+
 
 @dataclass
 class Exposed:
     node_id: str
     fqn: str
     ros_node: Any
+
+
+@dataclass
+class _Gathering:
+    """The events of one change of one node, not yet published."""
+
+    exposed: Exposed
+    revision: int | None  # None while it holds deletions only (they carry no revision)
+    events: list[MonitorEvent]
+    last: float  # time.monotonic() of the last event
 
 
 class Exposer:
@@ -55,6 +73,11 @@ class Exposer:
         self._publisher = ros.node.create_publisher(
             ParameterEvent, "/parameter_events", qos_profile_parameter_events
         )
+        self._gathering: dict[str, _Gathering] = {}  # node id -> its change being gathered
+        self._events = threading.Condition()
+        self._closed = False
+        self._sender = threading.Thread(target=self._send_loop, name="paramdds-ros2-events", daemon=True)
+        self._sender.start()
         self.monitor = ParameterMonitor(participant, qos, on_event=self._on_event)
 
     def update(self, wanted: dict[str, Any]) -> None:
@@ -171,29 +194,66 @@ class Exposer:
         exposed = self.nodes.get(event.node)
         if exposed is None or (event.value is None and event.event is not EventKind.DELETED):
             return
+        deleted = event.event is EventKind.DELETED
+        with self._events:
+            g = self._gathering.get(event.node)
+            if g is not None and not deleted and g.revision not in (None, event.revision):
+                self._publish(self._gathering.pop(event.node))  # the node's next change begins
+                g = None
+            if g is None:
+                g = self._gathering[event.node] = _Gathering(exposed, None, [], 0.0)
+            g.events.append(event)
+            g.revision = g.revision if deleted else event.revision
+            g.last = time.monotonic()
+            self._events.notify()
+
+    def _send_loop(self) -> None:
+        """Publish each gathered change GROUP_WAIT after its last event."""
+        with self._events:
+            while not self._closed:
+                if not self._gathering:
+                    self._events.wait()
+                    continue
+                now = time.monotonic()
+                due = [n for n, g in self._gathering.items() if now - g.last >= GROUP_WAIT]
+                for node in due:
+                    self._publish(self._gathering.pop(node))
+                if self._gathering:
+                    first = min(g.last for g in self._gathering.values())
+                    self._events.wait(max(0.001, first + GROUP_WAIT - now))
+
+    def _publish(self, g: _Gathering) -> None:
+        """One ParameterEvent holding a whole change (called under ``_events``: in order)."""
         from rcl_interfaces.msg import Parameter as RosParameter
         from rcl_interfaces.msg import ParameterEvent
 
-        msg = ParameterEvent(node=exposed.fqn)
-        msg.stamp = exposed.ros_node.get_clock().now().to_msg()
-        if event.event is EventKind.DELETED:
-            msg.deleted_parameters = [RosParameter(name=event.name)]
-        else:
+        msg = ParameterEvent(node=g.exposed.fqn)
+        msg.stamp = g.exposed.ros_node.get_clock().now().to_msg()
+        last: dict[str, MonitorEvent] = {e.name: e for e in g.events}  # one entry per name, as rclpy
+        for event in last.values():
+            if event.event is EventKind.DELETED:
+                msg.deleted_parameters.append(RosParameter(name=event.name))
+                continue
             assert event.value is not None
             p = RosParameter(name=event.name, value=value_to_ros(event.value))
             if event.event is EventKind.ADDED:
-                msg.new_parameters = [p]
+                msg.new_parameters.append(p)
             else:
-                msg.changed_parameters = [p]
+                msg.changed_parameters.append(p)
         try:
             self._publisher.publish(msg)
         except Exception:
-            log.debug("publishing a parameter event of %s failed", event.node, exc_info=True)
+            log.debug("publishing a parameter event of %s failed", g.exposed.node_id, exc_info=True)
 
     def close(self) -> None:
+        self.monitor.close()
+        with self._events:
+            self._closed = True
+            self._gathering.clear()
+            self._events.notify()
+        self._sender.join(timeout=2.0)
         for node_id in list(self.nodes):
             self._remove(node_id)
-        self.monitor.close()
         self.client.close()
 
 

@@ -12,6 +12,16 @@ the same way.
 
 Compare-and-set is refused: ROS 2 has no revision, so the check and the set could
 never be one step (another ROS 2 client may set in between).
+
+A node whose parameter services do not answer the first read (not matched: the node
+has none, or discovery went wrong) is read again after :data:`RETRY` seconds, from the
+second failure on with new clients (new DDS endpoints, discovered afresh), and from the
+:data:`RESCUE_AT`-th on through a new DDS participant (another rclpy context, shared by
+such nodes; see :meth:`Mirror._rescue_side`). After :data:`UNREACHABLE_AFTER` seconds of
+failing it is shown on paramdds as ``status=unreachable`` (an :class:`UnreachableTable`:
+no parameters, every request refused with UNAVAILABLE), until a read succeeds. After
+:data:`FAST_TRIES` failures the retries slow down (up to 30 s apart), so a node that
+really has no parameter services does not churn the graph's endpoints.
 """
 
 from __future__ import annotations
@@ -35,6 +45,13 @@ from .messages import descriptor_from_ros, parameter_to_ros, result_from_ros, va
 from .rosside import RosSide
 
 log = logging.getLogger(__name__)
+
+RETRY = 1.0  # seconds between reads of a node that was never read, for its first FAST_TRIES failures
+FAST_TRIES = 8
+UNREACHABLE_AFTER = 3.0  # seconds of failing reads before a node is shown unreachable
+RESCUE_AT = 3  # the failure from which the node's clients live in a new participant
+RESCUE_EVERY = 10.0  # seconds: a new rescue participant at most this often
+UNREACHABLE = "unreachable"
 
 Entry = tuple[ParameterValue, ParameterDescriptor]
 CAS_REFUSED = (
@@ -123,11 +140,48 @@ class RosLink:
     def close(self) -> None:
         with self._lock:
             clients, self._clients = list(self._clients.values()), {}
+            ros = self.ros
         for client in clients:
             try:
-                self.ros.node.destroy_client(client)
+                ros.node.destroy_client(client)
             except Exception:
                 log.debug("destroying a client of %s failed", self.fqn, exc_info=True)
+
+    def renew(self, ros: RosSide | None = None) -> None:
+        """New clients next time (new DDS endpoints), made by ``ros`` when given (a new participant)."""
+        self.close()
+        if ros is not None:
+            with self._lock:
+                self.ros = ros
+
+
+class UnreachableTable(ParameterTable):
+    """What paramdds holds of a ROS 2 node whose parameter services do not answer: no
+    parameters, and every request refused with UNAVAILABLE (never "not declared")."""
+
+    def __init__(self, node_id: str, fqn: str) -> None:
+        super().__init__(node_id)
+        self.reason = (
+            f"the ROS 2 node {fqn} is in the graph but its parameter services do not answer "
+            "(the bridge keeps trying)"
+        )
+
+    def _refuse(self) -> ParamddsError:
+        return ParamddsError(self.reason, code=ErrorCode.UNAVAILABLE)
+
+    def get_many(self, names: Sequence[str], *, with_descriptors: bool = False) -> Any:
+        raise self._refuse()
+
+    def list(self, prefixes: Sequence[str] = (), depth: int = 0) -> Any:
+        raise self._refuse()
+
+    def set(self, params: Sequence[Parameter], *, expected_revision: int | None = None) -> SetOutcome:
+        raise self._refuse()
+
+    def set_atomically(
+        self, params: Sequence[Parameter], *, expected_revision: int | None = None
+    ) -> SetOutcome:
+        raise self._refuse()
 
 
 class MirrorTable(ParameterTable):
@@ -262,6 +316,8 @@ class Mirrored:
     synced_at: float = 0.0
     failures: int = 0
     retry_at: float = 0.0
+    failing_since: float = 0.0  # when the reads of a never-read node began to fail
+    unreachable: bool = False  # shown on paramdds as status=unreachable
     lock: threading.Lock = field(default_factory=threading.Lock)
 
 
@@ -278,9 +334,14 @@ class Mirror:
         timeout: float,
         resync: float,
         sync_threads: int = 16,
+        show_unreachable: Callable[[ParameterTable], None] | None = None,
+        hide_unreachable: Callable[[str], None] | None = None,
     ) -> None:
         self.ros = ros
         self._host, self._unhost, self._forget = host, unhost, forget
+        self._show, self._hide = show_unreachable, hide_unreachable
+        self._rescues: list[tuple[RosSide, float]] = []  # new participants, the newest last
+        self._rescue_lock = threading.Lock()
         self._departed: dict[str, list[str]] = {}  # node id -> the names it had when it left
         self.timeout = timeout
         self.resync_period = resync
@@ -337,11 +398,15 @@ class Mirror:
             return
         with m.lock:
             hosted, m.hosted = m.hosted, False
+            shown, m.unreachable = m.unreachable, False
         if hosted:
             log.info("%s left the ROS 2 graph: offline", fqn)
             self._departed[m.node_id] = m.table.names()
             self._unhost(m.node_id)
+        if shown and self._hide is not None:
+            self._hide(m.node_id)
         m.link.close()
+        self._retire_rescues()
 
     def _submit(self, m: Mirrored) -> None:
         with m.lock:
@@ -361,16 +426,7 @@ class Mirror:
             try:
                 entries = m.link.fetch()
             except ParamddsError as exc:
-                with m.lock:
-                    m.syncing = False
-                    m.failures += 1
-                    m.retry_at = time.monotonic() + min(30.0, 1.0 * 2 ** min(m.failures, 5))
-                log.log(
-                    logging.WARNING if m.failures == 3 else logging.DEBUG,
-                    "cannot read the parameters of %s (%s); retrying",
-                    m.fqn,
-                    exc.message,
-                )
+                self._failed(m, exc)
                 return
             with m.lock:
                 # a node that restarted in ROS 2 is hosted again (a new incarnation, as a
@@ -388,7 +444,14 @@ class Mirror:
                 host = still and not m.hosted
                 m.hosted = m.hosted or host
                 m.failures = 0
+                m.failing_since = 0.0
+                shown, m.unreachable = m.unreachable, False
                 m.synced_at = time.monotonic()
+            if shown:
+                log.warning("%s answers now: mirrored", m.fqn)
+                if self._hide is not None:
+                    self._hide(m.node_id)
+            with m.lock:
                 again = m.dirty
                 if not again:
                     m.syncing = False
@@ -398,6 +461,78 @@ class Mirror:
                 self._forget(m.node_id, self._departed.pop(m.node_id, []))
             if not again:
                 return
+
+    def _failed(self, m: Mirrored, exc: ParamddsError) -> None:
+        """A read of ``m`` failed: when to try again, and with what (see the module doc)."""
+        import time
+
+        now = time.monotonic()
+        with m.lock:
+            m.syncing = False
+            m.failures += 1
+            failures = m.failures
+            fresh = not m.hosted  # never read (or left and came back): its services never answered
+            m.failing_since = m.failing_since or now
+            show = fresh and not m.unreachable and now - m.failing_since >= UNREACHABLE_AFTER
+            m.unreachable = m.unreachable or show
+            if fresh and failures <= FAST_TRIES:
+                m.retry_at = now + RETRY
+            else:
+                m.retry_at = now + min(30.0, 1.0 * 2 ** min(failures, 5))
+        if fresh and failures >= 2:
+            # clients whose service never matched: new ones (new endpoints, discovered afresh),
+            # from RESCUE_AT on in a new participant, which discovers the whole graph afresh
+            m.link.renew(self._rescue_side(m) if failures >= RESCUE_AT else None)
+        log.log(
+            logging.WARNING if failures == 3 or show else logging.DEBUG,
+            "cannot read the parameters of %s (%s); retrying%s",
+            m.fqn,
+            exc.message,
+            ": shown unreachable on paramdds" if show else "",
+        )
+        if show and self._show is not None:
+            self._show(UnreachableTable(m.node_id, m.fqn))
+            with self._lock:
+                gone = self.nodes.get(m.fqn) is not m
+            with m.lock:
+                hide, m.unreachable = gone and m.unreachable, m.unreachable and not gone
+            if hide and self._hide is not None:  # it left the graph meanwhile
+                self._hide(m.node_id)
+
+    def _rescue_side(self, m: Mirrored) -> RosSide | None:
+        """A participant made after ``m`` began to fail (it discovers the graph afresh, knowing
+        the parameter service types first): the newest, or a new one when the newest is older
+        than that and RESCUE_EVERY has passed. None: keep the current one for now."""
+        import time
+
+        now = time.monotonic()
+        with self._rescue_lock:
+            if self._closed:
+                return None
+            if self._rescues and self._rescues[-1][1] >= m.failing_since:
+                newest = self._rescues[-1][0]
+                return None if m.link.ros is newest else newest
+            if self._rescues and now - self._rescues[-1][1] < RESCUE_EVERY:
+                return None
+            try:
+                name = f"{self.ros.node.get_name()}_{len(self._rescues) + 1}"
+                side = RosSide(self.ros.domain, name, threads=2)
+            except Exception:
+                log.warning("cannot make a new ROS 2 participant", exc_info=True)
+                return None
+            log.warning("a new ROS 2 participant for nodes whose services do not answer (%s)", m.fqn)
+            self._rescues.append((side, now))
+            return side
+
+    def _retire_rescues(self) -> None:
+        """Close the rescue participants no longer the newest that no node's clients use."""
+        with self._lock:
+            used = {id(m.link.ros) for m in self.nodes.values()}
+        with self._rescue_lock:
+            idle = [(s, t) for s, t in self._rescues[:-1] if id(s) not in used]
+            self._rescues = [r for r in self._rescues if r not in idle]
+        for side, _ in idle:
+            side.close()
 
     # -- /parameter_events --------------------------------------------------------
 
@@ -437,3 +572,7 @@ class Mirror:
         self._pool.shutdown(wait=False, cancel_futures=True)
         for fqn in list(self.nodes):
             self._remove(fqn)
+        with self._rescue_lock:
+            rescues, self._rescues = self._rescues, []
+        for side, _ in rescues:
+            side.close()

@@ -6,6 +6,11 @@ when None), which may differ from the paramdds domain. Its nodes carry the encla
 :data:`ENCLAVE`: a bridge never mirrors a node of that enclave (itself, the nodes it
 exposes, another bridge's), which is what keeps two bridges from looping a node.
 
+Right after its node exists, the side makes a client of each parameter service type (on
+hidden service names): Fast DDS then knows those types before it discovers any remote
+endpoint of them, and matches those endpoints without asking other participants for the
+types (type lookup, which a peer answering requests meant for another can derail).
+
 Service calls are made from any thread (a mirrored node's worker, the sync pool) and
 wait on their future with a bounded timeout; the executor's threads only ever run
 short callbacks, so a ROS 2 node that never answers holds only the caller that asked.
@@ -24,6 +29,21 @@ from ..errors import ErrorCode, ParamddsError
 log = logging.getLogger(__name__)
 
 ENCLAVE = "/paramdds_bridge"  # the enclave of every node a bridge creates
+TYPES_SERVICE = "/_paramdds_bridge/types"  # hidden (a leading _): the clients that register types
+
+
+def _kinds() -> list[Any]:
+    """The parameter services' types (each registers its request and reply types)."""
+    from rcl_interfaces import srv
+
+    return [
+        srv.ListParameters,
+        srv.GetParameters,
+        srv.DescribeParameters,
+        srv.SetParameters,
+        srv.SetParametersAtomically,
+        srv.GetParameterTypes,
+    ]
 
 
 class RosSide:
@@ -47,6 +67,7 @@ class RosSide:
             enable_rosout=False,
         )
         self.clients_group = ReentrantCallbackGroup()  # responses are handled concurrently
+        self._type_clients = [self.client(k, f"{TYPES_SERVICE}/{k.__name__.lower()}") for k in _kinds()]
         self.executor = MultiThreadedExecutor(num_threads=threads, context=self.context)
         self.executor.add_node(self.node)
         self._thread = threading.Thread(target=self._spin, name="paramdds-ros2-executor", daemon=True)

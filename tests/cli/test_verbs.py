@@ -208,9 +208,11 @@ def test_nodes_json_lists_every_live_node(c: Cluster) -> None:
         "incarnation",
         "at",
         "origin",
+        "status",
     }
     assert by_name["robot1"]["also_hosted_by"] == []
     assert by_name["robot1"]["origin"] is None  # served here, not mirrored
+    assert by_name["robot1"]["status"] is None
     incarnation = str(by_name["robot1"]["incarnation"])
     assert len(incarnation) == 16 and int(incarnation, 16) != 0
     assert by_name["robot1"]["at"] == f"{incarnation}:{by_name['robot1']['revision']}"
@@ -223,7 +225,12 @@ def test_nodes_json_lists_every_live_node(c: Cluster) -> None:
 def test_dump_then_load_round_trips(c: Cluster, tmp_path: Path) -> None:
     dump = c.cli("dump", "robot1")
     assert dump.returncode == 0, dump.stderr
-    assert dump.stdout.startswith("robot1:\n  ros__parameters:\n") and "paramdds__descriptors" in dump.stdout
+    # a ROS 2 parameter file by default (rcl refuses a paramdds__descriptors map), with them on request
+    assert dump.stdout.startswith("robot1:\n  ros__parameters:\n")
+    assert "paramdds__descriptors" not in dump.stdout
+    described = c.cli("dump", "robot1", "--descriptors")
+    assert described.stdout.startswith(dump.stdout) and "paramdds__descriptors" in described.stdout
+    assert c.cli("dump", "robot1", "--no-descriptors").stdout == dump.stdout  # still accepted
     path = tmp_path / "dump.yaml"
     text = dump.stdout.replace("robot1:", "robot2:", 1).replace("max_velocity: 1.5", "max_velocity: 2.5")
     path.write_text(text)

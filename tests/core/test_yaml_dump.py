@@ -33,7 +33,7 @@ def test_dump_writes_the_ros2_layout() -> None:
         ("wheels", PV(T.INTEGER, 4), None),
     ]
     assert dump_ros_params("ns/robot1", snapshot) == (
-        "ns/robot1:\n"
+        "/ns/robot1:\n"
         "  ros__parameters:\n"
         "    robot:\n"
         "      enabled: true\n"
@@ -49,7 +49,10 @@ def test_dump_writes_the_ros2_layout() -> None:
     ("value", "text"),
     [
         (PV(T.DOUBLE, 1.0), "1.0"),
-        (PV(T.DOUBLE, 1e100), "1e+100"),
+        (PV(T.DOUBLE, 1e100), "1.0e+100"),
+        (PV(T.DOUBLE, 1e-10), "1.0e-10"),
+        (PV(T.DOUBLE, -1.5e-07), "-1.5e-07"),
+        (PV(T.DOUBLE, 1.25e16), "1.25e+16"),
         (PV(T.DOUBLE, -0.0), "-0.0"),
         (PV(T.DOUBLE, math.nan), ".nan"),
         (PV(T.DOUBLE, -math.inf), "-.inf"),

@@ -6,7 +6,13 @@ from pathlib import Path
 
 import pytest
 
-from paramdds.dds.participant import close_participant, domain_config, make_participant
+from paramdds.dds.participant import (
+    ROS_COEXISTENCE_XML,
+    close_participant,
+    domain_config,
+    make_participant,
+    participant_config,
+)
 
 from ..conftest import TEST_URI
 
@@ -39,3 +45,19 @@ def test_localhost_keeps_its_interface_when_the_user_selects_none(monkeypatch: p
     monkeypatch.setenv("CYCLONEDDS_URI", TEST_URI)
     config = domain_config(localhost=True)
     assert config is not None and '<NetworkInterface address="127.0.0.1"/>' in config
+
+
+
+def test_every_participant_ignores_fast_dds_type_information_unless_the_user_says_otherwise(
+    domain_id: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Cyclone answering Fast DDS's type lookups left ROS 2 services unmatched (docs/ros2.md): the
+    option comes first, so a user's CYCLONEDDS_URI may set it again; domain_config, which other
+    programs are given (a Cyclone older than 11 refuses the option), does not carry it."""
+    monkeypatch.setenv("CYCLONEDDS_URI", TEST_URI)
+    assert "IgnoreTypeInformation" not in (domain_config(localhost=True) or "")
+    for config in (participant_config(), participant_config(localhost=True, short_lived=True)):
+        assert config.startswith(ROS_COEXISTENCE_XML + ",") and TEST_URI in config
+    monkeypatch.delenv("CYCLONEDDS_URI")
+    assert participant_config() == ROS_COEXISTENCE_XML
+    close_participant(make_participant(domain_id, localhost=True))  # the library takes the option

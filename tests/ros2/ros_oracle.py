@@ -131,15 +131,15 @@ class Oracle:
         return out
 
     def events(self, fqn: str) -> list[Any]:
-        """Print ``listening`` once subscribed, then the first /parameter_events message of
-        ``fqn`` (new, changed and deleted names with raw values)."""
+        """Print ``listening`` once subscribed, then the /parameter_events messages of ``fqn``
+        (new, changed and deleted names with raw values) from the first one to a second after."""
         from rcl_interfaces.msg import ParameterEvent
         from rclpy.qos import qos_profile_parameter_events
 
         got: list[Any] = []
 
         def on_event(msg: Any) -> None:
-            if msg.node == fqn and not got:
+            if msg.node == fqn:
                 got.append(
                     {
                         "new": [[p.name, raw_value(p.value)] for p in msg.new_parameters],
@@ -148,22 +148,31 @@ class Oracle:
                     }
                 )
 
-        self.node.create_subscription(
+        sub = self.node.create_subscription(
             ParameterEvent, "/parameter_events", on_event, qos_profile_parameter_events
         )
         import time
 
+        def matched() -> bool:
+            """Every publisher in the graph (its own node's, and another process's) matched: the
+            topic is volatile, a message sent before its writer matched is never seen."""
+            known = len(self.node.get_publishers_info_by_topic("/parameter_events"))
+            return known >= 2 and sub.get_publisher_count() >= known
+
         deadline = time.monotonic() + TIMEOUT
-        def publishing() -> bool:  # the node's own writer, not just any (every rclpy node has one)
+        def publishing() -> bool:  # the node's own writer is known, and every known writer matched
             infos = self.node.get_publishers_info_by_topic("/parameter_events")
-            return any(f"{i.node_namespace.rstrip('/')}/{i.node_name}" == fqn for i in infos)
+            return any(f"{i.node_namespace.rstrip('/')}/{i.node_name}" == fqn for i in infos) and matched()
 
         while not publishing() and time.monotonic() < deadline:
             self.rclpy.spin_once(self.node, timeout_sec=0.05)
-        for _ in range(10):  # let the match settle both ways
+        for _ in range(4):  # and the writers matched it
             self.rclpy.spin_once(self.node, timeout_sec=0.05)
         print("listening", flush=True)
         while not got and time.monotonic() < deadline + TIMEOUT:
+            self.rclpy.spin_once(self.node, timeout_sec=0.05)
+        after = time.monotonic() + 1.0  # the rest of what one set sent
+        while time.monotonic() < after:
             self.rclpy.spin_once(self.node, timeout_sec=0.05)
         return got
 

@@ -116,10 +116,8 @@ def test_an_exposed_node_is_never_mirrored_back(
         close_participant(dp)
 
 
-def test_an_exposed_nodes_changes_reach_ros2_parameter_events(
-    ros_env: dict[str, str], exposing_bridge: Any, domain_id: int
-) -> None:
-    wait_for(lambda: "robot/rich" in exposing_bridge.exposer.nodes, 20, "the node exposed")
+def _events_of(ros_env: dict[str, str], domain_id: int, change: Any) -> list[Any]:
+    """The /parameter_events messages of /robot/rich an rclpy subscriber gets for ``change(client)``."""
     listener = subprocess.Popen(
         [sys.executable, str(ORACLE), "events", "/robot/rich"],
         env=ros_env,
@@ -132,15 +130,47 @@ def test_an_exposed_nodes_changes_reach_ros2_parameter_events(
         assert listener.stdout is not None
         assert listener.stdout.readline().strip() == "listening"
         with ParameterClient(dp) as client:
-            assert client.set("robot/rich", {"limits.speed": 4.5}).successful
+            change(client)
         out, _ = listener.communicate(timeout=30)
     finally:
         close_participant(dp)
         if listener.poll() is None:
             listener.kill()
             listener.communicate()
-    (event,) = json.loads(out)
+    events: list[Any] = json.loads(out)
+    return events
+
+
+def test_an_exposed_nodes_changes_reach_ros2_parameter_events(
+    ros_env: dict[str, str], exposing_bridge: Any, domain_id: int
+) -> None:
+    wait_for(lambda: "robot/rich" in exposing_bridge.exposer.nodes, 20, "the node exposed")
+
+    def change(client: ParameterClient) -> None:
+        assert client.set("robot/rich", {"limits.speed": 4.5}).successful
+
+    (event,) = _events_of(ros_env, domain_id, change)
     assert event == {"new": [], "changed": [["limits.speed", {"type": 3, "value": 4.5}]], "deleted": []}
+
+
+def test_an_atomic_set_on_an_exposed_node_is_one_parameter_event_as_rclpy_sends(
+    ros_env: dict[str, str], exposing_bridge: Any, domain_id: int
+) -> None:
+    """Two messages for one atomic set showed subscribers a half-applied state; a plain set of
+    two parameters is one message too (rclpy sends one per set), and the next set another."""
+    wait_for(lambda: "robot/rich" in exposing_bridge.exposer.nodes, 20, "the node exposed")
+
+    def change(client: ParameterClient) -> None:
+        assert client.set("robot/rich", {"limits.speed": 2.5, "mode": "manual"}, atomic=True).successful
+        assert client.set("robot/rich", {"limits.count": 6, "anything": "text"}).successful
+
+    def changed(*items: tuple[str, int, object]) -> dict[str, Any]:
+        return {"new": [], "changed": [[n, {"type": t, "value": v}] for n, t, v in items], "deleted": []}
+
+    assert _events_of(ros_env, domain_id, change) == [
+        changed(("limits.speed", 3, 2.5), ("mode", 4, "manual")),
+        changed(("limits.count", 2, 6), ("anything", 4, "text")),
+    ]
 
 
 def test_two_bridges_never_loop_a_node(

@@ -9,7 +9,8 @@ HELP = "a node's parameters as a ROS 2 parameter file on stdout"
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("node", metavar="NODE")
-    p.add_argument("--no-descriptors", action="store_true", help="values only")
+    p.add_argument("--descriptors", action="store_true", help="add the descriptors (a map ROS 2 cannot read)")
+    p.add_argument("--no-descriptors", action="store_true", help=argparse.SUPPRESS)  # the default now
 
 
 def run(args: argparse.Namespace) -> int:
@@ -31,6 +32,6 @@ def run(args: argparse.Namespace) -> int:
         for r in reply.results
         if r.value is not None
     ]
-    sys.stdout.write(dump_text({node: snapshot}, with_descriptors=not args.no_descriptors))
+    sys.stdout.write(dump_text({node: snapshot}, with_descriptors=args.descriptors))
     sys.stdout.flush()
     return report_missing(node, reply.missing())

@@ -45,6 +45,7 @@ def run(args: argparse.Namespace) -> int:
             "incarnation": incarnation_text(st.incarnation),  # the server's for the node, new on every start
             "at": str(Revision(st.incarnation, st.revision)),  # what `set --if-revision` takes
             "origin": st.origin,  # the presence tag "origin" ("ros2": mirrored by the bridge), or None
+            "status": st.status,  # "unreachable": a ROS 2 node the bridge cannot read; else None
         }
         for st in sorted(states.values(), key=lambda st: st.node)
         if st.online
@@ -58,7 +59,7 @@ def _nodes_table(rows: list[dict[str, object]]) -> str:
     cells = [header] + [
         (
             str(r["node"]),
-            "yes" if r["online"] else "no",
+            str(r["status"] or ("yes" if r["online"] else "no")),
             str(r["parameters"]),
             str(r["host"]),
             str(r["pid"]),

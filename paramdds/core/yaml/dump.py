@@ -1,6 +1,7 @@
 """Writing a node's parameters as a ROS 2 parameter file that reads back exactly.
 
-``dump_ros_params(node_id, snapshot)`` writes::
+``dump_ros_params(node_id, snapshot)`` writes (a node in a namespace, ``ns/robot1``,
+under its absolute name ``/ns/robot1``)::
 
     robot1:
       ros__parameters:
@@ -16,9 +17,14 @@ dump → load → dump is byte-identical. Rules:
   prefix (``a`` and ``a.b``), the longer names are written as dotted keys
   (``a.b: 2``) beside ``a: 1``; a name with an empty part (``a..b``) is written
   as one key. Both forms load to the same names, in ROS too.
-* Bools ``true``/``false``; integers in decimal; doubles always with a ``.`` or an
-  exponent (``1.0``, ``1e+100``; Python's shortest repr, which reads back to the
-  same bits) and ``.nan``, ``.inf``, ``-.inf``.
+* Bools ``true``/``false``; integers in decimal; doubles always with a ``.``, and
+  an exponent with its sign (``1.0``, ``1.0e-10``, ``1.0e+100``: Python's shortest
+  repr, which reads back to the same bits, with ``.0`` added to a mantissa without a
+  ``.`` and ``+`` to an exponent without a sign), so that rcl, PyYAML (YAML 1.1, which
+  reads ``1e-10`` as a string; launch's RewrittenYaml uses it) and ours all read a
+  double; and ``.nan``, ``.inf``, ``-.inf``. A subnormal double (below
+  2.2250738585072014e-308) is written so too, but rcl reads no form of it as a double
+  (strtod reports an underflow): it reads a string.
 * A string is written plain only when it is a simple word that the resolver reads
   back as that same string and no other YAML tool would take for a bool or null;
   otherwise it is double-quoted with escapes (``"on"``, ``"1.5"``, ``"null"``,
@@ -30,7 +36,9 @@ dump → load → dump is byte-identical. Rules:
   list. A parameter with no value is ``!not_set``. These three forms are ours;
   everything else is plain ROS 2.
 * ``with_descriptors=True`` adds a ``paramdds__descriptors`` map beside
-  ``ros__parameters`` (format in :mod:`.ros`), which ROS tools cannot read.
+  ``ros__parameters`` (format in :mod:`.ros`): paramdds reads it, ROS 2 cannot (rcl
+  refuses the whole file: "Cannot have a value before ros__parameters"), so
+  ``paramdds dump`` writes it only when asked (``--descriptors``).
 """
 
 from __future__ import annotations
@@ -104,7 +112,14 @@ def _double(v: float) -> str:
         return ".nan"
     if math.isinf(v):
         return ".inf" if v > 0 else "-.inf"
-    return repr(v)
+    mantissa, e, exponent = repr(v).partition("e")
+    if not e:
+        return mantissa  # repr always has a "." without an exponent ("1.0", "0.001")
+    if "." not in mantissa:
+        mantissa += ".0"
+    if exponent[0] not in "+-":
+        exponent = "+" + exponent
+    return f"{mantissa}e{exponent}"
 
 
 def _scalar(v: object) -> str:
@@ -205,7 +220,9 @@ def dump_ros_params(
             raise InvalidNameError(f"parameter {a[0]!r} appears twice in the snapshot")
     if items and not items[0][0]:
         raise InvalidNameError("a parameter name cannot be empty")
-    out = [f"{_key(node_id)}:", f"  {PARAMS_KEY}:"]
+    # a node in a namespace by its absolute name, as `ros2 param dump` writes it (rclpy's
+    # parameter_dict_from_yaml_file finds "/ns/name" or "name", not "ns/name")
+    out = [f"{_key('/' + node_id if '/' in node_id else node_id)}:", f"  {PARAMS_KEY}:"]
     if items:
         _emit_tree([(_parts(name), value) for name, value, _ in items], 4, out)
     else:
