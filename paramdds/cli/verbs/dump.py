@@ -16,22 +16,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     import sys
 
-    from ...core.descriptors import ParameterDescriptor
     from ...core.yaml.files import dump_text
-    from ...frontend.session import Session
     from .._output import report_missing
+    from .._snapshot import node_snapshot
     from .._values import node_arg
 
     node = node_arg(args.node)
-    with Session(args) as session:
-        client = session.client()
-        names = client.list(node).names
-        reply = client.get(node, list(names), with_descriptors=True)
-    snapshot = [
-        (r.name, r.value, r.descriptor or ParameterDescriptor(r.name, r.value.type))
-        for r in reply.results
-        if r.value is not None
-    ]
+    snapshot, missing = node_snapshot(args, node)
     sys.stdout.write(dump_text({node: snapshot}, with_descriptors=args.descriptors))
     sys.stdout.flush()
-    return report_missing(node, reply.missing())
+    return report_missing(node, missing)

@@ -46,21 +46,12 @@ def run(args: argparse.Namespace) -> int:
             required=[e.name for e in spec if e.required],
         )
     else:
-        from ...core.descriptors import ParameterDescriptor
         from ...core.values import ParameterType
-        from ...frontend.session import Session
+        from .._snapshot import node_snapshot
         from .._values import node_arg
 
         node = node_arg(args.node)
-        with Session(args) as session:
-            client = session.client()
-            names = client.list(node).names
-            reply = client.get(node, list(names), with_descriptors=True)
-        snapshot = [
-            (r.name, r.value, r.descriptor or ParameterDescriptor(r.name, r.value.type))
-            for r in reply.results
-            if r.value is not None
-        ]
+        snapshot, _ = node_snapshot(args, node)  # a name gone between list and get is simply not in it
         has_value = [
             n for n, v, d in snapshot if v.type is not ParameterType.NOT_SET and not d.dynamic_typing
         ]
