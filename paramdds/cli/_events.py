@@ -47,7 +47,7 @@ class EventPrinter:
         self.last_event = time.monotonic()
         if event.event is EventKind.SYNCED:
             return  # printed by :meth:`synced`, once the state has settled (see settle())
-        if event.event in (EventKind.ONLINE, EventKind.OFFLINE):
+        if event.event in (EventKind.ONLINE, EventKind.OFFLINE, EventKind.RESTARTED):
             if self._synced:
                 self._write(self._node_line(event))
             return
