@@ -38,7 +38,6 @@ from .journal import PersistError, PersistStore
 log = logging.getLogger(__name__)
 
 
-
 # -- the spec -------------------------------------------------------------------------------
 
 

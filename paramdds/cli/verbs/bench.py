@@ -99,7 +99,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
 
 
-
 def run(args: argparse.Namespace) -> int:
     from ... import bench
 
