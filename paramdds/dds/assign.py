@@ -7,27 +7,43 @@ set, when it starts or when the assignment changes. It never rides the
 interactive path: interactive readers are VOLATILE and skip retained samples, and
 a VOLATILE request writer does not match the TRANSIENT_LOCAL assignment reader.
 TRANSIENT_LOCAL data lives as long as its writer, so the assigner stays up.
+
+A server answers each assignment it applies (when it starts, or when the assignment
+changes) with a ``SetParametersResponse`` to the assigner's client id: an assigner made
+with ``on_reply`` hears every outcome as it happens, each refusal with the node's reason.
 """
 
 from __future__ import annotations
 
 import itertools
 import secrets
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from cyclonedds.pub import DataWriter
+from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 
 from ..core.names import canonical_node_id
-from ..secure.scope import scope_of
-from .client import ParamsArg, _to_parameters
+from ..core.results import SetResult
+from ..errors import code_of
+from ..secure.scope import guard_samples, scope_of
+from .client import ParamsArg, SetReply, _to_parameters
+from .dispatch import Dispatcher
+from .filters import NativeFilter, filtered_topic
 from .qos import QosProfiles
 from .wire import types as wire
 from .wire.convert import parameter_to_wire
 
+ReplyCallback = Callable[[SetReply, str], None]
+"""``on_reply(reply, error)``: a node's answer to an assignment; ``error`` is the reason the
+whole assignment was refused ("" when each parameter has its own result in ``reply``)."""
+
 
 class Assigner:
-    def __init__(self, participant: Any, qos: QosProfiles | None = None) -> None:
+    def __init__(
+        self, participant: Any, qos: QosProfiles | None = None, *, on_reply: ReplyCallback | None = None
+    ) -> None:
         qos = qos or QosProfiles.load()
         topic = Topic(participant, "SetParametersRequest", wire.SetParametersRequest)
         # secure mode: a writer per node, in its partition (paramdds.secure.scope), made on use
@@ -37,6 +53,34 @@ class Assigner:
             self._writer = DataWriter(participant, topic, self._qos)
         self.client_id = secrets.randbits(64) or 1
         self._ids = itertools.count(1)
+        self._dispatcher: Dispatcher | None = None
+        self._on_reply = on_reply
+        if on_reply is not None:
+            name = "SetParametersResponse"
+            flt = NativeFilter("client")
+            flt.set_client_id(self.client_id)
+            replies = filtered_topic(participant, name, wire.TOPICS[name], flt)
+            if self._scope is None:
+                reader = DataReader(participant, replies, qos.reader(name))
+            else:
+                reader = self._scope.reader(replies, qos.reader(name))
+            self._dispatcher = Dispatcher(participant, "paramdds-assign")
+            self._dispatcher.add(reader, guard_samples(self._scope, reader, self._on_replies))
+            self._dispatcher.start()
+
+    def close(self) -> None:
+        if self._dispatcher is not None:
+            self._dispatcher.close()
+
+    def _on_replies(self, samples: Sequence[Any]) -> None:
+        assert self._on_reply is not None
+        for r in samples:
+            if not r.sample_info.valid_data or r.client_id != self.client_id:
+                continue
+            results = tuple(SetResult(x.name, x.successful, x.reason, code_of(x.code)) for x in r.results)
+            self._on_reply(
+                SetReply(r.node_id, r.revision, results, r.incarnation), r.reason if r.code else ""
+            )
 
     def assign(self, node: str, params: ParamsArg) -> None:
         """Retain ``params`` for ``node`` (replacing what this assigner held for it)."""
