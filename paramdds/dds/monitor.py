@@ -19,6 +19,8 @@ Events report changes, so a watcher sees the same story whatever it missed:
 * within one incarnation an event never carries a revision lower than one emitted
   before for that node (a re-delivered sample keeps the revision it was written at;
   it is reported at the highest revision shown, the state it is part of);
+* the events of a node whose presence has not arrived yet (a late joiner receives the
+  instances in any order) wait for it, so each event carries the node's origin;
 * a deletion carries no revision of its own: ``deleted`` is emitted with the revision
   of the node's presence sample that follows it (the server writes one after every
   change set), the revision of the delete's reply.
@@ -79,6 +81,7 @@ class MonitorEvent:
     revision: int = 0
     stamp: float = 0.0  # seconds since the epoch, from the writer
     incarnation: int = 0  # the server's for the node (new on every start): see NodeState.incarnation
+    origin: str | None = None  # the node's presence tag "origin" ("ros2": mirrored by the bridge), if known
 
 
 @dataclass
@@ -102,6 +105,8 @@ class NodeState:
     shown: int = 0  # the highest revision an event showed for this incarnation
     # deletions waiting for the presence sample that gives their revision (see the module doc)
     deleting: list[tuple[str, ParameterValue, ParameterDescriptor]] = field(default_factory=list)
+    # events of a node whose presence has not arrived yet: emitted with it, once its origin is known
+    early: list[MonitorEvent] = field(default_factory=list)
 
     @property
     def complete(self) -> bool:
@@ -170,7 +175,11 @@ class ParameterMonitor:
         with self._cond:
             return {
                 n: replace(
-                    s, parameters=dict(s.parameters), duplicates=list(s.duplicates), deleting=list(s.deleting)
+                    s,
+                    parameters=dict(s.parameters),
+                    duplicates=list(s.duplicates),
+                    deleting=list(s.deleting),
+                    early=list(s.early),
                 )
                 for n, s in self._states.items()
             }
@@ -241,6 +250,8 @@ class ParameterMonitor:
         if s.kind == wire.EVENT_PRESENCE and s.name == "":
             self._flush_deleted(state, s.revision, events)
             self._add(events, self._apply_presence(state, s, info))
+            events += [replace(e, origin=state.origin) for e in state.early]
+            state.early.clear()
             return
         held = state.parameters.get(s.name)
         state.parameters[s.name] = (s.value, s.descriptor)
@@ -250,7 +261,7 @@ class ParameterMonitor:
             return  # the same again (re-sent after a stall or a restart): no change to report
         self._flush_deleted(state, s.revision, events)
         kind = EventKind.MODIFIED if held is not None else EventKind.ADDED
-        events.append(
+        (events if state.announced >= 0 else state.early).append(
             MonitorEvent(
                 kind,
                 state.node,
@@ -260,6 +271,7 @@ class ParameterMonitor:
                 self._shown(state, s.revision),
                 s.stamp,
                 s.incarnation,
+                origin=state.origin,
             )
         )
 
@@ -289,6 +301,7 @@ class ParameterMonitor:
                     revision=s.revision,
                     stamp=time.time(),
                     incarnation=s.incarnation,
+                    origin=state.origin,
                 )
             )
 
@@ -304,6 +317,7 @@ class ParameterMonitor:
                     self._shown(state, revision),
                     time.time(),
                     state.incarnation,
+                    origin=state.origin,
                 )
             )
         state.deleting.clear()
@@ -355,6 +369,7 @@ class ParameterMonitor:
             revision=self._shown(state, state.revision),
             stamp=time.time(),
             incarnation=state.incarnation,
+            origin=state.origin,
         )
 
     def _emit(self, events: list[MonitorEvent]) -> None:

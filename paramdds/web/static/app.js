@@ -224,7 +224,7 @@ function scheduleNodes(delay = 250) { clearTimeout(S.listTimer); S.listTimer = s
 
 function nodeItem(n) {
   const li = el("li", { "data-node": n.node, class: (n.online ? "" : "offline ") + (n.node === S.selected ? "selected" : ""), title: `${n.host} pid ${n.pid}` },
-    el("span", { class: "n" }, el("span", { class: "dot" }), n.node,
+    el("span", { class: "n" }, el("span", { class: "dot" }), shownNode(n.node, n.origin),
       n.origin ? el("span", { class: "origin", title: `mirrored from ${n.origin} by the bridge`, text: n.origin }) : null),
     el("span", { class: "m", text: `${n.parameters} params · r${n.revision}` + (n.online ? "" : " · offline") }));
   li.addEventListener("click", () => select(n.node));
@@ -252,7 +252,12 @@ function updateNodes(summaries) {
 
 // -- one node ---------------------------------------------------------------------------------
 
+// A ROS 2 node (mirrored by the bridge) is shown with its leading slash, as ROS 2 writes it;
+// the id the API takes and sends is the canonical one, without (both are accepted).
+function shownNode(node, origin) { return origin === "ros2" ? "/" + node : node; }
+
 function select(node) {
+  node = node.replace(/^\/+/, "");
   if (S.selected !== node) { S.dirty.clear(); S.baseRevision = null; banner(null); }
   checkNode(node);
   S.selected = node;
@@ -284,6 +289,7 @@ function unselect(why) {
 
 function setSummary(s) {
   S.summary = s;
+  if (s) $("#node-name").textContent = shownNode(s.node, s.origin);
   if (!s) { $("#node-meta").textContent = "unknown to this console: it shows here when it appears"; return; }
   $("#node-view").classList.toggle("offline", !s.online);
   $("#node-meta").textContent = `${s.online ? "online" : "offline"} · host ${s.host} · pid ${s.pid} · revision ${s.revision} · ${s.parameters} parameters`
@@ -520,7 +526,8 @@ function log(events, skipped) {
   const list = $("#log");
   for (const e of events) {
     const when = new Date(e.stamp * 1000).toLocaleTimeString();
-    const what = e.name ? `${e.node} ${e.name}` + (e.value !== null && e.value !== undefined ? ` = ${showValue(e.value, e.type)}` : "") : e.node;
+    const who = shownNode(e.node, e.origin);
+    const what = e.name ? `${who} ${e.name}` + (e.value !== null && e.value !== undefined ? ` = ${showValue(e.value, e.type)}` : "") : who;
     list.prepend(el("li", { class: "k-" + e.event, text: `${when}  ${e.event.padEnd(8)} r${e.revision}  ${what}` }));
   }
   if (skipped) list.prepend(el("li", { class: "muted", text: `… ${skipped} more events` }));
