@@ -38,6 +38,7 @@ from .journal import PersistError, PersistStore
 log = logging.getLogger(__name__)
 
 
+
 # -- the spec -------------------------------------------------------------------------------
 
 

@@ -99,6 +99,7 @@ def run(args: argparse.Namespace) -> int:
     total = servers * per
     empty_domain = args.domain + 1 if args.domain < 232 else args.domain - 1
 
+
     from ..dds.participant import make_participant
     from ..dds.qos import QosProfiles
     from ..dds.wire import types as wire

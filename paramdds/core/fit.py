@@ -58,7 +58,9 @@ def fit_value(
         if declared is ParameterType.NOT_SET:
             raise TypeMismatchError(f"Parameter {name!r}: an empty list has no type of its own")
         if not declared.is_array:
-            raise TypeMismatchError(f"parameter {name!r} is a {declared.label}; an empty list needs an array")
+            raise TypeMismatchError(
+                f"parameter {name!r} is a {declared.label}; an empty list needs an array"
+            )
         return ParameterValue.of(declared, ())
     if value.type is ParameterType.INTEGER_ARRAY and declared is ParameterType.BYTE_ARRAY:
         return ParameterValue.of(ParameterType.BYTE_ARRAY, value.value)

@@ -313,3 +313,4 @@ class PeerWatch:
                 props = {q.key: q.value for q in p.qos if isinstance(q, Policy.Property)}
                 return props.get("__Hostname", "?"), props.get("__Pid", "?"), props.get("__ProcessName", "?")
         return "?", "?", "?"
+

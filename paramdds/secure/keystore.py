@@ -273,7 +273,6 @@ def check_globs(globs: list[str]) -> tuple[str, ...]:
 def add_identity(root: Path, name: str, role: str, globs: list[str], *, days: int = 825) -> Identity:
     """Issue identity ``name`` with ``role`` for the node ids matching ``globs`` (replaces one)."""
     from .identity import Identity  # it imports this module
-
     if not _NAME.fullmatch(name):
         raise KeystoreError(f"identity name {name!r}: use 1-64 letters, digits, '_', '.', '-'")
     if role not in ROLES:

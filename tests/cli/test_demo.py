@@ -41,7 +41,8 @@ def check_demo_output(out: str, node: str) -> None:
     assert "CHANGED: " not in out
     r = lines.index("=== A REFUSED SET ===")
     assert lines[r + 1] == "[SET] robot.enabled = string 'fast'"
-    assert lines[r + 2] == "  Result[0]: FAILED: Parameter 'robot.enabled' expects a bool but got string 'fast'"
+    reason = "Parameter 'robot.enabled' expects a bool but got string 'fast'"
+    assert lines[r + 2] == f"  Result[0]: FAILED: {reason}"
 
 
 def test_client_once_prints_the_seed_demo(tmp_path: Path) -> None:

@@ -62,7 +62,11 @@ def rcl_load(path: Path, fqns: tuple[str, ...]) -> dict[str, tuple[str, Any]]:
                 given = set(node._parameter_overrides)
                 out[fqn] = (
                     "ok",
-                    {n: from_ros(p) for n, p in node._parameters.items() if n not in AUTOMATIC or n in given},
+                    {
+                        n: from_ros(p)
+                        for n, p in node._parameters.items()
+                        if n not in AUTOMATIC or n in given
+                    },
                 )
             finally:
                 node.destroy_node()
@@ -86,62 +90,15 @@ def our_load(text: str, fqns: tuple[str, ...]) -> dict[str, tuple[str, Any]]:
 # --- generating ------------------------------------------------------------------------------
 
 SCALARS = (
-    "1",
-    "-7",
-    "+5",
-    "0x1A",
-    "010",
-    "08",
-    "1e3",
-    ".5",
-    "5.",
-    "1.0e-10",
-    ".inf",
-    "-.inf",
-    ".nan",
-    "-.nan",
-    "inf",
-    "NaN",
-    "1e-310",
-    "1e-300",
-    "1e999",
-    "9223372036854775807",
-    "9223372036854775808",
-    "-9223372036854775809",
-    "yes",
-    "on",
-    "Y",
-    "n",
-    "OFF",
-    "True",
-    "~",
-    "null",
-    "abc",
-    "héllo",
-    "'quoted'",
-    '"1"',
-    "''",
-    "1:20",
-    "1_000",
-    "0b101",
-    "2024-01-01",
-    "!!str 1",
-    "!!float 1",
-    "!custom abc",
-    "!!int '7'",
-    "$(var tf_prefix)x",
+    "1", "-7", "+5", "0x1A", "010", "08", "1e3", ".5", "5.", "1.0e-10", ".inf", "-.inf", ".nan",
+    "-.nan", "inf", "NaN", "1e-310", "1e-300", "1e999", "9223372036854775807", "9223372036854775808",
+    "-9223372036854775809", "yes", "on", "Y", "n", "OFF", "True", "~", "null", "abc", "héllo",
+    "'quoted'", '"1"', "''", "1:20", "1_000", "0b101", "2024-01-01", "!!str 1", "!!float 1",
+    "!custom abc", "!!int '7'", "$(var tf_prefix)x",
 )
 LISTS = (
-    "[1, 2]",
-    "[1, 2.5]",
-    "[1.0, 2.5]",
-    "[a, 'b']",
-    "[true, no]",
-    "[]",
-    "[.nan, 1.5]",
-    "!foo [1, 2]",
-    "\n{i}  - 1\n{i}  - 2",
-    "\n{i}  - x\n{i}  - 1",
+    "[1, 2]", "[1, 2.5]", "[1.0, 2.5]", "[a, 'b']", "[true, no]", "[]", "[.nan, 1.5]", "!foo [1, 2]",
+    "\n{i}  - 1\n{i}  - 2", "\n{i}  - x\n{i}  - 1",
 )
 NAMES = ("a", "b", "c.d", "use_sim_time")
 NODE_KEYS = ("robot", "/robot", "/**", "/*", "/ns/robot", "/ns/*", "/**/robot", "ns:robot", "/:robot")

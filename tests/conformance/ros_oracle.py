@@ -888,11 +888,7 @@ def run_sequences_in_children(
     while nxt < count:
         code = f"from tests.conformance import ros_oracle as ro; ro.main_sequences({nxt}, {count}, {length})"
         proc = subprocess.run(
-            [sys.executable, "-c", code],
-            cwd=root,
-            capture_output=True,
-            text=True,
-            timeout=600,
+            [sys.executable, "-c", code], cwd=root, capture_output=True, text=True, timeout=600,
             env={**os.environ, **(env or {})},
         )
         for line in proc.stdout.splitlines():

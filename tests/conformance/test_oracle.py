@@ -134,15 +134,15 @@ def test_generated_parameter_files_agree_with_rcl(ros_context: Any, tmp_path: Pa
         path = tmp_path / f"seed{i}.yaml"
         path.write_text(text, encoding="utf-8")
         problems += _compare_file(path, text, ry.NODES, hits)
-    print(
-        f"\n{FILES} files x {len(ry.NODES)} nodes, listed differences: {dict(hits)}, "
-        f"{time.monotonic() - start:.1f} s"
-    )
+    print(f"\n{FILES} files x {len(ry.NODES)} nodes, listed differences: {dict(hits)}, "
+          f"{time.monotonic() - start:.1f} s")
     assert not problems, f"{len(problems)} unexplained; first:\n" + "\n".join(problems[:3])
     assert sum(hits.values()) < FILES * len(ry.NODES) // 2, "most files must be compared value by value"
 
 
-REAL_FILES = sorted(p for p in REALWORLD.glob("*.yaml") if "ros__parameters" in p.read_text(encoding="utf-8"))
+REAL_FILES = sorted(
+    p for p in REALWORLD.glob("*.yaml") if "ros__parameters" in p.read_text(encoding="utf-8")
+)
 
 
 @pytest.mark.parametrize("path", REAL_FILES, ids=[p.name for p in REAL_FILES])

@@ -179,14 +179,8 @@ def parse(path: Path, text: str | None = None) -> list[Example]:
             continue
         opts = _options(m["opts"] or "", path, i + 1)
         ex = Example(
-            path,
-            i + 1,
-            "console",
-            opts.get("terminal", "main"),
-            "running" in opts,
-            tuple(v for v in opts.get("vary", "").split(",") if v),
-            opts.get("skip"),
-            opts.get("env"),
+            path, i + 1, "console", opts.get("terminal", "main"), "running" in opts,
+            tuple(v for v in opts.get("vary", "").split(",") if v), opts.get("skip"), opts.get("env"),
         )
         if not m["close"]:  # a hidden session inside the comment
             end = next((j for j in range(i + 1, len(lines)) if lines[j].strip() == "-->"), None)
@@ -296,13 +290,8 @@ class Terminal:
         self._sentinel = f"__paramdds_docs_{uuid.uuid4().hex}__"
         self._done = re.compile(r"\n?" + re.escape(self._sentinel) + r" (\d+)\n")
         self._proc = subprocess.Popen(
-            ["bash", "--norc", "--noprofile"],
-            cwd=cwd,
-            env=env,
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT,
-            start_new_session=True,
+            ["bash", "--norc", "--noprofile"], cwd=cwd, env=env, stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, start_new_session=True,
         )
         self._out = ""  # printed since the current step was sent
         self._decoder = codecs.getincrementaldecoder("utf-8")("replace")
@@ -395,10 +384,7 @@ Environments = Mapping[str, Callable[[dict[str, str]], dict[str, str]]]
 
 
 def run_page(
-    examples: list[Example],
-    cwd: Path,
-    env: dict[str, str],
-    timeout: float = 30.0,
+    examples: list[Example], cwd: Path, env: dict[str, str], timeout: float = 30.0,
     environments: Environments | None = None,
 ) -> int:
     """Runs a page's examples in order; returns how many ran. Raises ExampleError.

@@ -66,8 +66,7 @@ def test_marks_are_read_with_their_options_and_outputs(tmp_path: Path) -> None:
     ]
     first = examples[0].steps
     assert [(s.script, s.expected) for s in first] == [
-        ("echo one", "one"),
-        ("printf 'a\\nb\\n' \\\n  | wc -l", "2"),
+        ("echo one", "one"), ("printf 'a\\nb\\n' \\\n  | wc -l", "2"),
     ]
     assert examples[2].steps[0].expected == '{"revision": 12}'
     assert examples[1].steps[-1].running

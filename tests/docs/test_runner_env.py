@@ -80,18 +80,11 @@ def test_a_missing_environment_stops_the_page_at_its_first_block(tmp_path: Path)
 
 
 def test_a_terminal_keeps_one_environment_and_names_are_checked(tmp_path: Path) -> None:
-    mixed = PAGE.replace(
-        "<!-- example: env=secure terminal=s -->\n```console\n$ echo again",
-        "<!-- example: terminal=s -->\n```console\n$ echo again",
-    )
+    mixed = PAGE.replace("<!-- example: env=secure terminal=s -->\n```console\n$ echo again",
+                         "<!-- example: terminal=s -->\n```console\n$ echo again")
     with pytest.raises(ExampleError, match="terminal 's' runs in env=secure"):
-        run_page(
-            parse(_page(tmp_path, mixed)),
-            tmp_path,
-            dict(os.environ),
-            timeout=10,
-            environments={"secure": lambda env: {**env, "WHICH": "secure"}},
-        )
+        run_page(parse(_page(tmp_path, mixed)), tmp_path, dict(os.environ), timeout=10,
+                 environments={"secure": lambda env: {**env, "WHICH": "secure"}})
     with pytest.raises(ValueError, match="unknown env 'ros'"):
         parse(_page(tmp_path, "<!-- example: env=ros -->\n```console\n$ true\n```\n"))
 

@@ -35,11 +35,7 @@ def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
     env = dict(os.environ, NO_MKDOCS_2_WARNING="1")
     done = subprocess.run(
         [str(MKDOCS), "build", "--strict", "--site-dir", str(out)],
-        cwd=ROOT,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=120,
+        cwd=ROOT, env=env, capture_output=True, text=True, timeout=120,
     )
     assert done.returncode == 0, done.stderr
     return out
@@ -56,13 +52,9 @@ def test_every_page_is_built_with_the_readme_as_home(site: Path) -> None:
 
 def test_the_api_reference_is_generated_from_the_docstrings(site: Path) -> None:
     text = (site / "api-reference" / "index.html").read_text(encoding="utf-8")
-    for anchor in (
-        "dds.client.ParameterClient",
-        "dds.server.ParameterServer",
-        "dds.monitor.ParameterMonitor",
-        "core.table.ParameterTable",
-        "dds.client.ParameterClient.wait_for_node",
-    ):
+    for anchor in ("dds.client.ParameterClient", "dds.server.ParameterServer",
+                   "dds.monitor.ParameterMonitor", "core.table.ParameterTable",
+                   "dds.client.ParameterClient.wait_for_node"):
         assert f'id="paramdds.{anchor}"' in text
 
 

@@ -154,7 +154,6 @@ class Oracle:
         import time
 
         deadline = time.monotonic() + TIMEOUT
-
         def publishing() -> bool:  # the node's own writer, not just any (every rclpy node has one)
             infos = self.node.get_publishers_info_by_topic("/parameter_events")
             return any(f"{i.node_namespace.rstrip('/')}/{i.node_name}" == fqn for i in infos)

@@ -63,6 +63,7 @@ def wait_for_nodes(url: str, nodes: set[str], params: int = 9, timeout: float = 
 expect.set_options(timeout=15_000)  # a loaded 2-core CI machine; a passing check returns at once
 
 
+
 def chromium_path() -> str:
     """Debian's chromium; skipped locally when absent, a failure in CI (CI=true)."""
     path = os.environ.get("PARAMDDS_CHROMIUM") or shutil.which("chromium") or "/usr/bin/chromium"

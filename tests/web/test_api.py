@@ -109,7 +109,7 @@ def test_dump_is_a_parameter_file_that_loads_back(console: Console) -> None:
     assert loaded.status_code == 200, loaded.text
     results = {x["name"]: x for x in loaded.json()["results"]}
     assert len(results) == 9 and all(x["successful"] for x in results.values())
-    assert "SN-0042" in r.text
+    assert 'SN-0042' in r.text
     changed = post(console, "load", {"node": "base", "text": r.text.replace("SN-0042", "SN-0043")})
     assert changed.status_code == 403, changed.text
     results = {x["name"]: x for x in changed.json()["results"]}

@@ -99,6 +99,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
 
 
+
 def run(args: argparse.Namespace) -> int:
     from ... import bench
 

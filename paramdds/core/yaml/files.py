@@ -18,6 +18,7 @@ Entry = tuple[str, ParameterValue, ParameterDescriptor | None]
 Snapshot = list[tuple[str, ParameterValue, ParameterDescriptor]]
 
 
+
 def _entries(items: Sequence[Any]) -> list[Entry]:
     """Normalise the loaders' entries to ``(name, value, descriptor or None)``."""
     out: list[Entry] = []
