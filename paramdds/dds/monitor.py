@@ -290,7 +290,9 @@ class ParameterMonitor:
         """A sample of another incarnation than the one held: the node's server started again."""
         if not s.incarnation or s.incarnation == state.incarnation:
             return
-        restarted = state.incarnation != 0
+        # two processes hosting one node id (a warned misconfiguration, see duplicates) each have
+        # an incarnation of their own: their samples alternating is no restart
+        restarted = state.incarnation != 0 and not state.duplicates
         state.incarnation, state.shown = s.incarnation, 0
         if restarted and self._callbacks:
             self._flush_deleted(state, state.revision, events)
