@@ -20,8 +20,9 @@ from typing import TYPE_CHECKING
 from ..core.results import SetResult
 
 if TYPE_CHECKING:
+    from ..core.descriptors import ParameterDescriptor
     from ..core.results import GetResult
-    from ..core.values import Parameter
+    from ..core.values import Parameter, ParameterValue
     from ..dds.client import ParameterClient, SetReply
 
 UNCHANGED = "unchanged"
@@ -36,29 +37,36 @@ class LoadPlan:
     unchanged: tuple[str, ...]
 
 
+def unchanged(
+    name: str, value: ParameterValue, held: ParameterValue, descriptor: ParameterDescriptor | None
+) -> bool:
+    """Whether setting ``value`` on a parameter that holds ``held`` changes nothing (the
+    one rule of ``load`` in the CLI, the web console and the demo client)."""
+    from ..core.fit import fit_value
+    from ..errors import ParamddsError
+
+    try:
+        fitted = fit_value(name, value, descriptor)
+    except ParamddsError:  # not a value of this parameter: a change the node will refuse
+        return False
+    return fitted.same_as(held)
+
+
 def plan_load(params: Sequence[Parameter], current: Sequence[GetResult]) -> LoadPlan:
     """Split ``params`` into the values that change the node and those it already holds.
 
     ``current`` is the node's answer to a get (with descriptors) of the same names.
     """
-    from ..core.fit import fit_value
-    from ..errors import ParamddsError
-
     held = {r.name: r for r in current if r.value is not None}
     changed: list[Parameter] = []
-    unchanged: list[str] = []
+    skipped: list[str] = []
     for p in params:
         r = held.get(p.name)
-        if r is not None and r.value is not None:
-            try:
-                value = fit_value(p.name, p.value, r.descriptor)
-            except ParamddsError:
-                value = p.value
-            if value.same_as(r.value):
-                unchanged.append(p.name)
-                continue
-        changed.append(p)
-    return LoadPlan(tuple(p.name for p in params), tuple(changed), tuple(unchanged))
+        if r is not None and r.value is not None and unchanged(p.name, p.value, r.value, r.descriptor):
+            skipped.append(p.name)
+        else:
+            changed.append(p)
+    return LoadPlan(tuple(p.name for p in params), tuple(changed), tuple(skipped))
 
 
 def load(
