@@ -34,7 +34,8 @@ def main(argv: list[str]) -> int:
         print(__doc__, file=sys.stderr)
         return 2
     target, requests = argv[0], argv[1:]
-    rclpy.init()
+    # not sys.argv: rcl would read a NAME:=VALUE as a remap rule in its deprecated form and warn
+    rclpy.init(args=[sys.argv[0]])
     node = rclpy.create_node("ros2_client_example")
     client = AsyncParameterClient(node, target)
     status = 0

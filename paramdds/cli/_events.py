@@ -8,7 +8,7 @@ import time
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-from ..frontend.shapes import dumps_json, json_value
+from ..frontend.shapes import dumps_json, json_value, shown_node
 from ._output import typed
 
 if TYPE_CHECKING:
@@ -47,7 +47,7 @@ class EventPrinter:
         self.last_event = time.monotonic()
         if event.event is EventKind.SYNCED:
             return  # printed by :meth:`synced`, once the state has settled (see settle())
-        if event.event in (EventKind.ONLINE, EventKind.OFFLINE):
+        if event.event in (EventKind.ONLINE, EventKind.OFFLINE, EventKind.RESTARTED):
             if self._synced:
                 self._write(self._node_line(event))
             return
@@ -71,7 +71,7 @@ class EventPrinter:
             return dumps_json(
                 {
                     "event": e.event.value,
-                    "node": e.node,
+                    "node": shown_node(e.node, e.origin),
                     "name": None,
                     "type": None,
                     "value": None,
@@ -80,7 +80,7 @@ class EventPrinter:
                 },
                 pretty=False,
             )
-        return f"{e.event.value:<8} {e.node}"
+        return f"{e.event.value:<8} {shown_node(e.node, e.origin)}"
 
     def _parameter_line(self, e: MonitorEvent) -> str:
         from ..dds.monitor import EventKind
@@ -90,7 +90,7 @@ class EventPrinter:
             return dumps_json(
                 {
                     "event": e.event.value,
-                    "node": e.node,
+                    "node": shown_node(e.node, e.origin),
                     "name": e.name,
                     "type": value.type.label if value is not None else "not_set",
                     "value": json_value(value),
@@ -100,7 +100,7 @@ class EventPrinter:
                 pretty=False,
             )
         shown = "" if value is None else f" = {typed(value)}"
-        return f"{e.event.value:<8} {e.node} {e.name}{shown}  (rev {e.revision})"
+        return f"{e.event.value:<8} {shown_node(e.node, e.origin)} {e.name}{shown}  (rev {e.revision})"
 
     def _write(self, line: str) -> None:
         with self._lock:

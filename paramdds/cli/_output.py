@@ -61,7 +61,9 @@ def results_table(results: Mapping[str, Mapping[str, object]], revision: int) ->
     lines = []
     for name, r in results.items():
         reason = str(r["reason"])
-        if r["successful"]:
+        if r["successful"] and reason == "unchanged":
+            lines.append(f"{name}: unchanged")
+        elif r["successful"]:
             lines.append(f"{name}: ok" + (f" ({reason})" if reason else ""))
         else:
             lines.append(f"{name}: FAILED: {reason}")

@@ -90,6 +90,15 @@ def _add_globals(p: argparse.ArgumentParser, *, top: bool) -> None:
     )
 
 
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("paramdds")
+    except PackageNotFoundError:  # run from a checkout that is not installed
+        return "unknown"
+
+
 def build_parser() -> Parser:
     """The whole parser: the global options, then every verb of :data:`~paramdds.cli.verbs.VERBS`."""
     from .verbs import VERBS, verb
@@ -100,6 +109,7 @@ def build_parser() -> Parser:
         epilog="Exit codes: 0 ok, 1 refused by the node, 2 usage or bad input, "
         "3 node absent or timeout, 130 interrupted.",
     )
+    top.add_argument("--version", action="version", version=f"paramdds {_version()}")
     _add_globals(top, top=True)
     sub = top.add_subparsers(dest="verb", metavar="VERB", parser_class=Parser)
     sub.required = True

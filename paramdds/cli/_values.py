@@ -1,5 +1,7 @@
 """Node ids and ``NAME=VALUE`` arguments: split, typed from YAML scalars, checked before anything is sent.
 
+``NAME:=VALUE`` is accepted too, and ``NAME VALUE`` for one parameter, as ``ros2 param`` users type them.
+
 Values are typed by the same resolver as parameter files (it mirrors rcl):
 ``1`` is an integer, ``1.5`` a double, ``true`` a bool, ``[1, 2]`` an integer
 array, ``"on"`` quoted stays a string. Where that is ambiguous the node decides:
@@ -43,6 +45,18 @@ def node_arg(text: str) -> str:
         raise UsageError(f"invalid node name {text!r}: {exc.message}") from exc
 
 
+def names_arg(names: Sequence[str]) -> list[str]:
+    """Parameter names from the command line, checked (UsageError, exit 2, as for a bad node name)."""
+    from ..core.names import validate_name
+
+    for name in names:
+        try:
+            validate_name(name)
+        except ParamddsError as exc:
+            raise UsageError(f"invalid parameter name {name!r}: {exc.message}") from exc
+    return list(names)
+
+
 def parse_value(text: str) -> ParameterValue:
     """A command-line value typed like a YAML scalar (UsageError when unparsable)."""
     from ..core.yaml.scalar import parse_cli_value
@@ -59,6 +73,8 @@ def parse_assignment(arg: str) -> Assignment:
 
     name, sep, text = arg.partition("=")
     name = name.strip()
+    if name.endswith(":"):  # NAME:=VALUE, as ROS 2 command lines write it
+        name = name[:-1].rstrip()
     if not sep or not name:
         raise UsageError(f"expected NAME=VALUE, got {arg!r}")
     try:
@@ -74,8 +90,13 @@ def parse_assignment(arg: str) -> Assignment:
     return Assignment(name, text, value)
 
 
-def parse_assignments(args: Sequence[str]) -> list[Assignment]:
-    """Every argument parsed; a name given twice is a usage error."""
+def parse_assignments(args: Sequence[str], *, pair: bool = False) -> list[Assignment]:
+    """Every argument parsed; a name given twice is a usage error.
+
+    With ``pair``, two arguments of which the first has no ``=`` are one ``NAME VALUE``
+    (``ros2 param set NODE NAME VALUE``)."""
+    if pair and len(args) == 2 and "=" not in args[0]:
+        args = [f"{args[0]}={args[1]}"]
     parsed = [parse_assignment(a) for a in args]
     seen: set[str] = set()
     for a in parsed:

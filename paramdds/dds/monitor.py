@@ -10,6 +10,21 @@ change (trap 1 of docs/wire.md). From the instance states it derives:
   stop, or a killed server after its 1 s liveliness lease) → ``offline``. An
   offline node keeps its last values.
 
+Events report changes, so a watcher sees the same story whatever it missed:
+
+* after a stall, an offline/online or a restart the node's table arrives again; a
+  sample whose value and descriptor equal what the monitor holds is no event;
+* a sample of a new incarnation (the node's server started again) is one
+  ``restarted`` event, then only what differs from before;
+* within one incarnation an event never carries a revision lower than one emitted
+  before for that node (a re-delivered sample keeps the revision it was written at;
+  it is reported at the highest revision shown, the state it is part of);
+* the events of a node whose presence has not arrived yet (a late joiner receives the
+  instances in any order) wait for it, so each event carries the node's origin;
+* a deletion carries no revision of its own: ``deleted`` is emitted with the revision
+  of the node's presence sample that follows it (the server writes one after every
+  change set), the revision of the delete's reply.
+
 ``synced`` is emitted once, when every node seen holds as many parameters as its
 presence announces and no sample has arrived for :data:`QUIET` seconds.
 """
@@ -52,6 +67,7 @@ class EventKind(str, Enum):
     DELETED = "deleted"
     ONLINE = "online"
     OFFLINE = "offline"
+    RESTARTED = "restarted"  # the node's server started again (a new incarnation)
     SYNCED = "synced"
 
 
@@ -65,6 +81,7 @@ class MonitorEvent:
     revision: int = 0
     stamp: float = 0.0  # seconds since the epoch, from the writer
     incarnation: int = 0  # the server's for the node (new on every start): see NodeState.incarnation
+    origin: str | None = None  # the node's presence tag "origin" ("ros2": mirrored by the bridge), if known
 
 
 @dataclass
@@ -88,6 +105,11 @@ class NodeState:
     # (no parameters; requests fail with UNAVAILABLE); None for a node that is what it says
     status: str | None = None
     parameters: dict[str, tuple[ParameterValue, ParameterDescriptor]] = field(default_factory=dict)
+    shown: int = 0  # the highest revision an event showed for this incarnation
+    # deletions waiting for the presence sample that gives their revision (see the module doc)
+    deleting: list[tuple[str, ParameterValue, ParameterDescriptor]] = field(default_factory=list)
+    # events of a node whose presence has not arrived yet: emitted with it, once its origin is known
+    early: list[MonitorEvent] = field(default_factory=list)
 
     @property
     def complete(self) -> bool:
@@ -152,7 +174,13 @@ class ParameterMonitor:
         """A copy of every node's state as this monitor holds it now."""
         with self._cond:
             return {
-                n: replace(s, parameters=dict(s.parameters), duplicates=list(s.duplicates))
+                n: replace(
+                    s,
+                    parameters=dict(s.parameters),
+                    duplicates=list(s.duplicates),
+                    deleting=list(s.deleting),
+                    early=list(s.early),
+                )
                 for n, s in self._states.items()
             }
 
@@ -199,42 +227,102 @@ class ParameterMonitor:
         with self._cond:
             self._last_sample = time.monotonic()
             for s, info in samples:
-                event = self._apply(s, info)
-                if event is not None:
-                    events.append(event)
+                self._apply(s, info, events)
             self._cond.notify_all()
         self._emit(events)
 
-    def _apply(self, s: StateSample | StateKey, info: Any) -> MonitorEvent | None:
+    def _apply(self, s: StateSample | StateKey, info: Any, events: list[MonitorEvent]) -> None:
         if self._only is not None and s.node_id not in self._only:
-            return None
+            return
         state = self._states.get(s.node_id)
         if state is None:
             state = self._states[s.node_id] = NodeState(s.node_id)
         if not isinstance(s, StateSample):  # no data: the instance was disposed or lost its writers
             if s.name == "":
-                return self._set_online(state, False)
-            if info.instance_state == InstanceState.NotAliveDisposed and s.name in state.parameters:
+                self._flush_deleted(state, state.revision, events)
+                self._add(events, self._set_online(state, False))
+            elif info.instance_state == InstanceState.NotAliveDisposed and s.name in state.parameters:
                 value, descriptor = state.parameters.pop(s.name)
-                return MonitorEvent(
-                    EventKind.DELETED,
-                    state.node,
-                    s.name,
-                    value,
-                    descriptor,
-                    state.revision,
-                    incarnation=state.incarnation,
-                )
-            return None  # "no writers" on a parameter: the node is offline, keep its value
+                if self._callbacks:  # emitted with the revision of the presence that follows
+                    state.deleting.append((s.name, value, descriptor))
+            return  # "no writers" on a parameter: the node is offline, keep its value
+        self._check_incarnation(state, s, events)
         if s.kind == wire.EVENT_PRESENCE and s.name == "":
-            return self._apply_presence(state, s, info)
-        kind = EventKind.MODIFIED if s.name in state.parameters else EventKind.ADDED
+            self._flush_deleted(state, s.revision, events)
+            self._add(events, self._apply_presence(state, s, info))
+            events += [replace(e, origin=state.origin) for e in state.early]
+            state.early.clear()
+            return
+        held = state.parameters.get(s.name)
         state.parameters[s.name] = (s.value, s.descriptor)
         if not self._callbacks:
-            return None  # an event exists only to be emitted: a monitor's full state is 5,000+ samples
-        return MonitorEvent(
-            kind, state.node, s.name, s.value, s.descriptor, s.revision, s.stamp, s.incarnation
+            return  # an event exists only to be emitted: a monitor's full state is 5,000+ samples
+        if held is not None and held[0].same_as(s.value) and held[1] == s.descriptor:
+            return  # the same again (re-sent after a stall or a restart): no change to report
+        self._flush_deleted(state, s.revision, events)
+        kind = EventKind.MODIFIED if held is not None else EventKind.ADDED
+        (events if state.announced >= 0 else state.early).append(
+            MonitorEvent(
+                kind,
+                state.node,
+                s.name,
+                s.value,
+                s.descriptor,
+                self._shown(state, s.revision),
+                s.stamp,
+                s.incarnation,
+                origin=state.origin,
+            )
         )
+
+    @staticmethod
+    def _add(events: list[MonitorEvent], event: MonitorEvent | None) -> None:
+        if event is not None:
+            events.append(event)
+
+    @staticmethod
+    def _shown(state: NodeState, revision: int) -> int:
+        """The revision an event shows: never lower than one shown before in this incarnation."""
+        state.shown = max(state.shown, revision)
+        return state.shown
+
+    def _check_incarnation(self, state: NodeState, s: StateSample, events: list[MonitorEvent]) -> None:
+        """A sample of another incarnation than the one held: the node's server started again."""
+        if not s.incarnation or s.incarnation == state.incarnation:
+            return
+        # two processes hosting one node id (a warned misconfiguration, see duplicates) each have
+        # an incarnation of their own: their samples alternating is no restart
+        restarted = state.incarnation != 0 and not state.duplicates
+        state.incarnation, state.shown = s.incarnation, 0
+        if restarted and self._callbacks:
+            self._flush_deleted(state, state.revision, events)
+            events.append(
+                MonitorEvent(
+                    EventKind.RESTARTED,
+                    state.node,
+                    revision=s.revision,
+                    stamp=time.time(),
+                    incarnation=s.incarnation,
+                    origin=state.origin,
+                )
+            )
+
+    def _flush_deleted(self, state: NodeState, revision: int, events: list[MonitorEvent]) -> None:
+        for name, value, descriptor in state.deleting:
+            events.append(
+                MonitorEvent(
+                    EventKind.DELETED,
+                    state.node,
+                    name,
+                    value,
+                    descriptor,
+                    self._shown(state, revision),
+                    time.time(),
+                    state.incarnation,
+                    origin=state.origin,
+                )
+            )
+        state.deleting.clear()
 
     def _apply_presence(self, state: NodeState, s: StateSample, info: Any) -> MonitorEvent | None:
         writer = int(getattr(info, "publication_handle", 0))
@@ -279,7 +367,12 @@ class ParameterMonitor:
             state.writer, state.duplicates = 0, []
         kind = EventKind.ONLINE if online else EventKind.OFFLINE
         return MonitorEvent(
-            kind, state.node, revision=state.revision, stamp=time.time(), incarnation=state.incarnation
+            kind,
+            state.node,
+            revision=self._shown(state, state.revision),
+            stamp=time.time(),
+            incarnation=state.incarnation,
+            origin=state.origin,
         )
 
     def _emit(self, events: list[MonitorEvent]) -> None:

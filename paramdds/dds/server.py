@@ -461,9 +461,10 @@ class ParameterServer:
             response.results = [_not_persisted(r, changes[-1].revision, failure) for r in response.results]
         if reply:
             self._remember(key, content, response)
-            self._send_reply("SetParametersResponse", response)
         elif not all(r.successful for r in response.results) or response.code:
             log.warning("assignment for %s partly refused: %s", table.node_id, _summary(response))
+        # an assignment is answered too: its assigner reports each refusal (paramdds.dds.assign)
+        self._send_reply("SetParametersResponse", response)
         if changes:
             self.publication.publish(table, changes)
 

@@ -13,7 +13,7 @@ import logging
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from ..dds.assign import Assigner
+    from ..dds.assign import Assigner, ReplyCallback
     from ..dds.client import ParameterClient
     from ..dds.monitor import EventCallback, ParameterMonitor
     from ..dds.qos import QosProfiles
@@ -82,10 +82,12 @@ class Session:
         self._closers.append(monitor)
         return monitor
 
-    def assigner(self) -> Assigner:
+    def assigner(self, on_reply: ReplyCallback | None = None) -> Assigner:
         from ..dds.assign import Assigner
 
-        return Assigner(self.participant, self.qos)
+        assigner = Assigner(self.participant, self.qos, on_reply=on_reply)
+        self._closers.append(assigner)
+        return assigner
 
     def close(self) -> None:
         """Close what was opened, newest first; errors here are logged, never raised."""

@@ -22,6 +22,13 @@ from ..core.descriptors import ParameterDescriptor
 from ..core.values import ParameterType, ParameterValue
 
 
+def shown_node(node: str, origin: str | None) -> str:
+    """A node id as an operator knows it: a ROS 2 node (mirrored by the bridge, origin
+    ``ros2``) with its leading slash (``/arm/driver``), a paramdds node without
+    (``robot1``). Both forms are accepted wherever a node is given."""
+    return "/" + node if origin == "ros2" else node
+
+
 def json_scalar(v: object) -> object:
     """One scalar in its JSON shape (non-finite doubles become strings)."""
     if isinstance(v, float) and not math.isfinite(v):

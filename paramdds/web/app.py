@@ -45,6 +45,7 @@ from ..core.names import validate_name
 from ..core.revision import Revision, incarnation_text
 from ..core.values import NOT_SET, Parameter
 from ..errors import ErrorCode, FileFormatError, ParamddsError
+from ..frontend.load import unchanged as unchanged_value
 from .guard import LOOPBACK_NAMES, Guard, error_response
 from .hub import Hub, sse
 from .inputs import bool_field, file_entries, int_arg, node_arg, read_body, revision_field
@@ -391,7 +392,7 @@ class Console:
         unchanged: list[Row] = []
         for name, value, _ in entries:
             described = detail.parameters.get(name)
-            if described is not None and described[0].same_as(value):
+            if described is not None and unchanged_value(name, value, *described):
                 # not a change (a node's own dump holds its read-only parameters too): not sent
                 unchanged.append({"name": name, "successful": True, "reason": "unchanged", "code": None})
                 continue

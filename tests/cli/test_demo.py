@@ -34,7 +34,15 @@ def check_demo_output(out: str, node: str) -> None:
     assert "  sensor.topics = string_array ['/scan', '/imu', '/odom']" in lines[g + 2 : g + 9]
     s = lines.index("=== SET PARAMETERS ===")
     assert lines[s + 1] == f"[SET] Response from: {node}"
-    assert lines[s + 2 : s + 9] == [f"  Result[{i}]: SUCCESS" for i in range(7)]
+    # the file's values are the node's: each shown with its value, unchanged, nothing sent
+    results = lines[s + 2 : s + 9]
+    assert all(r.startswith(f"  Result[{i}]: ") and r.endswith(": UNCHANGED") for i, r in enumerate(results))
+    assert any(r.endswith(": robot.max_velocity = double 1.5: UNCHANGED") for r in results)
+    assert "CHANGED: " not in out
+    r = lines.index("=== A REFUSED SET ===")
+    assert lines[r + 1] == "[SET] robot.enabled = string 'fast'"
+    reason = "Parameter 'robot.enabled' expects a bool but got string 'fast'"
+    assert lines[r + 2] == f"  Result[0]: FAILED: {reason}"
 
 
 def test_client_once_prints_the_seed_demo(tmp_path: Path) -> None:
@@ -49,7 +57,13 @@ def test_client_once_prints_the_seed_demo(tmp_path: Path) -> None:
         failing.write_text("parameters:\n  - name: robot.name\n    type: integer\n    value: 3\n")
         out = run_cli(domain, "client", "--target", "robot1", "--params-file", str(failing), "--once")
         assert out.returncode == 1
-        assert "  Result[0]: FAILED: " in out.stdout
+        assert "  Result[0]: robot.name = integer 3: FAILED: " in out.stdout
+        changed = tmp_path / "changed.yaml"
+        changed.write_text("parameters:\n  - name: robot.max_velocity\n    type: double\n    value: 2.5\n")
+        out = run_cli(domain, "client", "--target", "robot1", "--params-file", str(changed), "--once")
+        assert out.returncode == 0, out.stderr
+        assert "  Result[0]: robot.max_velocity = double 2.5: SUCCESS" in out.stdout.splitlines()
+        assert "  CHANGED: robot.max_velocity" in out.stdout.splitlines()
     finally:
         assert server.stop() == 0  # SIGTERM is a graceful stop
 

@@ -235,10 +235,10 @@ def test_dump_then_load_round_trips(c: Cluster, tmp_path: Path) -> None:
     text = dump.stdout.replace("robot1:", "robot2:", 1).replace("max_velocity: 1.5", "max_velocity: 2.5")
     path.write_text(text)
     loaded = c.cli("load", "robot2", str(path), "-o", "json")
-    assert loaded.returncode == 1  # the read-only limits.fixed is refused, the rest applied
+    assert loaded.returncode == 0, loaded.stderr  # the read-only limits.fixed is unchanged: skipped
     results = json.loads(loaded.stdout)
-    assert results["robot.max_velocity"]["successful"] is True
-    assert results["limits.fixed"]["successful"] is False
+    assert results["robot.max_velocity"] == {"successful": True, "reason": ""}
+    assert results["limits.fixed"] == {"successful": True, "reason": "unchanged"}
     assert c.json("get", "robot2", "robot.max_velocity") == {"robot.max_velocity": 2.5}
 
 

@@ -66,7 +66,7 @@ def test_the_console_applies_atomically_on_a_mirrored_node_and_shows_its_refusal
 
     host = ros_hosts("--rich", "/robot/rich")
     wait_summary(console, "robot/rich", lambda s: s["online"] and s["origin"] == "ros2")
-    open_node(page, console, "robot/rich")
+    open_node(page, console, "/robot/rich")  # a ROS 2 node: shown with its slash
     expect(page.locator('#nodes li[data-node="robot/rich"] .origin')).to_have_text("ros2")
     row(page, "mode").locator('[data-role="input"]').fill("manual")
     row(page, "limits.count").locator('[data-role="input"]').fill("6")

@@ -322,7 +322,7 @@ def test_the_cli_verb_bridges_and_nodes_shows_the_origin(ros_env: dict[str, str]
         assert got.returncode == 0, got.stderr
         assert json.loads(got.stdout) == {"mode": "auto"}
         nodes = json.loads(paramdds_cli(ros_env, "nodes", "-o", "json").stdout)
-        assert [(n["node"], n["origin"]) for n in nodes] == [("robot/rich", "ros2")]
+        assert [(n["node"], n["origin"]) for n in nodes] == [("/robot/rich", "ros2")]  # shown with its slash
     finally:
         bridge.send_signal(signal.SIGINT)
         _, err = bridge.communicate(timeout=30)

@@ -261,7 +261,9 @@ def test_a_node_mirrored_from_ros2_is_marked(page: Page, console: Console, domai
             for n in httpx.get(console.url + "api/nodes", timeout=5).json()["nodes"]
             if n["node"] != "talker"
         )
-        open_node(page, console, "talker")
+        page.goto(f"{console.url}#node=/talker")  # accepted with its leading slash, as ROS 2 writes it
+        expect(page.locator("#node-name")).to_have_text("/talker")  # and shown with it
+        expect(page.locator('#nodes li[data-node="talker"] .n')).to_contain_text("/talker")
         expect(page.locator('#nodes li[data-node="talker"] .origin')).to_have_text("ros2")
         expect(page.locator('#nodes li[data-node="arm"] .origin')).to_have_count(0)
         expect(page.locator("#node-meta")).to_contain_text("mirrored from ros2")

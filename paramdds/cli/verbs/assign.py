@@ -1,12 +1,20 @@
 """``paramdds assign``: hold values for a node until Ctrl-C; they reach it whenever it starts.
 
 The values are retained by this process's assignment writer (:class:`~paramdds.dds.assign.Assigner`);
-a ``NAME=VALUE`` on the command line wins over the same name in ``--file``.
+a ``NAME=VALUE`` on the command line wins over the same name in ``--file``. Each time a
+node applies them (when it starts, or at once) its answer is printed as it comes: one
+line for the assignment and one per refused parameter with the node's reason (one JSON
+object per answer with ``-o json``).
 """
 
 from __future__ import annotations
 
 import argparse
+import threading
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from ...dds.client import SetReply
 
 HELP = "hold values for a node; they reach it whenever it starts (until Ctrl-C)"
 
@@ -18,7 +26,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import sys
 
     from ...core.values import Parameter
     from ...core.yaml.files import read_values
@@ -39,10 +46,49 @@ def run(args: argparse.Namespace) -> int:
         params[a.name] = Parameter(a.name, a.value)
     if not params:
         raise UsageError("nothing to assign: give NAME=VALUE arguments or --file")
+    printer = ReplyPrinter(args.output)
     with Session(args, app_name="paramdds-assign") as session:
-        assigner = session.assigner()  # keep it: its writer holds the retained values
+        assigner = session.assigner(printer)  # keep it: its writer holds the retained values
         assigner.assign(node, list(params.values()))
-        sys.stdout.write(f"[ASSIGN] holding {len(params)} parameters for node {node} (Ctrl-C to stop)\n")
-        sys.stdout.flush()
+        printer.write(f"[ASSIGN] holding {len(params)} parameters for node {node} (Ctrl-C to stop)")
         wait_until_interrupted()
     return Exit.OK
+
+
+class ReplyPrinter:
+    """Prints a node's answers to the assignment as they come (on the assigner's thread)."""
+
+    def __init__(self, output: str) -> None:
+        self._json = output == "json"
+        self._lock = threading.Lock()
+
+    def __call__(self, reply: SetReply, error: str) -> None:
+        from ...frontend.shapes import dumps_json
+
+        refused = [r for r in reply.results if not r.successful]
+        if self._json:
+            data: dict[str, object] = {"event": "assigned", "node": reply.node, "revision": reply.revision}
+            if error:
+                data["error"] = error
+            data["results"] = {
+                r.name: {"successful": r.successful, "reason": r.reason} for r in reply.results
+            }
+            self.write(dumps_json(data, pretty=False))
+            return
+        if error:
+            self.write(f"[ASSIGN] node {reply.node} refused the assignment: {error}")
+            return
+        applied = len(reply.results) - len(refused)
+        lines = [
+            f"[ASSIGN] node {reply.node} applied {applied} of {len(reply.results)} parameters "
+            f"(revision {reply.revision})"
+        ]
+        lines += [f"[ASSIGN]   {r.name}: FAILED: {r.reason}" for r in refused]
+        self.write("\n".join(lines))
+
+    def write(self, text: str) -> None:
+        import sys
+
+        with self._lock:
+            sys.stdout.write(text + "\n")
+            sys.stdout.flush()

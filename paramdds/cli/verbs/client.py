@@ -7,8 +7,12 @@
          NEW: robot.max_velocity
 
 3. ``=== LIST PARAMETERS ===``, ``=== GET PARAMETERS ===`` and, with a params
-   file, ``=== SET PARAMETERS ===`` setting every parameter of the file on the
-   target in file order;
+   file, ``=== SET PARAMETERS ===`` setting the parameters of the file on the
+   target in file order, each shown with its value and outcome (``SUCCESS``,
+   ``UNCHANGED`` for a value the node already holds, which is not sent, or
+   ``FAILED`` with the node's reason), then ``=== A REFUSED SET ===``: a value of
+   the wrong type for a parameter of a fixed type, which the node refuses with its
+   reason (nothing changes);
 4. keep printing events until Ctrl-C (exit 130), or with ``--once`` exit after
    the events of the set have been printed (exit 0, or 1 if a set failed).
 """
@@ -137,13 +141,47 @@ def _demo(
     if not params:
         printer.section("=== SET PARAMETERS ===", "[SET] nothing to set (no --params-file)")
         return True
+    from ...frontend.load import UNCHANGED, load
+
+    values = {p.name: p.value for p in params}
     with printer.lock:  # the events of this set print after its section
-        result = client.set(target, params)
+        result = load(client, target, params)
         lines = [f"[SET] Response from: {result.node}"]
         for i, r in enumerate(result.results):
-            lines.append(f"  Result[{i}]: SUCCESS" if r.successful else f"  Result[{i}]: FAILED: {r.reason}")
+            shown = f"{r.name} = {typed(values.get(r.name))}"
+            if not r.successful:
+                lines.append(f"  Result[{i}]: {shown}: FAILED: {r.reason}")
+            else:
+                lines.append(f"  Result[{i}]: {shown}: {'UNCHANGED' if r.reason == UNCHANGED else 'SUCCESS'}")
         printer.section("=== SET PARAMETERS ===", *lines)
+    _refusal(client, printer, target)
     # the monitor's dispatcher prints a batch's events before it can be closed
     revision = result.revision
     monitor.wait_until(lambda s: target in s and s[target].revision >= revision, min(timeout, SETTLE))
     return result.successful
+
+
+def _refusal(client: ParameterClient, printer: DemoPrinter, target: str) -> None:
+    """Show a refusal: a string for the first parameter of a fixed, non-string type."""
+    from ...core.values import Parameter, ParameterType, ParameterValue
+    from .._output import typed
+
+    names = sorted(client.list(target).names)
+    described = client.get(target, names, with_descriptors=True).results
+    fixed = [
+        r.name
+        for r in described
+        if r.value is not None
+        and r.descriptor is not None
+        and not r.descriptor.dynamic_typing
+        and not r.descriptor.read_only
+        and r.value.type not in (ParameterType.STRING, ParameterType.NOT_SET)
+    ]
+    if not fixed:
+        return
+    wrong = Parameter(fixed[0], ParameterValue.of(ParameterType.STRING, "fast"))
+    (r,) = client.set(target, [wrong]).results
+    outcome = "SUCCESS" if r.successful else f"FAILED: {r.reason}"
+    printer.section(
+        "=== A REFUSED SET ===", f"[SET] {wrong.name} = {typed(wrong.value)}", f"  Result[0]: {outcome}"
+    )

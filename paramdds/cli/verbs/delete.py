@@ -15,9 +15,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ...frontend.session import Session
     from .._output import report_set
-    from .._values import node_arg
+    from .._values import names_arg, node_arg
 
     node = node_arg(args.node)
     with Session(args) as session:
-        reply = session.client().delete(node, args.names)
+        reply = session.client().delete(node, names_arg(args.names))
     return report_set(args.output, node, reply)

@@ -16,11 +16,11 @@ def run(args: argparse.Namespace) -> int:
     from ...frontend.session import Session
     from ...frontend.shapes import json_descriptor
     from .._output import describe_table, emit, report_missing
-    from .._values import node_arg
+    from .._values import names_arg, node_arg
 
     node = node_arg(args.node)
     with Session(args) as session:
-        reply = session.client().get(node, args.names, with_descriptors=True)
+        reply = session.client().get(node, names_arg(args.names), with_descriptors=True)
     found = {r.name: json_descriptor(r.descriptor) for r in reply.results if r.descriptor is not None}
     emit(args.output, found, describe_table(found))
     return report_missing(node, reply.missing())

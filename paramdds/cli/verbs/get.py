@@ -16,11 +16,11 @@ def run(args: argparse.Namespace) -> int:
     from ...frontend.session import Session
     from ...frontend.shapes import json_value
     from .._output import emit, report_missing, typed
-    from .._values import node_arg
+    from .._values import names_arg, node_arg
 
     node = node_arg(args.node)
     with Session(args) as session:
-        reply = session.client().get(node, args.names)
+        reply = session.client().get(node, names_arg(args.names))
     found = [r for r in reply.results if r.code is None]
     emit(
         args.output,

@@ -1,4 +1,8 @@
-"""``paramdds load``: set a node's parameters from a parameter file (seed or ROS 2 format)."""
+"""``paramdds load``: set a node's parameters from a parameter file (seed or ROS 2 format).
+
+Only the values that differ from the node's are sent (:mod:`paramdds.frontend.load`): a
+node's own dump loads back as a no-op, each value reported ``unchanged``.
+"""
 
 from __future__ import annotations
 
@@ -16,6 +20,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ...core.yaml.files import read_values
     from ...frontend.exits import UsageError
+    from ...frontend.load import load
     from ...frontend.session import Session
     from .._output import report_set
     from .._values import node_arg
@@ -25,5 +30,5 @@ def run(args: argparse.Namespace) -> int:
     if not params:
         raise UsageError(f"{args.file}: no parameters for node {node!r} in this file")
     with Session(args) as session:
-        reply = session.client().set(node, params, atomic=args.atomic)
+        reply = load(session.client(), node, params, atomic=args.atomic)
     return report_set(args.output, node, reply)

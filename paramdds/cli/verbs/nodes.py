@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-HELP = "every node alive now: online, parameter count, host, pid, revision"
+HELP = "every node alive now: online, parameter count, host, pid, revision, origin"
 
 NODES_SETTLE = 2.0  # seconds `nodes` waits at most for the monitor to hold every node's state
 
@@ -20,6 +20,7 @@ def run(args: argparse.Namespace) -> int:
     from ...core.revision import Revision, incarnation_text
     from ...frontend.exits import Exit
     from ...frontend.session import Session
+    from ...frontend.shapes import shown_node
     from .._live import settle
     from .._output import emit
 
@@ -34,7 +35,7 @@ def run(args: argparse.Namespace) -> int:
         states = monitor.snapshot()
     rows: list[dict[str, object]] = [
         {
-            "node": st.node,
+            "node": shown_node(st.node, st.origin),  # a ROS 2 node with its leading slash
             "online": st.online,
             "parameters": st.announced if st.announced >= 0 else len(st.parameters),
             "host": st.host,
@@ -55,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _nodes_table(rows: list[dict[str, object]]) -> str:
-    header = ("NODE", "ONLINE", "PARAMS", "HOST", "PID", "REVISION")
+    header = ("NODE", "ONLINE", "PARAMS", "HOST", "PID", "REVISION", "ORIGIN")
     cells = [header] + [
         (
             str(r["node"]),
@@ -64,6 +65,7 @@ def _nodes_table(rows: list[dict[str, object]]) -> str:
             str(r["host"]),
             str(r["pid"]),
             str(r["revision"]),
+            str(r["origin"] or "paramdds"),
         )
         for r in rows
     ]

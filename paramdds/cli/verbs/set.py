@@ -21,7 +21,12 @@ HELP = "set parameters (each on its own, or --atomic)"
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("node", metavar="NODE")
-    p.add_argument("assignments", nargs="+", metavar="NAME=VALUE", help="values typed as YAML scalars")
+    p.add_argument(
+        "assignments",
+        nargs="+",
+        metavar="NAME=VALUE",
+        help="values typed as YAML scalars; NAME:=VALUE too, and NAME VALUE for one (as ros2 param set)",
+    )
     p.add_argument("--atomic", action="store_true", help="all or nothing")
     p.add_argument(
         "--if-revision",
@@ -40,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
     from .._values import node_arg, parse_assignments
 
     node = node_arg(args.node)
-    assignments = parse_assignments(args.assignments)
+    assignments = parse_assignments(args.assignments, pair=True)
     if_revision = None
     if args.if_revision is not None:
         try:

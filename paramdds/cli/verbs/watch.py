@@ -2,7 +2,9 @@
 
 The state is printed as ``added`` events, then a ``synced`` line once discovery has
 settled (or ``not synced`` when it did not within ``--timeout``), then every change
-and node presence event, one line each (a JSON object each with ``-o json``).
+and node presence event, one line each (a JSON object each with ``-o json``): the
+monitor's rules (:mod:`paramdds.dds.monitor`) make a stall, an offline/online or a
+restart print only what changed, plus one ``restarted`` line for a new incarnation.
 """
 
 from __future__ import annotations

@@ -13,6 +13,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--bind", default="127.0.0.1:8800", metavar="HOST:PORT", help="where to listen (default %(default)s)"
     )
+    p.add_argument(
+        "--port", type=int, metavar="N", help="the port to listen on, on the host of --bind (0: a free one)"
+    )
     p.add_argument("--read-only", action="store_true", help="serve no write endpoint")
     p.add_argument(
         "--token-file",
@@ -46,6 +49,9 @@ def run(args: argparse.Namespace) -> int:
             f"'paramdds web' needs the web extra ({', '.join(missing)} not installed): "
             "pip install 'paramdds[web]'"
         )
+    if args.port is not None:
+        host = args.bind.rpartition(":")[0] or "127.0.0.1"
+        args.bind = f"{host}:{args.port}"
     from ...web.serve import run_web
 
     return run_web(args)

@@ -60,6 +60,29 @@ function showValue(v, type) {
   if (Array.isArray(v)) return "[" + v.map((x) => showScalar(x, type)).join(", ") + "]";
   return showScalar(v, type);
 }
+// A value as the table shows it and its editor takes it (one notation): a string array in
+// JSON ("a" quoted, unprintable characters escaped), everything else as showValue.
+function jsonString(x) { return JSON.stringify(x).replace(HIDDEN, (c) => "\\u" + c.charCodeAt(0).toString(16).padStart(4, "0")); }
+function cellText(v, type) {
+  if (type === "string_array" && Array.isArray(v)) return "[" + v.map(jsonString).join(", ") + "]";
+  return showValue(v, type);
+}
+// A range end that does not bound anything: a double's ±1.79e308 (DBL_MAX) or infinity, an
+// integer's int64 limit. The range is then shown open (≥ lo, ≤ hi) and gets no slider.
+const DBL_MAX = 1.7976931348623157e308;
+function openEnd(x, isFloat) {
+  if (isFloat) { const v = Number(num(x)); return !Number.isFinite(v) || Math.abs(v) >= DBL_MAX; }
+  const v = typeof x === "bigint" ? x : BigInt(x);
+  return v >= 9223372036854775807n || v <= -9223372036854775808n;
+}
+function rangeText(r, t) {
+  const isFloat = t === "double", lo = openEnd(r.from_value, isFloat), hi = openEnd(r.to_value, isFloat);
+  const step = r.step ? ` step ${r.step}` : "";
+  if (lo && hi) return step ? step.trim() : "";
+  if (hi) return `≥ ${showRangeEnd(r.from_value, t)}${step}`;
+  if (lo) return `≤ ${showRangeEnd(r.to_value, t)}${step}`;
+  return `[${showRangeEnd(r.from_value, t)}, ${showRangeEnd(r.to_value, t)}]${step}`;
+}
 function showRangeEnd(x, type) { return type.startsWith("double") ? showScalar(x, "double") : String(x); }
 // A validator's argument as the node shows it: a number in the parameter's own kind (2.0 for a
 // double), a string quoted, a list in brackets.
@@ -72,7 +95,7 @@ function constraintsText(d) {
   const parts = [];
   const r = d.integer_range || d.floating_point_range;
   const t = d.floating_point_range ? "double" : "integer";
-  if (r) parts.push(`[${showRangeEnd(r.from_value, t)}, ${showRangeEnd(r.to_value, t)}]` + (r.step ? ` step ${r.step}` : ""));
+  if (r) { const text = rangeText(r, t); if (text) parts.push(text); }
   for (const v of d.validators) parts.push(v.args.length ? `${v.kind}(${v.args.map((a) => toJSON(a)).join(", ")})` : v.kind);
   if (d.additional_constraints) parts.push(d.additional_constraints);
   return parts.join("; ");
@@ -224,7 +247,7 @@ function scheduleNodes(delay = 250) { clearTimeout(S.listTimer); S.listTimer = s
 
 function nodeItem(n) {
   const li = el("li", { "data-node": n.node, class: (n.online ? "" : "offline ") + (n.node === S.selected ? "selected" : ""), title: `${n.host} pid ${n.pid}` },
-    el("span", { class: "n" }, el("span", { class: "dot" }), n.node,
+    el("span", { class: "n" }, el("span", { class: "dot" }), shownNode(n.node, n.origin),
       n.origin ? el("span", { class: "origin", title: `mirrored from ${n.origin} by the bridge`, text: n.origin }) : null),
     el("span", { class: "m", text: `${n.parameters} params · r${n.revision}` + (n.online ? "" : " · offline") }));
   li.addEventListener("click", () => select(n.node));
@@ -252,7 +275,12 @@ function updateNodes(summaries) {
 
 // -- one node ---------------------------------------------------------------------------------
 
+// A ROS 2 node (mirrored by the bridge) is shown with its leading slash, as ROS 2 writes it;
+// the id the API takes and sends is the canonical one, without (both are accepted).
+function shownNode(node, origin) { return origin === "ros2" ? "/" + node : node; }
+
 function select(node) {
+  node = node.replace(/^\/+/, "");
   if (S.selected !== node) { S.dirty.clear(); S.baseRevision = null; banner(null); }
   checkNode(node);
   S.selected = node;
@@ -284,6 +312,7 @@ function unselect(why) {
 
 function setSummary(s) {
   S.summary = s;
+  if (s) $("#node-name").textContent = shownNode(s.node, s.origin);
   if (!s) { $("#node-meta").textContent = "unknown to this console: it shows here when it appears"; return; }
   $("#node-view").classList.toggle("offline", !s.online);
   $("#node-meta").textContent = `${s.online ? "online" : "offline"} · host ${s.host} · pid ${s.pid} · revision ${s.revision} · ${s.parameters} parameters`
@@ -321,7 +350,7 @@ function rowElement(row) {
   const d = row.descriptor;
   const tr = el("tr", { "data-name": row.name },
     el("td", { class: "name" }, row.name, d.read_only ? el("span", { class: "lock", title: "read-only: no editor", text: "read-only" }) : null),
-    el("td", { class: "value" }, el("span", { class: "current", text: showValue(row.value, row.type) }),
+    el("td", { class: "value" }, el("span", { class: "current", text: cellText(row.value, row.type) }),
       editable(row) ? editorFor(row) : null, el("div", { class: "error" })),
     el("td", { class: "type", text: row.type }),
     el("td", { class: "desc", text: d.description }),
@@ -332,6 +361,7 @@ function rowElement(row) {
 function editorText(row) {
   if (row.type === "byte_array") return row.value.map((b) => b.toString(16).padStart(2, "0")).join(" ");
   if (row.type === "double_array" && row.value.every((x) => typeof x === "number")) return showValue(row.value, row.type);
+  if (row.type === "string_array") return cellText(row.value, row.type);
   if (Array.isArray(row.value)) return toJSON(row.value);
   if (row.type === "double" && typeof row.value === "number") return Number.isInteger(row.value) ? row.value.toFixed(1) : String(row.value);
   return row.value === null ? "" : String(row.value);
@@ -356,7 +386,8 @@ function editorFor(row) {
   } else {
     const r = d.integer_range || d.floating_point_range;
     input = el("input", { type: "text", value: editorText(row), "data-role": "input", spellcheck: false });
-    if (r && (type === "integer" || type === "double")) {
+    const bounded = r && !openEnd(r.from_value, !!d.floating_point_range) && !openEnd(r.to_value, !!d.floating_point_range);
+    if (bounded && (type === "integer" || type === "double")) {
       input.inputMode = "decimal";
       const slider = el("input", { type: "range", min: r.from_value, max: r.to_value, step: r.step || (type === "integer" ? 1 : "any"), value: row.value, "data-role": "slider" });
       slider.addEventListener("input", () => { input.value = type === "double" && Number.isInteger(Number(slider.value)) ? Number(slider.value).toFixed(1) : slider.value; markDirty(row.name); });
@@ -507,7 +538,7 @@ function applyRow(row) {
   S.rows.set(row.name, row);
   const tr = rowOf(row.name);
   if (!tr) { $("#params tbody").append(rowElement(row)); filterRows(); return; }
-  $(".current", tr).textContent = showValue(row.value, row.type);
+  $(".current", tr).textContent = cellText(row.value, row.type);
   if (!S.dirty.has(row.name)) {
     const fresh = rowElement(row);
     tr.replaceWith(fresh);
@@ -520,7 +551,8 @@ function log(events, skipped) {
   const list = $("#log");
   for (const e of events) {
     const when = new Date(e.stamp * 1000).toLocaleTimeString();
-    const what = e.name ? `${e.node} ${e.name}` + (e.value !== null && e.value !== undefined ? ` = ${showValue(e.value, e.type)}` : "") : e.node;
+    const who = shownNode(e.node, e.origin);
+    const what = e.name ? `${who} ${e.name}` + (e.value !== null && e.value !== undefined ? ` = ${cellText(e.value, e.type)}` : "") : who;
     list.prepend(el("li", { class: "k-" + e.event, text: `${when}  ${e.event.padEnd(8)} r${e.revision}  ${what}` }));
   }
   if (skipped) list.prepend(el("li", { class: "muted", text: `… ${skipped} more events` }));

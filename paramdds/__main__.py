@@ -1,0 +1,5 @@
+"""``python -m paramdds``: the ``paramdds`` command."""
+
+from .cli import console
+
+console()
