@@ -46,6 +46,7 @@ _IMPLEMENTATIONS = {
     "web": "paramdds.cli._web:run_web",
     "keystore": "paramdds.secure.cli:run_keystore",
     "ros2": "paramdds.cli._ros2:run_ros2",
+    "zenoh": "paramdds.cli.verbs.zenoh:run",
 }
 
 

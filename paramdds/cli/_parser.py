@@ -34,6 +34,7 @@ VERBS = (
     "web",
     "keystore",
     "ros2",
+    "zenoh",
     "bench",
 )
 OUTPUTS = ("table", "yaml", "json")
@@ -105,6 +106,12 @@ def _add_globals(p: argparse.ArgumentParser, *, top: bool) -> None:
         metavar="DIR",
         default=default(None),
         help="secure mode: an identity made by 'paramdds keystore add' (env PARAMDDS_IDENTITY)",
+    )
+    g.add_argument(
+        "--zenoh",
+        metavar="ENDPOINT",
+        default=default(None),
+        help="reach every site's nodes (SITE/NODE) through a Zenoh router, not DDS (env PARAMDDS_ZENOH)",
     )
 
 
@@ -319,6 +326,10 @@ def build_parser(*, with_bench: bool = False) -> Parser:
 
     _ros2(_verb(sub, "ros2", "mirror ROS 2 nodes on paramdds, expose paramdds nodes to ROS 2 (ros2 extra)"))
 
+    from .verbs import zenoh as zenoh_verb  # argparse only (the verb imports Zenoh when it runs)
+
+    zenoh_verb.add_arguments(_verb(sub, "zenoh", zenoh_verb.HELP))
+
     if with_bench:
         _register_bench(sub)
     else:
@@ -358,5 +369,7 @@ def resolve_globals(args: argparse.Namespace, environ: dict[str, str] | None = N
         args.localhost = env.get("PARAMDDS_LOCALHOST", "").strip().lower() in ("1", "true", "yes", "on")
     if not args.identity:
         args.identity = env.get("PARAMDDS_IDENTITY", "").strip() or None
+    if not args.zenoh:
+        args.zenoh = env.get("PARAMDDS_ZENOH", "").strip() or None
     if args.timeout is None or not args.timeout > 0:
         raise UsageError(f"--timeout must be a positive number of seconds, got {args.timeout}")
