@@ -371,5 +371,9 @@ def resolve_globals(args: argparse.Namespace, environ: dict[str, str] | None = N
         args.identity = env.get("PARAMDDS_IDENTITY", "").strip() or None
     if not args.zenoh:
         args.zenoh = env.get("PARAMDDS_ZENOH", "").strip() or None
+    if args.zenoh:
+        from ..zenoh.config import check_endpoint  # no Zenoh import: the shape only
+
+        args.zenoh = check_endpoint(args.zenoh, error=UsageError)
     if args.timeout is None or not args.timeout > 0:
         raise UsageError(f"--timeout must be a positive number of seconds, got {args.timeout}")

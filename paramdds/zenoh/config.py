@@ -27,11 +27,11 @@ LEASE_MS = 3000  # a session that stops answering is dropped (and its tokens wit
 _ENDPOINT = re.compile(r"(?P<proto>[a-z][a-z0-9-]*)/(?P<addr>[^#?]+)(?P<rest>[#?].*)?")
 
 
-def check_endpoint(text: str) -> str:
+def check_endpoint(text: str, *, error: type[Exception] = ParamddsError) -> str:
     """A Zenoh endpoint (``tcp/10.0.0.1:7447``, ``tls/[::1]:7447``), checked for shape."""
     m = _ENDPOINT.fullmatch(text.strip())
     if m is None or m["proto"] not in PROTOCOLS:
-        raise ParamddsError(
+        raise error(
             f"invalid Zenoh endpoint {text!r}: want PROTOCOL/ADDRESS:PORT with PROTOCOL one of "
             + ", ".join(PROTOCOLS)
         )
@@ -39,7 +39,7 @@ def check_endpoint(text: str) -> str:
     if m["proto"] in ("tcp", "udp", "tls", "quic"):
         host, sep, port = addr.rpartition(":")
         if not sep or not host or not port.isdigit() or not 0 < int(port) < 65536:
-            raise ParamddsError(f"invalid Zenoh endpoint {text!r}: the address needs HOST:PORT")
+            raise error(f"invalid Zenoh endpoint {text!r}: the address needs HOST:PORT")
     return text.strip()
 
 

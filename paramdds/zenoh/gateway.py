@@ -19,8 +19,9 @@ On the DDS side it is an ordinary paramdds participant: a
   request's timeout (capped at :data:`MAX_CALL_TIMEOUT`).
 
 Standby: several gateways may serve one site. Each holds a token
-``paramdds/<site>/gateway/<zid>``; the one with the smallest Zenoh id among those it
-sees is active, the others keep their DDS state warm and declare nothing else. When
+``paramdds/<site>/gateway/<start>_<zid>`` (its start time in ns since the epoch and
+its Zenoh id); the one started first among those it sees is active (a newcomer never
+preempts it), the others keep their DDS state warm and declare nothing else. When
 the active one's token goes (it died, or its uplink did), the next one takes over at
 once: it declares the node tokens and queryables and publishes every node.
 """
@@ -65,6 +66,7 @@ class Gateway:
         self.site = keys.check_site(site)
         self._session = session
         self.zid = str(session.zid())
+        self.token_id = f"{time.time_ns()}_{self.zid}"  # earliest start wins the election
         self._lock = threading.Lock()
         self._wake = threading.Condition(self._lock)
         self._dirty: set[str] = set()
@@ -81,7 +83,7 @@ class Gateway:
         self._publisher = threading.Thread(target=self._publish_loop, name="paramdds-zenoh-pub", daemon=True)
         self._publisher.start()
         live = session.liveliness()
-        self._gateway_token = live.declare_token(keys.gateway_key(self.site, self.zid))
+        self._gateway_token = live.declare_token(keys.gateway_key(self.site, self.token_id))
         pattern = keys.gateway_key(self.site, "*")
         # who else serves this site: asked once (bounded), then followed
         for reply in live.get(pattern, timeout=ELECTION_WAIT):
@@ -89,7 +91,7 @@ class Gateway:
                 self._gateways.add(str(reply.ok.key_expr).rsplit("/", 1)[-1])
         self._gateway_sub = live.declare_subscriber(pattern, self._on_gateway, history=True)
         with self._lock:
-            self._gateways.add(self.zid)
+            self._gateways.add(self.token_id)
         self._elect()
 
     # -- the election -------------------------------------------------------------------------
@@ -101,7 +103,7 @@ class Gateway:
                 self._gateways.discard(zid)
             else:
                 self._gateways.add(zid)
-            self._gateways.add(self.zid)
+            self._gateways.add(self.token_id)
         self._pool.submit(self._elect)
 
     @property
@@ -112,7 +114,7 @@ class Gateway:
         with self._lock:
             if self._closed:
                 return
-            want = min(self._gateways) == self.zid
+            want = min(self._gateways, key=_election_key) == self.token_id
             if want == self._active:
                 return
             self._active = want
@@ -332,6 +334,11 @@ def _timeout_of(req: dict[str, Any]) -> float:
         raise ParamddsError(f"timeout must be positive, got {t}")
     # the caller's query waits `t`: answer a little before it gives up
     return min(MAX_CALL_TIMEOUT, max(0.05, t * 0.9))
+
+
+def _election_key(token_id: str) -> tuple[int, str]:
+    start, _, zid = token_id.partition("_")
+    return (int(start), zid) if start.isdigit() else (2**63, token_id)
 
 
 def _undeclare(entity: Any) -> None:

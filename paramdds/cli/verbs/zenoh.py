@@ -87,8 +87,12 @@ def run(args: argparse.Namespace) -> int:
     from .._live import wait_until_interrupted
     from .._session import Session
 
-    options = _options(args)
-    assert isinstance(options, ZenohOptions)
+    try:
+        options = _options(args)
+        assert isinstance(options, ZenohOptions)
+        options.check()
+    except ParamddsError as exc:
+        raise UsageError(exc.message) from None
     if args.router:
         if not options.listen:
             raise UsageError("--router needs --listen ENDPOINT")
