@@ -168,12 +168,21 @@ def router_options(listen: Sequence[str], tls: TlsFiles | None = None) -> ZenohO
 
 
 def remote_session(args: Any) -> Any:
-    """The Zenoh session of the global ``--zenoh ENDPOINT`` (a client; ``PARAMDDS_ZENOH_CONFIG``
-    names a JSON5 file for anything else, TLS for instance)."""
+    """The Zenoh session of the global ``--zenoh ENDPOINT``: a client. ``PARAMDDS_ZENOH_TLS``
+    names a directory holding ``ca.pem``, ``cert.pem`` and ``key.pem`` (``paramdds zenoh
+    --issue-cert`` writes one) for mutual TLS; ``PARAMDDS_ZENOH_CONFIG`` a JSON5 file for
+    anything else."""
     import os
 
     config_file = os.environ.get("PARAMDDS_ZENOH_CONFIG", "").strip() or None
+    tls_dir = os.environ.get("PARAMDDS_ZENOH_TLS", "").strip()
+    tls = None
+    if tls_dir:
+        d = Path(tls_dir)
+        tls = TlsFiles(str(d / "ca.pem"), str(d / "cert.pem"), str(d / "key.pem"))
     timeout = float(getattr(args, "timeout", 5.0))
     return open_session(
-        ZenohOptions(mode="client", connect=[args.zenoh], config_file=config_file, open_timeout=timeout)
+        ZenohOptions(
+            mode="client", connect=[args.zenoh], config_file=config_file, tls=tls, open_timeout=timeout
+        )
     )

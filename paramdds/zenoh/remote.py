@@ -121,8 +121,20 @@ class RemoteParameterMonitor(ParameterMonitor):
         self._alive: set[str] = set()  # nodes whose liveliness token is alive
         self._refresh_lock = threading.Lock()
         self._refreshing: set[str] = set()
-        self._subscriber = session.declare_subscriber(_ALL_STATES, self._on_state)
-        self._liveliness = session.liveliness().declare_subscriber(_ALL_ALIVE, self._on_alive, history=True)
+        # an exact list of sites is asked for site by site (an operator whose certificate is granted
+        # some sites may not even declare a subscriber on every site's keys); globs filter here
+        exact = self._sites is not None and not any("*" in g or "?" in g for g in self._sites)
+        self._scopes = [keys.check_site(site) for site in self._sites or ()] if exact else ["*"]
+        self._entities = [
+            entity
+            for scope in self._scopes
+            for entity in (
+                session.declare_subscriber(keys.site_pattern(scope, keys.STATE), self._on_state),
+                session.liveliness().declare_subscriber(
+                    keys.site_pattern(scope, keys.ALIVE), self._on_alive, history=True
+                ),
+            )
+        ]
         self._initial = threading.Thread(target=self._first_sync, name="paramdds-zenoh-sync", daemon=True)
         self._initial.start()
 
@@ -135,11 +147,12 @@ class RemoteParameterMonitor(ParameterMonitor):
         return True
 
     def _first_sync(self) -> None:
-        try:
-            states = _states_of(self._session, _ALL_STATES, self._timeout)
-        except Exception as exc:  # the session closed under us
-            log.debug("the first state query failed: %s", exc)
-            states = []
+        states: list[codec.NodeStateMsg] = []
+        for scope in self._scopes:
+            try:
+                states += _states_of(self._session, keys.site_pattern(scope, keys.STATE), self._timeout)
+            except Exception as exc:  # the session closed under us
+                log.debug("the first state query failed: %s", exc)
         for msg in states:
             self._apply_state(msg)
         with self._cond:
@@ -258,7 +271,7 @@ class RemoteParameterMonitor(ParameterMonitor):
         with self._cond:
             self._closed = True
             self._cond.notify_all()
-        for entity in (self._subscriber, self._liveliness):
+        for entity in self._entities:
             try:
                 entity.undeclare()
             except Exception:

@@ -96,6 +96,15 @@ class Fleet:
 
 
 @pytest.fixture
+def procs() -> Iterator[list[Proc]]:
+    """Subprocesses a test starts; stopped (SIGTERM, then SIGKILL) at its end."""
+    started: list[Proc] = []
+    yield started
+    for proc in reversed(started):
+        proc.stop()
+
+
+@pytest.fixture
 def fleet() -> Iterator[Fleet]:
     procs: list[Proc] = []
     f = Fleet(procs)

@@ -51,6 +51,30 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="how long to try the --connect endpoints at start (default 10)",
     )
     p.add_argument(
+        "--grant",
+        action="append",
+        default=[],
+        metavar="CN=SITE[,SITE]",
+        help="router with mutual TLS: the certificate named CN may use these sites' keys ('*': all); "
+        "once one is given, everything else is denied. Repeat",
+    )
+    p.add_argument(
+        "--issue-cert",
+        metavar="NAME",
+        help="issue a TLS certificate NAME from --keystore's CA into --out, then exit",
+    )
+    p.add_argument(
+        "--keystore", metavar="DIR", help="with --issue-cert: a keystore made by 'paramdds keystore init'"
+    )
+    p.add_argument(
+        "--host",
+        action="append",
+        default=[],
+        metavar="ADDR",
+        help="with --issue-cert: an IP or DNS name the holder is dialled at (a router); repeat",
+    )
+    p.add_argument("--out", metavar="DIR", help="with --issue-cert: where to write ca.pem, cert.pem, key.pem")
+    p.add_argument(
         "--router",
         action="store_true",
         help="run only a Zenoh router session on --listen (tests, small set-ups; production runs zenohd)",
@@ -68,6 +92,15 @@ def _options(args: argparse.Namespace) -> object:
             raise ParamddsError("mutual TLS needs --tls-ca, --tls-cert and --tls-key together")
         tls = TlsFiles(args.tls_ca, args.tls_cert, args.tls_key)
     mode = args.mode or ("router" if args.router else "client")
+    extra: dict[str, object] = {}
+    if args.grant:
+        from ...zenoh.acl import access_control, parse_grant
+
+        if tls is None:
+            raise ParamddsError(
+                "--grant matches certificate names: it needs mutual TLS (--tls-ca, --tls-cert, --tls-key)"
+            )
+        extra["access_control"] = access_control(dict(parse_grant(g) for g in args.grant))
     return ZenohOptions(
         mode=mode,
         connect=list(args.connect),
@@ -75,6 +108,7 @@ def _options(args: argparse.Namespace) -> object:
         config_file=args.zenoh_config,
         tls=tls,
         open_timeout=args.open_timeout,
+        extra=extra,
     )
 
 
@@ -87,6 +121,16 @@ def run(args: argparse.Namespace) -> int:
     from .._live import wait_until_interrupted
     from .._session import Session
 
+    if args.issue_cert:
+        from pathlib import Path
+
+        from ...zenoh.tls import issue
+
+        if not args.keystore or not args.out:
+            raise UsageError("--issue-cert needs --keystore DIR and --out DIR")
+        out = issue(Path(args.keystore), args.issue_cert, args.host, Path(args.out))
+        sys.stdout.write(f"[ZENOH] Certificate {args.issue_cert} in {out}: ca.pem cert.pem key.pem\n")
+        return Exit.OK
     try:
         options = _options(args)
         assert isinstance(options, ZenohOptions)
