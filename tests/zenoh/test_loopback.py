@@ -175,3 +175,38 @@ def test_bad_input_is_a_clear_error_never_a_hang() -> None:
     r = run("zenoh", "--site", "s1", "--zenoh-config", "/nonexistent.json5")
     assert r.returncode == 2 and "does not exist" in r.stderr, r
     assert "Traceback" not in r.stderr
+
+
+def test_the_web_console_in_the_cloud_shows_every_sites_nodes_live(fleet: Fleet) -> None:
+    pytest.importorskip("uvicorn", reason="the web extra is not installed")
+    import json
+    import urllib.request
+
+    from ..reliability.conftest import Proc
+
+    fleet.server("s1", "robot1")
+    fleet.server("s2", "robot1")
+    fleet.gateway("s1")
+    fleet.gateway("s2")
+    port = free_port()
+    env = make_dds_env(fleet.domain("s1") + 1, PARAMDDS_ZENOH=fleet.endpoint)
+    web = Proc([PARAMDDS, "web", "--bind", f"127.0.0.1:{port}"], env)
+    fleet.procs.append(web)
+    web.wait_for("[WEB] Console on", 20)
+
+    def get(path: str) -> dict[str, object]:
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}{path}", timeout=5) as r:
+            obj: dict[str, object] = json.loads(r.read())
+            return obj
+
+    assert wait_for(
+        lambda: {n["node"] for n in get("/api/nodes")["nodes"]} == {"s1/robot1", "s2/robot1"}, 5.0
+    )  # type: ignore[index,union-attr]
+    client = RemoteParameterClient(fleet.remote(), timeout=5.0)
+    assert client.set("s2/robot1", {"robot.max_velocity": 4.5}).successful
+
+    def shown() -> object:
+        rows = get("/api/node?node=s2/robot1")["rows"]
+        return next(r["value"] for r in rows if r["name"] == "robot.max_velocity")  # type: ignore[union-attr,index]
+
+    assert wait_for(lambda: shown() == 4.5, 5.0)
