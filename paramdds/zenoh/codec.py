@@ -9,10 +9,14 @@ with a JSON library. The shapes (docs/zenoh.md repeats them):
 * a descriptor: ``{"type", "description", "additional_constraints", "read_only",
   "dynamic_typing", "integer_range", "floating_point_range", "validators"}``, a range
   ``{"from_value", "to_value", "step"}`` or null, a validator ``{"kind", "args": [values]}``;
-* a node's state (``.../state``): ``{"v": 1, "site", "node", "gateway", "seq", "online",
-  "host", "pid", "revision", "incarnation" (16 hex digits), "announced", "origin",
-  "parameters": {name: {"value", "descriptor"}}}``; ``seq`` counts the gateway's
-  publications of that node (a receiver keeps the highest per gateway);
+* a node's state (``.../state``): ``{"v": 1, "kind": "state", "site", "node", "gateway",
+  "seq", "online", "host", "pid", "revision", "incarnation" (16 hex digits), "announced",
+  "origin", "parameters": {name: {"value", "descriptor"}}}``; ``seq`` counts the
+  gateway's publications of that node (a receiver keeps the highest per gateway). A query
+  is always answered with whole states; a publication is a whole state the first time a
+  gateway publishes a node, then a ``"kind": "delta"`` with ``"base"`` (the seq it follows)
+  and ``"deleted": [names]``, whose ``parameters`` hold only what changed: a receiver
+  that does not hold exactly ``base`` of that gateway asks for the node's state instead;
 * requests: get ``{"names": [...], "with_descriptors": bool, "timeout": s}``, list
   ``{"prefixes": [...], "depth": n, "timeout": s}``, set ``{"parameters": [{"name",
   "value"}], "atomic": bool, "if_revision": "INCARNATION:REVISION" | n | null, "timeout": s}``
@@ -172,11 +176,19 @@ class NodeStateMsg:
     announced: int = -1
     origin: str | None = None
     parameters: dict[str, tuple[ParameterValue, ParameterDescriptor]] = field(default_factory=dict)
+    kind: str = "state"  # "delta": parameters holds only what changed since seq ``base``
+    base: int = 0
+    deleted: list[str] = field(default_factory=list)
 
     def encode(self) -> bytes:
+        extra: dict[str, object] = {}
+        if self.kind == "delta":
+            extra = {"base": self.base, "deleted": sorted(self.deleted)}
         return dumps(
             {
                 "v": VERSION,
+                "kind": self.kind,
+                **extra,
                 "site": self.site,
                 "node": self.node,
                 "gateway": self.gateway,
@@ -216,6 +228,9 @@ class NodeStateMsg:
                 announced=int(obj.get("announced", -1)),
                 origin=None if obj.get("origin") is None else str(obj["origin"]),
                 parameters=params,
+                kind="delta" if obj.get("kind") == "delta" else "state",
+                base=int(obj.get("base", 0)),
+                deleted=[str(n) for n in obj.get("deleted", [])],
             )
         except (KeyError, TypeError, ValueError) as exc:
             raise FileFormatError(f"a malformed node state: {type(exc).__name__}: {exc}") from None

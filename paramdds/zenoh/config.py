@@ -111,6 +111,10 @@ def build_config(options: ZenohOptions) -> Any:
         pairs["connect/timeout_ms"] = int(options.open_timeout * 1000)
         pairs["connect/exit_on_failure"] = True
     pairs["transport/link/tx/lease"] = options.lease_ms
+    if not options.config_file:
+        # shared memory carries only a reference on the link between two local processes: a
+        # gateway's uplink crosses a WAN, and the bench must count the bytes that would
+        pairs["transport/shared_memory/enabled"] = False
     tls = options.tls
     if tls is not None:
         pairs.update(

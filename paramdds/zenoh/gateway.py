@@ -49,6 +49,7 @@ MAX_CALL_TIMEOUT = 60.0  # seconds: the longest a forwarded call may wait on the
 DEFAULT_CALL_TIMEOUT = 5.0
 ELECTION_WAIT = 1.0  # seconds: how long a starting gateway asks for the site's other gateways
 WORKERS = 8  # forwarded calls and state queries served at once
+SYNC_WAIT = 3.0  # seconds: the most a starting gateway waits for its site's current state
 
 
 class Gateway:
@@ -71,6 +72,7 @@ class Gateway:
         self._wake = threading.Condition(self._lock)
         self._dirty: set[str] = set()
         self._seq: dict[str, int] = {}
+        self._published: dict[str, dict[str, tuple[Any, Any]]] = {}  # node -> parameters last published
         self._tokens: dict[str, Any] = {}
         self._gateways: set[str] = set()
         self._active = False
@@ -82,6 +84,8 @@ class Gateway:
         self.monitor = ParameterMonitor(participant, qos, on_event=self._on_event)
         self._publisher = threading.Thread(target=self._publish_loop, name="paramdds-zenoh-pub", daemon=True)
         self._publisher.start()
+        # the site's current state first, so that a gateway taking the active role publishes it all
+        self.monitor.wait_synced(SYNC_WAIT)
         live = session.liveliness()
         self._gateway_token = live.declare_token(keys.gateway_key(self.site, self.token_id))
         pattern = keys.gateway_key(self.site, "*")
@@ -136,6 +140,7 @@ class Gateway:
             ),
         ]
         with self._lock:
+            self._published = {}  # the first publication of each node from now on is whole
             self._declared = declared
             self._dirty.update(self._node_ids())  # publish every node once: the new active one speaks
             self._wake.notify_all()
@@ -190,7 +195,18 @@ class Gateway:
         if msg is None:
             return
         key = keys.node_key(self.site, node, keys.STATE)
+        full = msg.parameters
+        before = self._published.get(node)
+        if before is not None:  # only what changed since the last publication (codec: "delta")
+            msg.kind, msg.base = "delta", msg.seq - 1
+            msg.deleted = [n for n in before if n not in full]
+            msg.parameters = {
+                n: entry
+                for n, entry in full.items()
+                if n not in before or not before[n][0].same_as(entry[0]) or before[n][1] != entry[1]
+            }
         self._session.put(key, msg.encode(), encoding=codec.ENCODING)
+        self._published[node] = full
         with self._lock:
             token = self._tokens.get(node)
             if msg.online and token is None and self._active:

@@ -149,7 +149,10 @@ class RemoteParameterMonitor(ParameterMonitor):
     def _first_sync(self) -> None:
         states: list[codec.NodeStateMsg] = []
         for scope in self._scopes:
-            try:
+            try:  # the tokens first, so that the states below show online exactly
+                alive = _alive_of(self._session, keys.site_pattern(scope, keys.ALIVE), self._timeout)
+                with self._cond:
+                    self._alive.update(n for n in alive if self._wanted(n))
                 states += _states_of(self._session, keys.site_pattern(scope, keys.STATE), self._timeout)
             except Exception as exc:  # the session closed under us
                 log.debug("the first state query failed: %s", exc)
@@ -222,8 +225,19 @@ class RemoteParameterMonitor(ParameterMonitor):
             seen = self._seen.get(name)
             if seen is not None and seen[0] == msg.gateway and msg.seq <= seen[1]:
                 return  # this state or a newer one is held already
-            self._seen[name] = (msg.gateway, msg.seq)
             state = self._states.get(name)
+            if msg.kind == "delta":
+                if state is None or seen != (msg.gateway, msg.base):
+                    gap = True  # not the state this change follows: ask for the whole one
+                else:
+                    gap = False
+                    merged = {n: e for n, e in state.parameters.items() if n not in msg.deleted}
+                    merged.update(msg.parameters)
+                    msg.parameters, msg.kind = merged, "state"
+                if gap:
+                    self._refresh(msg.site, msg.node)
+                    return
+            self._seen[name] = (msg.gateway, msg.seq)
             if state is None:
                 state = self._states[name] = NodeState(name)
             old = state.parameters
@@ -304,23 +318,22 @@ class RemoteParameterClient(ParameterClient):
     # -- presence --------------------------------------------------------------------------------
 
     def nodes(self) -> list[NodeInfo]:
-        """Every node the gateways know (online or not), sorted by ``SITE/NODE``."""
-        states = _states_of(self._session, _ALL_STATES, self.timeout)
-        alive = _alive_of(self._session, _ALL_ALIVE, self.timeout)
+        """Every node the gateways know (online or not), sorted by ``SITE/NODE``.
+
+        Asked of the gateways now: a node is online as its gateway, which just answered,
+        says (a liveliness get was not reliable enough in a one-shot call).
+        """
         latest: dict[str, codec.NodeStateMsg] = {}
-        for msg in states:
+        for msg in _states_of(self._session, _ALL_STATES, self.timeout):
             name = keys.remote_name(msg.site, msg.node)
             if name not in latest or latest[name].seq < msg.seq:
                 latest[name] = msg
-        return sorted((_info(m, alive) for m in latest.values()), key=lambda n: n.node)
+        return sorted((_info(m) for m in latest.values()), key=lambda n: n.node)
 
     def node_info(self, node: str) -> NodeInfo | None:
         site, nid = keys.split_remote(node)
         states = _states_of(self._session, keys.node_key(site, nid, keys.STATE), self.timeout)
-        if not states:
-            return None
-        alive = _alive_of(self._session, keys.node_key(site, nid, keys.ALIVE), self.timeout)
-        return _info(max(states, key=lambda m: m.seq), alive)
+        return _info(max(states, key=lambda m: m.seq)) if states else None
 
     def presence(self, node: str) -> Presence:
         """ONLINE, OFFLINE (its gateway knows it offline), or ABSENT (no gateway knows it)."""
@@ -462,11 +475,10 @@ class RemoteParameterClient(ParameterClient):
         return SetReply(str(obj["node"]), revision, results, incarnation)
 
 
-def _info(msg: codec.NodeStateMsg, alive: set[str]) -> NodeInfo:
-    name = keys.remote_name(msg.site, msg.node)
+def _info(msg: codec.NodeStateMsg) -> NodeInfo:
     return NodeInfo(
-        name,
-        msg.online and name in alive,
+        keys.remote_name(msg.site, msg.node),
+        msg.online,
         msg.host,
         msg.pid,
         msg.revision,

@@ -123,3 +123,13 @@ def wait_for(predicate: Callable[[], bool], timeout: float, step: float = 0.02) 
             return True
         time.sleep(step)
     return predicate()
+
+
+def holds_online(monitor: Any, names: list[str], timeout: float) -> bool:
+    """Wait until ``monitor`` holds every one of ``names`` complete and online."""
+    return bool(
+        monitor.wait_until(
+            lambda states: all(n in states and states[n].complete and states[n].online for n in names),
+            timeout,
+        )
+    )

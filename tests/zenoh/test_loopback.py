@@ -16,7 +16,7 @@ from paramdds.errors import ErrorCode, UnavailableError
 from paramdds.zenoh.remote import RemoteParameterClient, RemoteParameterMonitor
 
 from ..reliability.conftest import PARAMDDS, make_dds_env
-from .conftest import Fleet, free_port, wait_for
+from .conftest import Fleet, free_port, holds_online, wait_for
 
 pytestmark = pytest.mark.timeout(90)
 
@@ -34,7 +34,7 @@ def test_a_late_remote_monitor_holds_every_site_exactly_and_calls_reach_every_no
     started = time.monotonic()
     monitor = RemoteParameterMonitor(session)
     names = ["s1/robot1", "s1/ns/robot2", "s2/robot1"]
-    assert monitor.wait_complete(names, 5.0), monitor.snapshot().keys()
+    assert holds_online(monitor, names, 5.0), monitor.snapshot().keys()
     took = time.monotonic() - started
     snap = monitor.snapshot()
     assert set(snap) == set(names)  # the same node name on two sites stays two nodes
@@ -100,7 +100,7 @@ def test_a_killed_gateway_takes_its_sites_nodes_offline_and_a_standby_takes_over
     session = fleet.remote()
     events: list[MonitorEvent] = []
     monitor = RemoteParameterMonitor(session, on_event=events.append)
-    assert monitor.wait_complete(["s1/robot1", "s1/robot2"], 5.0)
+    assert holds_online(monitor, ["s1/robot1", "s1/robot2"], 5.0)
     client = RemoteParameterClient(session, timeout=3.0)
     assert client.set("s1/robot1", {"robot.max_velocity": 2.0}).successful
     assert monitor.wait_until(lambda s: s["s1/robot1"].parameters["robot.max_velocity"][0].value == 2.0, 3.0)

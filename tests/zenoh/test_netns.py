@@ -21,7 +21,7 @@ from paramdds.zenoh.remote import RemoteParameterClient, RemoteParameterMonitor
 
 from ..conftest import next_domain_id
 from ..reliability.conftest import PARAMDDS, Proc, make_dds_env
-from .conftest import PARAMS, SPEC, open_remote, wait_for
+from .conftest import PARAMS, SPEC, holds_online, open_remote, wait_for
 from .netns import PORT, Topology, skip_or_fail, why_not
 
 SITES = ["north", "south", "east"]
@@ -122,7 +122,7 @@ def test_sites_in_namespaces_late_joiner_calls_and_an_uplink_cut_and_restored(si
 
     started = time.monotonic()
     monitor = RemoteParameterMonitor(session)
-    assert monitor.wait_complete(ALL, 5.0), sorted(monitor.snapshot())
+    assert holds_online(monitor, ALL, 5.0), sorted(monitor.snapshot())
     took = time.monotonic() - started
     snap = monitor.snapshot()
     assert sorted(snap) == sorted(ALL)  # robot1 of three sites: three nodes
@@ -172,7 +172,7 @@ def test_thirty_percent_loss_on_every_uplink(sites: Sites) -> None:
         sites.topo.lossy_uplink(site, 30)
     started = time.monotonic()
     monitor = RemoteParameterMonitor(session, timeout=10.0)
-    assert monitor.wait_complete(ALL, 10.0), sorted(monitor.snapshot())
+    assert holds_online(monitor, ALL, 10.0), sorted(monitor.snapshot())
     took = time.monotonic() - started
     assert sorted(monitor.snapshot()) == sorted(ALL)
     client = RemoteParameterClient(session, timeout=10.0)

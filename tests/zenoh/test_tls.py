@@ -20,7 +20,7 @@ from paramdds.zenoh.remote import RemoteParameterClient, RemoteParameterMonitor
 
 from ..conftest import next_domain_id
 from ..reliability.conftest import PARAMDDS, Proc, make_dds_env
-from .conftest import PARAMS, free_port, wait_for
+from .conftest import PARAMS, free_port, holds_online, wait_for
 
 pytestmark = pytest.mark.timeout(90)
 
@@ -72,7 +72,7 @@ def test_mutual_tls_and_access_by_certificate_name(tmp_path: Path, procs: list[P
     )
     try:
         monitor = RemoteParameterMonitor(session, sites=["a", "b"])
-        assert monitor.wait_complete(["a/robot1"], 5.0)
+        assert holds_online(monitor, ["a/robot1"], 5.0)
         client = RemoteParameterClient(session, timeout=3.0)
         assert client.set("a/robot1", {"robot.max_velocity": 2.0}).successful
         # site b's gateway is not granted its own keys: nothing of b reaches anyone
