@@ -46,6 +46,7 @@ from . import codec, keys
 
 log = logging.getLogger(__name__)
 
+REFRESH_BATCH = 0.05  # seconds: nodes to ask for again are gathered this long, then asked per site
 REPLY_MARGIN = 0.5  # seconds past a call's timeout before the client stops waiting for Zenoh
 _ALL_STATES = keys.site_pattern("*", keys.STATE)
 _ALL_ALIVE = keys.site_pattern("*", keys.ALIVE)
@@ -120,7 +121,8 @@ class RemoteParameterMonitor(ParameterMonitor):
         self._reported: dict[str, bool] = {}  # node -> online as its gateway last said
         self._alive: set[str] = set()  # nodes whose liveliness token is alive
         self._refresh_lock = threading.Lock()
-        self._refreshing: set[str] = set()
+        self._to_refresh: set[tuple[str, str]] = set()
+        self._refresher: threading.Thread | None = None
         # an exact list of sites is asked for site by site (an operator whose certificate is granted
         # some sites may not even declare a subscriber on every site's keys); globs filter here
         exact = self._sites is not None and not any("*" in g or "?" in g for g in self._sites)
@@ -192,28 +194,45 @@ class RemoteParameterMonitor(ParameterMonitor):
                     events.append(event)
             self._cond.notify_all()
         self._emit(events)
-        if not _is_delete(sample):
+        if not _is_delete(sample) and self._synced:
             # back (a gateway took over, an uplink came back): what was published meanwhile is lost
+            # (before the first sync is done, its query asks for every node anyway)
             self._refresh(site, node)
 
     def _refresh(self, site: str, node: str) -> None:
-        name = keys.remote_name(site, node)
+        """Ask for ``node``'s whole state again, soon (one thread asks for all, a query per site)."""
         with self._refresh_lock:
-            if name in self._refreshing or self._closed:
+            if self._closed:
                 return
-            self._refreshing.add(name)
+            self._to_refresh.add((site, node))
+            if self._refresher is None or not self._refresher.is_alive():
+                self._refresher = threading.Thread(
+                    target=self._refresh_loop, name="paramdds-zenoh-refresh", daemon=True
+                )
+                self._refresher.start()
 
-        def run() -> None:
-            try:
-                for msg in _states_of(self._session, keys.node_key(site, node, keys.STATE), self._timeout):
-                    self._apply_state(msg)
-            except Exception as exc:
-                log.debug("refreshing %s failed: %s", name, exc)
-            finally:
-                with self._refresh_lock:
-                    self._refreshing.discard(name)
-
-        threading.Thread(target=run, name="paramdds-zenoh-refresh", daemon=True).start()
+    def _refresh_loop(self) -> None:
+        while True:
+            time.sleep(REFRESH_BATCH)  # a site coming back announces its nodes in a burst
+            with self._refresh_lock:
+                wanted, self._to_refresh = self._to_refresh, set()
+                if not wanted or self._closed:
+                    self._refresher = None
+                    return
+            by_site: dict[str, list[str]] = {}
+            for site, node in wanted:
+                by_site.setdefault(site, []).append(node)
+            for site, site_nodes in by_site.items():
+                key = (
+                    keys.node_key(site, site_nodes[0], keys.STATE)
+                    if len(site_nodes) == 1
+                    else keys.site_pattern(site, keys.STATE)
+                )
+                try:
+                    for msg in _states_of(self._session, key, self._timeout):
+                        self._apply_state(msg)
+                except Exception as exc:  # the session closed under us
+                    log.debug("refreshing %s failed: %s", key, exc)
 
     def _apply_state(self, msg: codec.NodeStateMsg) -> None:
         name = keys.remote_name(msg.site, msg.node)
