@@ -142,6 +142,38 @@ def _gateways(sites: list[tuple[str, int]], endpoints: list[str]) -> Iterator[li
                 proc.kill()
 
 
+@contextlib.contextmanager
+def _watchers(domain: int, node: str, count: int, timeout: float) -> Iterator[None]:
+    """``count`` ``paramdds watch NODE`` processes on ``domain``, each past its "synced" line."""
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, PARAMDDS_DOMAIN=str(domain), PARAMDDS_LOCALHOST="1", PYTHONUNBUFFERED="1")
+    cmd = [sys.executable, "-m", "paramdds.cli", "watch", node, "--timeout", str(timeout)]
+    procs = [
+        subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        for _ in range(count)
+    ]
+    try:
+        for proc in procs:
+            assert proc.stdout is not None
+            for line in proc.stdout:
+                if line.startswith("synced"):
+                    break
+            else:
+                raise RuntimeError("a DDS viewer (paramdds watch) ended before it synced")
+        yield
+    finally:
+        for proc in procs:
+            proc.terminate()
+        for proc in procs:
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                proc.wait(10)
+            if proc.poll() is None:
+                proc.kill()
+
+
 def _remote_full_state(endpoint: str, names: list[str], timeout: float) -> float:
     from ..zenoh.config import ZenohOptions, open_session
     from ..zenoh.remote import RemoteParameterMonitor
@@ -314,16 +346,13 @@ def _measure(
                     raise RuntimeError(f"the bench's change of {target} {pname} was refused")
 
             run["dds_lo_bytes_per_change_1"] = _bytes_per_change(lo_bytes, change_dds, changes)
-            extra = [make_participant(domains[0], localhost=True, app_name="bench-zenoh") for _ in range(9)]
-            monitors += [ParameterMonitor(p) for p in extra]
-            for m in monitors:
-                m.wait_complete(all_names, timeout)
-            run["dds_lo_bytes_per_change_10"] = _bytes_per_change(lo_bytes, change_dds, changes)
+            # viewers in processes of their own (Cyclone sends one copy per process, not per reader)
+            with _watchers(domains[0], target, VIEWERS - 1, timeout):
+                run["dds_lo_bytes_per_change_10"] = _bytes_per_change(lo_bytes, change_dds, changes)
             for m in monitors:
                 m.close()
             direct.close()
-            for p in [dp, *extra]:
-                close_participant(p)
+            close_participant(dp)
     finally:
         relay.close()
         router.close()

@@ -107,7 +107,7 @@ def build_config(options: ZenohOptions) -> Any:
         pairs["listen/endpoints"] = options.listen
     if not options.config_file and not options.listen:
         pairs["listen/endpoints"] = []  # a client or peer listens nowhere unless told to
-    if options.connect:
+    if options.connect or options.mode == "client":  # bounded, also for endpoints from a file
         pairs["connect/timeout_ms"] = int(options.open_timeout * 1000)
         pairs["connect/exit_on_failure"] = True
     pairs["transport/link/tx/lease"] = options.lease_ms

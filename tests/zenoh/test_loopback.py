@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import subprocess
 import time
+from pathlib import Path
 
 import pytest
 
@@ -152,7 +153,7 @@ def test_the_cli_reaches_remote_nodes_with_zenoh(fleet: Fleet) -> None:
     assert dumped.returncode == 0 and "max_velocity: 1.5" in dumped.stdout, dumped
 
 
-def test_bad_input_is_a_clear_error_never_a_hang() -> None:
+def test_bad_input_is_a_clear_error_never_a_hang(tmp_path: Path) -> None:
     env = make_dds_env(1)
     nobody = f"tcp/127.0.0.1:{free_port()}"
 
@@ -174,6 +175,14 @@ def test_bad_input_is_a_clear_error_never_a_hang() -> None:
     assert r.returncode == 2 and "invalid Zenoh endpoint 'tcp/nowhere'" in r.stderr, r
     r = run("zenoh", "--site", "s1", "--zenoh-config", "/nonexistent.json5")
     assert r.returncode == 2 and "does not exist" in r.stderr, r
+    bad = tmp_path / "bad.json5"
+    bad.write_text("{ mode: 'client', connect: { endpoints: [ }")
+    r = run("zenoh", "--site", "s1", "--zenoh-config", str(bad))
+    assert r.returncode == 2 and f"{bad}: not a valid Zenoh configuration" in r.stderr, r
+    good = tmp_path / "good.json5"
+    good.write_text(f"{{ mode: 'client', connect: {{ endpoints: ['{nobody}'] }} }}")
+    r = run("zenoh", "--site", "s1", "--zenoh-config", str(good), "--open-timeout", "1")
+    assert r.returncode == 3 and "no Zenoh router reachable" in r.stderr, r
     assert "Traceback" not in r.stderr
 
 
