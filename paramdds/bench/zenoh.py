@@ -15,9 +15,8 @@ uplink. Measured:
   by a DDS client there, bytes the gateway sent up, divided by the changes;
 * the **baseline**: the same S x N nodes on *one* DDS domain (what a fleet without
   Zenoh would stretch over its sites), a fresh DDS monitor until every node is
-  complete (median of the rounds), and the bytes the server process hosting a node
-  sends per change of it with 1 and with 10 DDS viewers (processes of their own;
-  ``wchar`` of /proc/PID/io: what it hands to the kernel, requests' replies included).
+  complete (median of the rounds). (Its bytes per change are not measured: Cyclone's
+  UDP traffic on a shared machine's loopback has no per-process counter.)
 
 Everything runs on one machine: there is no WAN round trip in these figures.
 """
@@ -30,7 +29,6 @@ import socket
 import threading
 import time
 from collections.abc import Callable, Iterator
-from functools import partial
 from typing import Any
 
 from ._common import Workers, emit, median, node_names, note, percentile, render
@@ -105,18 +103,6 @@ def _free_port() -> int:
         return int(s.getsockname()[1])
 
 
-def written_bytes(pid: int) -> int:
-    """Bytes process ``pid`` has handed to write/send system calls (``wchar`` of /proc/PID/io)."""
-    try:
-        with open(f"/proc/{pid}/io") as f:
-            for line in f:
-                if line.startswith("wchar:"):
-                    return int(line.split()[1])
-    except OSError:
-        pass
-    return 0
-
-
 @contextlib.contextmanager
 def _gateways(sites: list[tuple[str, int]], endpoints: list[str]) -> Iterator[list[Any]]:
     import os
@@ -138,38 +124,6 @@ def _gateways(sites: list[tuple[str, int]], endpoints: list[str]) -> Iterator[li
                     f"a gateway did not start: {line!r} {proc.stderr.read() if proc.stderr else ''}"
                 )
         yield procs
-    finally:
-        for proc in procs:
-            proc.terminate()
-        for proc in procs:
-            with contextlib.suppress(subprocess.TimeoutExpired):
-                proc.wait(10)
-            if proc.poll() is None:
-                proc.kill()
-
-
-@contextlib.contextmanager
-def _watchers(domain: int, node: str, count: int, timeout: float) -> Iterator[None]:
-    """``count`` ``paramdds watch NODE`` processes on ``domain``, each past its "synced" line."""
-    import os
-    import subprocess
-    import sys
-
-    env = dict(os.environ, PARAMDDS_DOMAIN=str(domain), PARAMDDS_LOCALHOST="1", PYTHONUNBUFFERED="1")
-    cmd = [sys.executable, "-m", "paramdds.cli", "watch", node, "--timeout", str(timeout)]
-    procs = [
-        subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
-        for _ in range(count)
-    ]
-    try:
-        for proc in procs:
-            assert proc.stdout is not None
-            for line in proc.stdout:
-                if line.startswith("synced"):
-                    break
-            else:
-                raise RuntimeError("a DDS viewer (paramdds watch) ended before it synced")
-        yield
     finally:
         for proc in procs:
             proc.terminate()
@@ -259,7 +213,6 @@ def _measure(
     s: int, nodes: int, params: int, requests: int, rounds: int, changes: int, base_domain: int
 ) -> dict[str, Any]:
     from ..dds.client import ParameterClient
-    from ..dds.monitor import ParameterMonitor
     from ..dds.participant import close_participant, make_participant
     from ..zenoh.config import ZenohOptions, open_session, router_options
     from ..zenoh.remote import RemoteParameterClient, RemoteParameterMonitor
@@ -341,25 +294,6 @@ def _measure(
             run["dds_full_state_s"] = median(
                 [_dds_full_state(domains[0], all_names, timeout) for _ in range(rounds)]
             )
-            dp = make_participant(domains[0], localhost=True, app_name="bench-zenoh")
-            direct = ParameterClient(dp, timeout=10.0)
-            target = all_names[-1]
-            pname = _double_param(direct, target)
-            monitors = [ParameterMonitor(dp)]
-
-            def change_dds(i: int) -> None:
-                if not direct.set(target, {pname: float(i) + 0.5}).successful:
-                    raise RuntimeError(f"the bench's change of {target} {pname} was refused")
-
-            sent = partial(written_bytes, servers[-1].pid)  # the process hosting the changed node
-            run["dds_server_bytes_per_change_1"] = _bytes_per_change(sent, change_dds, changes)
-            # viewers in processes of their own (Cyclone sends one copy per process, not per reader)
-            with _watchers(domains[0], target, VIEWERS - 1, timeout):
-                run["dds_server_bytes_per_change_10"] = _bytes_per_change(sent, change_dds, changes)
-            for m in monitors:
-                m.close()
-            direct.close()
-            close_participant(dp)
     finally:
         relay.close()
         router.close()
@@ -386,27 +320,25 @@ def run(args: argparse.Namespace) -> int:
             [
                 s,
                 s * nodes,
-                run["remote_full_state_s"],
-                run["dds_full_state_s"],
+                round(run["remote_full_state_s"] * 1000),
+                round(run["dds_full_state_s"] * 1000),
                 f"{g[0]:.2f} / {g[1]:.2f}",
                 f"{dg[0]:.2f} / {dg[1]:.2f}",
                 f"{st[0]:.2f} / {st[1]:.2f}",
                 f"{ds[0]:.2f} / {ds[1]:.2f}",
                 f"{run['uplink_bytes_per_change_1']:.0f} / {run['uplink_bytes_per_change_10']:.0f}",
-                f"{run['dds_server_bytes_per_change_1']:.0f} / {run['dds_server_bytes_per_change_10']:.0f}",
             ]
         )
     headers = [
         "sites",
         "nodes",
-        "zenoh: fresh client holds all (s)",
-        "one DDS domain (s)",
+        "zenoh: fresh client holds all (ms)",
+        "one DDS domain (ms)",
         "remote get p50/p99 ms",
         "DDS get",
         "remote set p50/p99 ms",
         "DDS set",
         "uplink B/change, 1/10 viewers",
-        "DDS server B/change, 1/10 viewers",
     ]
     emit(args, data, render(headers, rows))
     return 0

@@ -108,7 +108,7 @@ class Gateway:
             else:
                 self._gateways.add(zid)
             self._gateways.add(self.token_id)
-        self._pool.submit(self._elect)
+        self._submit(self._elect)
 
     @property
     def active(self) -> bool:
@@ -263,8 +263,17 @@ class Gateway:
             parameters=st.parameters,
         )
 
+    def _submit(self, fn: Callable[..., object], *args: Any) -> bool:
+        """Run ``fn`` on the pool (never on Zenoh's thread); False once the gateway is closing."""
+        try:
+            self._pool.submit(fn, *args)
+        except RuntimeError:  # shut down
+            return False
+        return True
+
     def _on_state_query(self, query: Any) -> None:
-        self._pool.submit(self._answer_state, query)
+        if not self._submit(self._answer_state, query):
+            query.drop()
 
     def _answer_state(self, query: Any) -> None:
         with query:
@@ -280,7 +289,8 @@ class Gateway:
     # -- calls --------------------------------------------------------------------------------------
 
     def _on_call(self, query: Any) -> None:
-        self._pool.submit(self._answer_call, query)
+        if not self._submit(self._answer_call, query):
+            query.drop()
 
     def _answer_call(self, query: Any) -> None:
         with query:
