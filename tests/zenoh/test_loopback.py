@@ -152,6 +152,15 @@ def test_the_cli_reaches_remote_nodes_with_zenoh(fleet: Fleet) -> None:
     dumped = run("dump", "s1/robot1")
     assert dumped.returncode == 0 and "max_velocity: 1.5" in dumped.stdout, dumped
 
+    from ..reliability.conftest import Proc
+
+    watch = Proc([PARAMDDS, "watch", "s1/robot1"], env)
+    fleet.procs.append(watch)
+    watch.wait_for("added    s1/robot1 robot.max_velocity = double 1.5", 10)
+    watch.wait_for("synced", 10)
+    assert run("set", "s1/robot1", "robot.max_velocity=2.5").returncode == 0
+    watch.wait_for("modified s1/robot1 robot.max_velocity = double 2.5", 5)
+
 
 def test_bad_input_is_a_clear_error_never_a_hang(tmp_path: Path) -> None:
     env = make_dds_env(1)
