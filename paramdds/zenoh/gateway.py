@@ -70,6 +70,7 @@ class Gateway:
         self.token_id = f"{time.time_ns()}_{self.zid}"  # earliest start wins the election
         self._lock = threading.Lock()
         self._wake = threading.Condition(self._lock)
+        self._role_lock = threading.Lock()
         self._dirty: set[str] = set()
         self._seq: dict[str, int] = {}
         self._published: dict[str, dict[str, tuple[Any, Any]]] = {}  # node -> parameters last published
@@ -115,17 +116,18 @@ class Gateway:
         return self._active
 
     def _elect(self) -> None:
-        with self._lock:
-            if self._closed:
-                return
-            want = min(self._gateways, key=_election_key) == self.token_id
-            if want == self._active:
-                return
-            self._active = want
-        if want:
-            self._activate()
-        else:
-            self._deactivate()
+        with self._role_lock:  # one change of role at a time: declarations never interleave
+            with self._lock:
+                if self._closed:
+                    return
+                want = min(self._gateways, key=_election_key) == self.token_id
+                if want == self._active:
+                    return
+                self._active = want
+            if want:
+                self._activate()
+            else:
+                self._deactivate()
         log.info("gateway %s for site %s is now %s", self.zid, self.site, "active" if want else "standby")
         if self.on_role is not None:
             self.on_role(want)
@@ -342,7 +344,8 @@ class Gateway:
             self._closed = True
             self._active = False
             self._wake.notify_all()
-        self._deactivate()
+        with self._role_lock:
+            self._deactivate()
         _undeclare(self._gateway_sub)
         _undeclare(self._gateway_token)
         self._pool.shutdown(wait=False, cancel_futures=True)
