@@ -93,11 +93,11 @@ def test_deltas_gaps_old_seqs_and_tokens(fleet: Fleet) -> None:
     with gw.lock:
         before = gw.queries
         gw.state = codec.NodeStateMsg(
-            "s1", NODE, "gw", 4, True, parameters=_params(b=5.0, c=6.0), announced=2
+            "s1", NODE, "gw", 5, True, parameters=_params(b=5.0, c=6.0), announced=2
         )
     gw.publish(
         codec.NodeStateMsg(
-            "s1", NODE, "gw", 4, True, parameters=_params(c=6.0), announced=2, kind="delta", base=3
+            "s1", NODE, "gw", 5, True, parameters=_params(c=6.0), announced=2, kind="delta", base=4
         )
     )
     assert monitor.wait_until(lambda s: s[name].parameters["b"][0].value == 5.0, 3.0)
