@@ -120,6 +120,7 @@ class RemoteParameterMonitor(ParameterMonitor):
         self._seen: dict[str, tuple[str, int]] = {}  # node -> (gateway, seq) of the state held
         self._reported: dict[str, bool] = {}  # node -> online as its gateway last said
         self._alive: set[str] = set()  # nodes whose liveliness token is alive
+        self._gone: set[str] = set()  # nodes whose token the subscriber saw go (the first sync's get may lag)
         self._refresh_lock = threading.Lock()
         self._to_refresh: set[tuple[str, str]] = set()
         self._refresher: threading.Thread | None = None
@@ -154,7 +155,7 @@ class RemoteParameterMonitor(ParameterMonitor):
             try:  # the tokens first, so that the states below show online exactly
                 alive = _alive_of(self._session, keys.site_pattern(scope, keys.ALIVE), self._timeout)
                 with self._cond:
-                    self._alive.update(n for n in alive if self._wanted(n))
+                    self._alive.update(n for n in alive if self._wanted(n) and n not in self._gone)
                 states += _states_of(self._session, keys.site_pattern(scope, keys.STATE), self._timeout)
             except Exception as exc:  # the session closed under us
                 log.debug("the first state query failed: %s", exc)
@@ -185,8 +186,10 @@ class RemoteParameterMonitor(ParameterMonitor):
         with self._cond:
             if _is_delete(sample):
                 self._alive.discard(name)
+                self._gone.add(name)
             else:
                 self._alive.add(name)
+                self._gone.discard(name)
             state = self._states.get(name)
             if state is not None:
                 event = self._set_online(state, self._reported.get(name, False) and name in self._alive)
