@@ -91,10 +91,11 @@ class Session:
         self, nodes: list[str] | None = None, on_event: EventCallback | None = None
     ) -> ParameterMonitor:
         if getattr(self.args, "zenoh", None):
-            from ..zenoh.remote import RemoteParameterMonitor
+            from ..zenoh.remote import RemoteParameterMonitor, sites_from_env
 
-            timeout = self.args.timeout
-            remote = RemoteParameterMonitor(self.zenoh, nodes=nodes, on_event=on_event, timeout=timeout)
+            remote = RemoteParameterMonitor(
+                self.zenoh, sites=sites_from_env(), nodes=nodes, on_event=on_event, timeout=self.args.timeout
+            )
             self._closers.append(remote)
             return remote
         from ..dds.monitor import ParameterMonitor

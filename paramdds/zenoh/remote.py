@@ -52,6 +52,16 @@ _ALL_STATES = keys.site_pattern("*", keys.STATE)
 _ALL_ALIVE = keys.site_pattern("*", keys.ALIVE)
 
 
+def sites_from_env(environ: Any = None) -> list[str] | None:
+    """``PARAMDDS_ZENOH_SITES`` (``north,south``; globs allowed): the sites the CLI's monitor
+    watches, site by site when they are exact names (an operator granted only those)."""
+    import os
+
+    text = (os.environ if environ is None else environ).get("PARAMDDS_ZENOH_SITES", "")
+    sites = [s.strip() for s in text.split(",") if s.strip()]
+    return sites or None
+
+
 def _is_delete(sample: Any) -> bool:
     return bool(sample.kind == zenoh.SampleKind.DELETE)
 

@@ -7,6 +7,7 @@ nothing), and ``operator`` site ``a``; a client without a certificate does not c
 
 from __future__ import annotations
 
+import json
 import subprocess
 from pathlib import Path
 
@@ -82,6 +83,17 @@ def test_mutual_tls_and_access_by_certificate_name(tmp_path: Path, procs: list[P
         monitor.close()
     finally:
         session.close()
+
+    # the CLI as that operator: its certificate, and the sites it is granted
+    cli = subprocess.run(
+        [PARAMDDS, "--zenoh", endpoint, "nodes", "-o", "json"],
+        env={**env, "PARAMDDS_ZENOH_TLS": str(op), "PARAMDDS_ZENOH_SITES": "a,b"},
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert cli.returncode == 0, cli.stderr
+    assert [n["node"] for n in json.loads(cli.stdout)] == ["a/robot1"]
 
     # no certificate: no session at all, within the bounded wait
     with pytest.raises(UnavailableError, match="no Zenoh router reachable"):
