@@ -88,6 +88,12 @@ def _add_globals(p: argparse.ArgumentParser, *, top: bool) -> None:
         default=default(None),
         help="secure mode: an identity made by 'paramdds keystore add' (env PARAMDDS_IDENTITY)",
     )
+    g.add_argument(
+        "--zenoh",
+        metavar="ENDPOINT",
+        default=default(None),
+        help="reach every site's nodes (SITE/NODE) through a Zenoh router, not DDS (env PARAMDDS_ZENOH)",
+    )
 
 
 def _version() -> str:
@@ -136,5 +142,11 @@ def resolve_globals(args: argparse.Namespace, environ: dict[str, str] | None = N
         args.localhost = env.get("PARAMDDS_LOCALHOST", "").strip().lower() in ("1", "true", "yes", "on")
     if not args.identity:
         args.identity = env.get("PARAMDDS_IDENTITY", "").strip() or None
+    if not args.zenoh:
+        args.zenoh = env.get("PARAMDDS_ZENOH", "").strip() or None
+    if args.zenoh:
+        from ..zenoh.config import check_endpoint  # no Zenoh import: the shape only
+
+        args.zenoh = check_endpoint(args.zenoh, error=UsageError)
     if args.timeout is None or not args.timeout > 0:
         raise UsageError(f"--timeout must be a positive number of seconds, got {args.timeout}")

@@ -33,6 +33,7 @@ class Session:
         self._participant: Any = None
         self._qos: QosProfiles | None = None
         self._closers: list[Any] = []
+        self._zenoh: Any = None  # --zenoh: the Zenoh session the remote client and monitor share
 
     @property
     def participant(self) -> Any:
@@ -62,7 +63,21 @@ class Session:
             self._qos = QosProfiles.load(path) if path else QosProfiles.load()
         return self._qos
 
+    @property
+    def zenoh(self) -> Any:
+        if self._zenoh is None:
+            from ..zenoh.config import remote_session
+
+            self._zenoh = remote_session(self.args)
+        return self._zenoh
+
     def client(self) -> ParameterClient:
+        if getattr(self.args, "zenoh", None):  # every site's nodes, as SITE/NODE (paramdds.zenoh)
+            from ..zenoh.remote import RemoteParameterClient
+
+            remote = RemoteParameterClient(self.zenoh, timeout=self.args.timeout)
+            self._closers.append(remote)
+            return remote
         from ..dds.client import ParameterClient
 
         # a node never seen counts as absent (exit 3) only once discovery has settled
@@ -76,6 +91,14 @@ class Session:
     def monitor(
         self, nodes: list[str] | None = None, on_event: EventCallback | None = None
     ) -> ParameterMonitor:
+        if getattr(self.args, "zenoh", None):
+            from ..zenoh.remote import RemoteParameterMonitor, sites_from_env
+
+            remote = RemoteParameterMonitor(
+                self.zenoh, sites=sites_from_env(), nodes=nodes, on_event=on_event, timeout=self.args.timeout
+            )
+            self._closers.append(remote)
+            return remote
         from ..dds.monitor import ParameterMonitor
 
         monitor = ParameterMonitor(self.participant, self.qos, nodes=nodes or None, on_event=on_event)
@@ -97,6 +120,9 @@ class Session:
                 obj.close()
             except Exception:
                 log.debug("closing %r failed", obj, exc_info=True)
+        if self._zenoh is not None:
+            self._zenoh.close()
+            self._zenoh = None
         if self._participant is not None:
             from ..dds.participant import close_participant
 

@@ -37,6 +37,7 @@ VERBS = (
     "web",
     "keystore",
     "ros2",
+    "zenoh",
     "bench",
     "check",
     "schema",

@@ -22,6 +22,8 @@ SCENARIOS = {
     "persist": "sets/s with --persist at 10 and 1,000 params vs without; restart from a 100k-change journal",
     "schema": "a set on the node of the largest Autoware JSON Schema vs the equivalent spec node; "
     "paramdds check --autoware on every realworld pair",
+    "zenoh": "sites behind Zenoh gateways: fresh remote client holds every node, remote get/set vs "
+    "direct DDS, uplink bytes per change with 1 and 10 viewers, vs one stretched DDS domain (zenoh extra)",
     "ros2": "real ROS 2 (rclpy from PyPI) vs paramdds at N = 10, 100, 300 real nodes: fresh state, "
     "fresh get, warm get/set, graph size, a host killed, the bridge (needs the ros2 extra)",
 }
@@ -90,6 +92,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--servers", type=_positive_int, metavar="K", help="server processes: scaling (default 2), fleet (10)"
     )
+    p.add_argument("--sites", type=_int_list, metavar="S,S…", help="zenoh: site counts (default 1,10)")
     p.add_argument(
         "--clients", type=_positive_int, metavar="C", help="throughput: client processes (default 2)"
     )

@@ -1,0 +1,380 @@
+"""The gateway: one site's DDS domain on Zenoh (``paramdds zenoh --site NAME``).
+
+On the DDS side it is an ordinary paramdds participant: a
+:class:`~paramdds.dds.monitor.ParameterMonitor` holds every node's current state and a
+:class:`~paramdds.dds.client.ParameterClient` calls the nodes. On the Zenoh side
+(:mod:`.keys` is the contract):
+
+* every change of a node (a parameter, its presence) marks it; a publisher thread
+  publishes each marked node's whole state once on ``.../state`` (changes within
+  :data:`BATCH` seconds share one publication). The routers fan it out: one copy
+  crosses the uplink whatever the number of remote viewers;
+* a ``complete`` queryable on ``paramdds/<site>/node/*/state`` answers from the
+  monitor's current state (never from history): one query gives a fresh remote client
+  every node of the site exactly, offline nodes included;
+* a liveliness token ``.../alive`` is held per online node, so remote viewers see a
+  node, or the whole site when the gateway or its uplink dies, go offline;
+* queryables on ``.../get``, ``.../list`` and ``.../set`` forward calls to the node
+  and reply with per-parameter results and codes; every call is bounded by the
+  request's timeout (capped at :data:`MAX_CALL_TIMEOUT`).
+
+Standby: several gateways may serve one site. Each holds a token
+``paramdds/<site>/gateway/<start>_<zid>`` (its start time in ns since the epoch and
+its Zenoh id); the one started first among those it sees is active (a newcomer never
+preempts it), the others keep their DDS state warm and declare nothing else. When
+the active one's token goes (it died, or its uplink did), the next one takes over at
+once: it declares the node tokens and queryables and publishes every node.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any
+
+import zenoh
+
+from ..dds.client import ParameterClient
+from ..dds.monitor import MonitorEvent, NodeState, ParameterMonitor
+from ..errors import InternalError, InvalidNameError, ParamddsError
+from . import codec, keys
+
+log = logging.getLogger(__name__)
+
+BATCH = 0.02  # seconds: changes of one node within this share one publication
+MAX_CALL_TIMEOUT = 60.0  # seconds: the longest a forwarded call may wait on the site
+DEFAULT_CALL_TIMEOUT = 5.0
+ELECTION_WAIT = 1.0  # seconds: how long a starting gateway asks for the site's other gateways
+WORKERS = 8  # forwarded calls and state queries served at once
+SYNC_WAIT = 3.0  # seconds: the most a starting gateway waits for its site's current state
+
+
+class Gateway:
+    """Serve ``site``'s nodes (seen through ``participant``) on the Zenoh ``session``."""
+
+    def __init__(
+        self,
+        participant: Any,
+        session: Any,
+        site: str,
+        *,
+        qos: Any = None,
+        on_role: Callable[[bool], None] | None = None,
+    ) -> None:
+        self.site = keys.check_site(site)
+        self._session = session
+        self.zid = str(session.zid())
+        self.token_id = f"{time.time_ns()}_{self.zid}"  # earliest start wins the election
+        self._lock = threading.Lock()
+        self._wake = threading.Condition(self._lock)
+        self._role_lock = threading.Lock()
+        self._dirty: set[str] = set()
+        self._seq: dict[str, int] = {}
+        self._published: dict[str, dict[str, tuple[Any, Any]]] = {}  # node -> parameters last published
+        self._tokens: dict[str, Any] = {}
+        self._gateways: set[str] = set()
+        self._active = False
+        self._closed = False
+        self._declared: list[Any] = []
+        self.on_role = on_role
+        self._pool = ThreadPoolExecutor(max_workers=WORKERS, thread_name_prefix="paramdds-zenoh")
+        self.client = ParameterClient(participant, qos, timeout=DEFAULT_CALL_TIMEOUT)
+        self.monitor = ParameterMonitor(participant, qos, on_event=self._on_event)
+        self._publisher = threading.Thread(target=self._publish_loop, name="paramdds-zenoh-pub", daemon=True)
+        self._publisher.start()
+        # the site's current state first, so that a gateway taking the active role publishes it all
+        self.monitor.wait_synced(SYNC_WAIT)
+        live = session.liveliness()
+        self._gateway_token = live.declare_token(keys.gateway_key(self.site, self.token_id))
+        pattern = keys.gateway_key(self.site, "*")
+        # who else serves this site: asked once (bounded), then followed
+        for reply in live.get(pattern, timeout=ELECTION_WAIT):
+            if reply.ok is not None:
+                self._gateways.add(str(reply.ok.key_expr).rsplit("/", 1)[-1])
+        self._gateway_sub = live.declare_subscriber(pattern, self._on_gateway, history=True)
+        with self._lock:
+            self._gateways.add(self.token_id)
+        self._elect()
+
+    # -- the election -------------------------------------------------------------------------
+
+    def _on_gateway(self, sample: Any) -> None:
+        zid = str(sample.key_expr).rsplit("/", 1)[-1]
+        with self._lock:
+            if sample.kind == zenoh.SampleKind.DELETE:
+                self._gateways.discard(zid)
+            else:
+                self._gateways.add(zid)
+            self._gateways.add(self.token_id)
+        self._submit(self._elect)
+
+    @property
+    def active(self) -> bool:
+        return self._active
+
+    def _elect(self) -> None:
+        with self._role_lock:  # one change of role at a time: declarations never interleave
+            with self._lock:
+                if self._closed:
+                    return
+                want = min(self._gateways, key=_election_key) == self.token_id
+                if want == self._active:
+                    return
+                self._active = want
+            if want:
+                self._activate()
+            else:
+                self._deactivate()
+        log.info("gateway %s for site %s is now %s", self.zid, self.site, "active" if want else "standby")
+        if self.on_role is not None:
+            self.on_role(want)
+
+    def _activate(self) -> None:
+        s, site = self._session, self.site
+        declared = [
+            s.declare_queryable(keys.site_pattern(site, keys.STATE), self._on_state_query, complete=True),
+            *(
+                s.declare_queryable(keys.site_pattern(site, verb), self._on_call, complete=True)
+                for verb in keys.VERBS
+            ),
+        ]
+        with self._lock:
+            self._published = {}  # the first publication of each node from now on is whole
+            self._declared = declared
+            self._dirty.update(self._node_ids())  # publish every node once: the new active one speaks
+            self._wake.notify_all()
+
+    def _deactivate(self) -> None:
+        with self._lock:
+            declared, self._declared = self._declared, []
+            tokens, self._tokens = self._tokens, {}
+        for entity in [*declared, *tokens.values()]:
+            _undeclare(entity)
+
+    def _node_ids(self) -> list[str]:
+        out: list[str] = []
+
+        def take(states: dict[str, NodeState]) -> bool:
+            out.extend(states)
+            return True
+
+        self.monitor.wait_until(take, 0.0)
+        return out
+
+    # -- state: events -> publications -------------------------------------------------------------
+
+    def _on_event(self, event: MonitorEvent) -> None:
+        if not event.node:  # "synced"
+            return
+        with self._lock:
+            self._dirty.add(event.node)
+            self._wake.notify_all()
+
+    def _publish_loop(self) -> None:
+        while True:
+            with self._lock:
+                while not self._dirty and not self._closed:
+                    self._wake.wait()
+                if self._closed:
+                    return
+            time.sleep(BATCH)  # let the rest of one change arrive
+            with self._lock:
+                dirty, self._dirty = self._dirty, set()
+                active = self._active
+            if not active:
+                continue
+            for node in sorted(dirty):
+                try:
+                    self._publish(node)
+                except Exception:  # a failing put must not end the loop
+                    log.exception("publishing node %r failed", node)
+
+    def _publish(self, node: str) -> None:
+        msg = self._state_of(node, bump=True)
+        if msg is None:
+            return
+        key = keys.node_key(self.site, node, keys.STATE)
+        full = msg.parameters
+        before = self._published.get(node)
+        if before is not None:  # only what changed since the last publication (codec: "delta")
+            msg.kind, msg.base = "delta", msg.seq - 1
+            msg.deleted = [n for n in before if n not in full]
+            msg.parameters = {
+                n: entry
+                for n, entry in full.items()
+                if n not in before or not before[n][0].same_as(entry[0]) or before[n][1] != entry[1]
+            }
+        self._session.put(key, msg.encode(), encoding=codec.ENCODING)
+        self._published[node] = full
+        with self._lock:
+            token = self._tokens.get(node)
+            if msg.online and token is None and self._active:
+                self._tokens[node] = self._session.liveliness().declare_token(
+                    keys.node_key(self.site, node, keys.ALIVE)
+                )
+            elif not msg.online and token is not None:
+                del self._tokens[node]
+            else:
+                token = None
+        if token is not None:
+            _undeclare(token)
+
+    def _state_of(self, node: str, *, bump: bool) -> codec.NodeStateMsg | None:
+        found: list[NodeState] = []
+
+        def take(states: dict[str, NodeState]) -> bool:
+            st = states.get(node)
+            if st is not None:  # a copy of this node only (the monitor's snapshot copies them all)
+                found.append(
+                    NodeState(
+                        st.node,
+                        st.online,
+                        st.host,
+                        st.pid,
+                        st.revision,
+                        st.announced,
+                        incarnation=st.incarnation,
+                        origin=st.origin,
+                        parameters=dict(st.parameters),
+                    )
+                )
+            return True
+
+        self.monitor.wait_until(take, 0.0)
+        if not found:
+            return None
+        st = found[0]
+        with self._lock:
+            seq = self._seq.get(node, 0) + (1 if bump else 0)
+            self._seq[node] = seq
+        return codec.NodeStateMsg(
+            site=self.site,
+            node=node,
+            gateway=self.zid,
+            seq=seq,
+            online=st.online,
+            host=st.host,
+            pid=st.pid,
+            revision=st.revision,
+            incarnation=st.incarnation,
+            announced=st.announced,
+            origin=st.origin,
+            parameters=st.parameters,
+        )
+
+    def _submit(self, fn: Callable[..., object], *args: Any) -> bool:
+        """Run ``fn`` on the pool (never on Zenoh's thread); False once the gateway is closing."""
+        try:
+            self._pool.submit(fn, *args)
+        except RuntimeError:  # shut down
+            return False
+        return True
+
+    def _on_state_query(self, query: Any) -> None:
+        if not self._submit(self._answer_state, query):
+            query.drop()
+
+    def _answer_state(self, query: Any) -> None:
+        with query:
+            asked = query.key_expr
+            for node in self._node_ids():
+                key = keys.node_key(self.site, node, keys.STATE)
+                if not asked.intersects(key):
+                    continue
+                msg = self._state_of(node, bump=False)
+                if msg is not None:
+                    query.reply(key, msg.encode(), encoding=codec.ENCODING)
+
+    # -- calls --------------------------------------------------------------------------------------
+
+    def _on_call(self, query: Any) -> None:
+        if not self._submit(self._answer_call, query):
+            query.drop()
+
+    def _answer_call(self, query: Any) -> None:
+        with query:
+            key = str(query.key_expr)
+            try:
+                if "*" in key:
+                    raise InvalidNameError(f"a call names one node, not a pattern: {key!r}")
+                _site, node, verb = keys.parse_node_key(key)
+                payload = query.payload.to_bytes() if query.payload is not None else b"{}"
+                reply = self._call(node, verb, codec.loads(payload, "a request"))
+            except ParamddsError as exc:
+                reply = codec.error_reply(exc)
+            except Exception as exc:  # a bug here: the caller gets INTERNAL, never silence
+                log.exception("forwarding %s failed", key)
+                reply = codec.error_reply(InternalError(f"the gateway failed: {type(exc).__name__}: {exc}"))
+            query.reply(key, reply, encoding=codec.ENCODING)
+
+    def _call(self, node: str, verb: str, req: dict[str, Any]) -> bytes:
+        timeout = _timeout_of(req)
+        c = self.client
+        try:
+            if verb == "get":
+                names = [str(n) for n in req.get("names", [])]
+                g = c.get(node, names, with_descriptors=bool(req.get("with_descriptors")), timeout=timeout)
+                return codec.get_reply(
+                    keys.remote_name(self.site, g.node), g.revision, g.incarnation, g.results
+                )
+            if verb == "list":
+                prefixes = [str(p) for p in req.get("prefixes", [])]
+                r = c.list(node, prefixes, int(req.get("depth", 0)), timeout=timeout)
+                return codec.list_reply(r.names, r.prefixes)
+            if verb == "set":
+                params = codec.parse_parameters(req.get("parameters"))
+                expected = codec.parse_if_revision(req.get("if_revision"))
+                s = c.set(node, params, atomic=bool(req.get("atomic")), if_revision=expected, timeout=timeout)
+                return codec.set_reply(
+                    keys.remote_name(self.site, s.node), s.revision, s.incarnation, s.results
+                )
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ParamddsError(f"a malformed {verb} request: {type(exc).__name__}: {exc}") from None
+        raise InvalidNameError(f"unknown call {verb!r} (known: {', '.join(keys.VERBS)})")
+
+    # -- the end ----------------------------------------------------------------------------------------
+
+    def close(self) -> None:
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True
+            self._active = False
+            self._wake.notify_all()
+        with self._role_lock:
+            self._deactivate()
+        _undeclare(self._gateway_sub)
+        _undeclare(self._gateway_token)
+        self._pool.shutdown(wait=False, cancel_futures=True)
+        self.monitor.close()
+        self.client.close()
+
+
+def _timeout_of(req: dict[str, Any]) -> float:
+    raw = req.get("timeout", DEFAULT_CALL_TIMEOUT)
+    try:
+        t = float(raw)
+    except (TypeError, ValueError):
+        raise ParamddsError(f"timeout must be a number of seconds, got {raw!r}") from None
+    if not t > 0:
+        raise ParamddsError(f"timeout must be positive, got {t}")
+    # the caller's query waits `t`: answer a little before it gives up
+    return min(MAX_CALL_TIMEOUT, max(0.05, t * 0.9))
+
+
+def _election_key(token_id: str) -> tuple[int, str]:
+    start, _, zid = token_id.partition("_")
+    return (int(start), zid) if start.isdigit() else (2**63, token_id)
+
+
+def _undeclare(entity: Any) -> None:
+    try:
+        entity.undeclare()
+    except Exception:
+        log.debug("undeclaring %r failed", entity, exc_info=True)
+
+
+__all__ = ["BATCH", "Gateway"]

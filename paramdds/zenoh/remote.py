@@ -1,0 +1,521 @@
+"""The remote client and monitor: every site's nodes over Zenoh, named ``SITE/NODE``.
+
+They have the shapes of :class:`~paramdds.dds.client.ParameterClient` and
+:class:`~paramdds.dds.monitor.ParameterMonitor` (they are subclasses, so the CLI's
+verbs, :class:`~paramdds.dds.client.AsyncParameterClient` and the web console take
+either), with the DDS machinery replaced by Zenoh queries, subscriptions and
+liveliness:
+
+* the monitor subscribes to every node's ``state`` first, then asks each site's
+  gateway for the current state of all its nodes (one query, answered from the
+  gateway's current state, never from history), and keeps, per node, the publication
+  with the highest ``seq`` of its gateway (a reply and a publication of one change
+  may cross). A node is online while its gateway says so *and* its liveliness token
+  is alive: a gateway killed, or an uplink cut, takes every node of its site offline
+  within the Zenoh lease (:data:`~.config.LEASE_MS`); when a token comes back the node
+  is asked for again (publications made meanwhile were lost), so nothing stale shows
+  online;
+* the client sends each call as one query to the node's key, with an explicit Zenoh
+  timeout; no reply at all means no gateway serves the site (UNAVAILABLE), or the
+  answer did not come back in time (TIMEOUT).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import fnmatch
+import itertools
+import logging
+import threading
+import time
+from collections.abc import Iterable, Sequence
+from concurrent.futures import Future
+from concurrent.futures import TimeoutError as FutureTimeout
+from typing import Any
+
+import zenoh
+
+from ..core.results import ListResult
+from ..core.revision import Revision
+from ..dds.client import DEFAULT_TIMEOUT, GetReply, NodeInfo, ParameterClient, ParamsArg, SetReply, _Pending
+from ..core.request import to_parameters
+from ..dds.discovery import Presence
+from ..dds.monitor import EventCallback, EventKind, MonitorEvent, NodeState, ParameterMonitor
+from ..errors import ParamddsError, TimeoutError_, UnavailableError
+from . import codec, keys
+
+log = logging.getLogger(__name__)
+
+REFRESH_BATCH = 0.05  # seconds: nodes to ask for again are gathered this long, then asked per site
+REPLY_MARGIN = 0.5  # seconds past a call's timeout before the client stops waiting for Zenoh
+_ALL_STATES = keys.site_pattern("*", keys.STATE)
+_ALL_ALIVE = keys.site_pattern("*", keys.ALIVE)
+
+
+def sites_from_env(environ: Any = None) -> list[str] | None:
+    """``PARAMDDS_ZENOH_SITES`` (``north,south``; globs allowed): the sites the CLI's monitor
+    watches, site by site when they are exact names (an operator granted only those)."""
+    import os
+
+    text = (os.environ if environ is None else environ).get("PARAMDDS_ZENOH_SITES", "")
+    sites = [s.strip() for s in text.split(",") if s.strip()]
+    return sites or None
+
+
+def _is_delete(sample: Any) -> bool:
+    return bool(sample.kind == zenoh.SampleKind.DELETE)
+
+
+def _states_of(session: Any, pattern: str, timeout: float) -> list[codec.NodeStateMsg]:
+    """Every node state the gateways answer for ``pattern`` (bounded by ``timeout``)."""
+    out: list[codec.NodeStateMsg] = []
+    replies = session.get(
+        pattern,
+        timeout=timeout,
+        target=zenoh.QueryTarget.ALL,
+        consolidation=zenoh.QueryConsolidation(zenoh.ConsolidationMode.NONE),
+    )
+    for reply in replies:
+        sample = reply.ok
+        if sample is None:
+            continue
+        try:
+            out.append(codec.NodeStateMsg.decode(sample.payload.to_bytes()))
+        except ParamddsError as exc:
+            log.warning("ignoring a state from %s: %s", sample.key_expr, exc)
+    return out
+
+
+def _alive_of(session: Any, pattern: str, timeout: float) -> set[str]:
+    """The remote names of the nodes whose liveliness token is alive now."""
+    alive: set[str] = set()
+    for reply in session.liveliness().get(pattern, timeout=timeout):
+        if reply.ok is not None:
+            try:
+                site, node, _ = keys.parse_node_key(str(reply.ok.key_expr))
+            except ParamddsError:
+                continue
+            alive.add(keys.remote_name(site, node))
+    return alive
+
+
+class RemoteParameterMonitor(ParameterMonitor):
+    """Every node of every site (or of ``sites``, globs) over one Zenoh ``session``.
+
+    ``snapshot()``, ``wait_until``, ``wait_complete``, ``wait_synced`` and the events
+    (``added``, ``modified``, ``deleted``, ``online``, ``offline``, ``synced``) are those
+    of :class:`~paramdds.dds.monitor.ParameterMonitor`; node names are ``SITE/NODE``.
+    """
+
+    def __init__(
+        self,
+        session: Any,
+        *,
+        sites: Iterable[str] | None = None,
+        nodes: Iterable[str] | None = None,
+        on_event: EventCallback | None = None,
+        timeout: float = DEFAULT_TIMEOUT,
+    ) -> None:
+        # ParameterMonitor's state and waits, fed from Zenoh instead of a DDS reader
+        self._states: dict[str, NodeState] = {}
+        self._cond = threading.Condition()
+        self._callbacks: list[EventCallback] = [on_event] if on_event else []
+        self._last_sample = time.monotonic()
+        self._synced = False
+        self._closed = False
+        self._only = {keys.remote_name(*keys.split_remote(n)) for n in nodes} if nodes else None
+        self._sites = list(sites) if sites else None
+        self._session = session
+        self._timeout = timeout
+        self._seen: dict[str, tuple[str, int]] = {}  # node -> (gateway, seq) of the state held
+        self._reported: dict[str, bool] = {}  # node -> online as its gateway last said
+        self._alive: set[str] = set()  # nodes whose liveliness token is alive
+        self._gone: set[str] = set()  # nodes whose token the subscriber saw go (the first sync's get may lag)
+        self._refresh_lock = threading.Lock()
+        self._to_refresh: set[tuple[str, str]] = set()
+        self._refresher: threading.Thread | None = None
+        # an exact list of sites is asked for site by site (an operator whose certificate is granted
+        # some sites may not even declare a subscriber on every site's keys); globs filter here
+        exact = self._sites is not None and not any("*" in g or "?" in g for g in self._sites)
+        self._scopes = [keys.check_site(site) for site in self._sites or ()] if exact else ["*"]
+        self._entities = [
+            entity
+            for scope in self._scopes
+            for entity in (
+                session.declare_subscriber(keys.site_pattern(scope, keys.STATE), self._on_state),
+                session.liveliness().declare_subscriber(
+                    keys.site_pattern(scope, keys.ALIVE), self._on_alive, history=True
+                ),
+            )
+        ]
+        self._initial = threading.Thread(target=self._first_sync, name="paramdds-zenoh-sync", daemon=True)
+        self._initial.start()
+
+    def _wanted(self, name: str) -> bool:
+        if self._only is not None and name not in self._only:
+            return False
+        if self._sites is not None:
+            site = name.split("/", 1)[0]
+            return any(fnmatch.fnmatchcase(site, g) for g in self._sites)
+        return True
+
+    def _first_sync(self) -> None:
+        states: list[codec.NodeStateMsg] = []
+        for scope in self._scopes:
+            try:  # the tokens first, so that the states below show online exactly
+                alive = _alive_of(self._session, keys.site_pattern(scope, keys.ALIVE), self._timeout)
+                with self._cond:
+                    self._alive.update(n for n in alive if self._wanted(n) and n not in self._gone)
+                states += _states_of(self._session, keys.site_pattern(scope, keys.STATE), self._timeout)
+            except Exception as exc:  # the session closed under us
+                log.debug("the first state query failed: %s", exc)
+        for msg in states:
+            self._apply_state(msg)
+        with self._cond:
+            self._synced = True
+            self._cond.notify_all()
+        self._emit([MonitorEvent(EventKind.SYNCED, stamp=time.time())])
+
+    def _on_state(self, sample: Any) -> None:
+        try:
+            msg = codec.NodeStateMsg.decode(sample.payload.to_bytes())
+        except ParamddsError as exc:
+            log.warning("ignoring a state published on %s: %s", sample.key_expr, exc)
+            return
+        self._apply_state(msg)
+
+    def _on_alive(self, sample: Any) -> None:
+        try:
+            site, node, _ = keys.parse_node_key(str(sample.key_expr))
+        except ParamddsError:
+            return
+        name = keys.remote_name(site, node)
+        if not self._wanted(name):
+            return
+        events: list[MonitorEvent] = []
+        with self._cond:
+            if _is_delete(sample):
+                self._alive.discard(name)
+                self._gone.add(name)
+            else:
+                self._alive.add(name)
+                self._gone.discard(name)
+            state = self._states.get(name)
+            if state is not None:
+                event = self._set_online(state, self._reported.get(name, False) and name in self._alive)
+                if event is not None:
+                    events.append(event)
+            self._cond.notify_all()
+        self._emit(events)
+        if not _is_delete(sample) and self._synced:
+            # back (a gateway took over, an uplink came back): what was published meanwhile is lost
+            # (before the first sync is done, its query asks for every node anyway)
+            self._refresh(site, node)
+
+    def _refresh(self, site: str, node: str) -> None:
+        """Ask for ``node``'s whole state again, soon (one thread asks for all, a query per site)."""
+        with self._refresh_lock:
+            if self._closed:
+                return
+            self._to_refresh.add((site, node))
+            if self._refresher is None or not self._refresher.is_alive():
+                self._refresher = threading.Thread(
+                    target=self._refresh_loop, name="paramdds-zenoh-refresh", daemon=True
+                )
+                self._refresher.start()
+
+    def _refresh_loop(self) -> None:
+        while True:
+            time.sleep(REFRESH_BATCH)  # a site coming back announces its nodes in a burst
+            with self._refresh_lock:
+                wanted, self._to_refresh = self._to_refresh, set()
+                if not wanted or self._closed:
+                    self._refresher = None
+                    return
+            by_site: dict[str, list[str]] = {}
+            for site, node in wanted:
+                by_site.setdefault(site, []).append(node)
+            for site, site_nodes in by_site.items():
+                key = (
+                    keys.node_key(site, site_nodes[0], keys.STATE)
+                    if len(site_nodes) == 1
+                    else keys.site_pattern(site, keys.STATE)
+                )
+                try:
+                    for msg in _states_of(self._session, key, self._timeout):
+                        self._apply_state(msg)
+                except Exception as exc:  # the session closed under us
+                    log.debug("refreshing %s failed: %s", key, exc)
+
+    def _apply_state(self, msg: codec.NodeStateMsg) -> None:
+        name = keys.remote_name(msg.site, msg.node)
+        if not self._wanted(name):
+            return
+        events: list[MonitorEvent] = []
+        with self._cond:
+            self._last_sample = time.monotonic()
+            seen = self._seen.get(name)
+            if seen is not None and seen[0] == msg.gateway and msg.seq <= seen[1]:
+                return  # this state or a newer one is held already
+            state = self._states.get(name)
+            if msg.kind == "delta":
+                if state is None or seen != (msg.gateway, msg.base):
+                    gap = True  # not the state this change follows: ask for the whole one
+                else:
+                    gap = False
+                    merged = {n: e for n, e in state.parameters.items() if n not in msg.deleted}
+                    merged.update(msg.parameters)
+                    msg.parameters, msg.kind = merged, "state"
+                if gap:
+                    self._refresh(msg.site, msg.node)
+                    return
+            self._seen[name] = (msg.gateway, msg.seq)
+            if state is None:
+                state = self._states[name] = NodeState(name)
+            old = state.parameters
+            stamp = time.time()
+            if self._callbacks:
+                for pname, (value, descriptor) in msg.parameters.items():
+                    before = old.get(pname)
+                    if before is None:
+                        kind = EventKind.ADDED
+                    elif not before[0].same_as(value) or before[1] != descriptor:
+                        kind = EventKind.MODIFIED
+                    else:
+                        continue
+                    events.append(
+                        MonitorEvent(
+                            kind, name, pname, value, descriptor, msg.revision, stamp, msg.incarnation
+                        )
+                    )
+                for pname, (value, descriptor) in old.items():
+                    if pname not in msg.parameters:
+                        events.append(
+                            MonitorEvent(
+                                EventKind.DELETED,
+                                name,
+                                pname,
+                                value,
+                                descriptor,
+                                msg.revision,
+                                stamp,
+                                msg.incarnation,
+                            )
+                        )
+            state.parameters = dict(msg.parameters)
+            state.host, state.pid = msg.host, msg.pid
+            state.revision, state.announced = msg.revision, msg.announced
+            state.incarnation, state.origin = msg.incarnation, msg.origin
+            self._reported[name] = msg.online
+            event = self._set_online(state, msg.online and name in self._alive)
+            if event is not None:
+                events.append(event)
+            self._cond.notify_all()
+        self._emit(events)
+
+    def close(self) -> None:
+        with self._cond:
+            self._closed = True
+            self._cond.notify_all()
+        for entity in self._entities:
+            try:
+                entity.undeclare()
+            except Exception:
+                log.debug("undeclaring %r failed", entity, exc_info=True)
+
+
+class RemoteParameterClient(ParameterClient):
+    """Calls to ``SITE/NODE`` over one Zenoh ``session``; every call bounded by its timeout.
+
+    The calls (``list``, ``get``, ``get_value``, ``set`` with ``atomic`` and
+    ``if_revision``, ``delete``, ``wait_for_node``, ``nodes``, ``node_info``,
+    ``presence``) and the errors are those of
+    :class:`~paramdds.dds.client.ParameterClient`; the node's own per-parameter
+    results and codes come back unchanged.
+    """
+
+    def __init__(self, session: Any, *, timeout: float = DEFAULT_TIMEOUT) -> None:
+        # no DDS: only the parts of ParameterClient its sync and async calls use
+        self._session = session
+        self.timeout = timeout
+        self.client_id = 0
+        self._ids = itertools.count(1)
+        self._ids_lock = threading.Lock()
+        self._pending: dict[int, _Pending] = {}
+        self._closing = threading.Event()
+
+    def close(self) -> None:
+        self._closing.set()
+
+    # -- presence --------------------------------------------------------------------------------
+
+    def nodes(self) -> list[NodeInfo]:
+        """Every node the gateways know (online or not), sorted by ``SITE/NODE``.
+
+        Asked of the gateways now: a node is online as its gateway, which just answered,
+        says (a liveliness get was not reliable enough in a one-shot call).
+        """
+        latest: dict[str, codec.NodeStateMsg] = {}
+        for msg in _states_of(self._session, _ALL_STATES, self.timeout):
+            name = keys.remote_name(msg.site, msg.node)
+            if name not in latest or latest[name].seq < msg.seq:
+                latest[name] = msg
+        return sorted((_info(m) for m in latest.values()), key=lambda n: n.node)
+
+    def node_info(self, node: str) -> NodeInfo | None:
+        site, nid = keys.split_remote(node)
+        states = _states_of(self._session, keys.node_key(site, nid, keys.STATE), self.timeout)
+        return _info(max(states, key=lambda m: m.seq)) if states else None
+
+    def presence(self, node: str) -> Presence:
+        """ONLINE, OFFLINE (its gateway knows it offline), or ABSENT (no gateway knows it)."""
+        info = self.node_info(node)
+        if info is None:
+            return Presence.ABSENT
+        return Presence.ONLINE if info.online else Presence.OFFLINE
+
+    def wait_for_node(self, node: str, timeout: float | None = None) -> NodeInfo:
+        limit = self.timeout if timeout is None else timeout
+        deadline = time.monotonic() + limit
+        while True:
+            remaining = deadline - time.monotonic()
+            info = self.node_info(node) if remaining > 0 else None
+            if info is not None and info.online:
+                return info
+            if remaining <= 0:
+                if info is None:
+                    raise UnavailableError(
+                        f"node {node!r} is not present on any site reached (waited {limit:.2g} s)"
+                    )
+                raise UnavailableError(f"node {node!r} is offline (waited {limit:.2g} s)")
+            if self._closing.wait(min(0.1, max(0.0, remaining))):
+                raise UnavailableError("the client was closed")
+
+    # -- the calls: ParameterClient's list/get/set/delete run these ------------------------------
+
+    def _prepare(self, node: str, verb: str, body: dict[str, Any]) -> tuple[str, int, _Pending]:
+        site, nid = keys.split_remote(node)
+        with self._ids_lock:
+            rid = next(self._ids)
+        pending = _Pending(keys.remote_name(site, nid), verb, (keys.node_key(site, nid, verb), body), 0, None)
+        return pending.node, rid, pending
+
+    def _send_list(self, node: str, prefixes: Sequence[str], depth: int) -> tuple[str, int, _Pending]:
+        if depth < 0:
+            raise ParamddsError(f"depth must be 0 (recursive) or positive, got {depth}")
+        return self._prepare(node, "list", {"prefixes": list(prefixes), "depth": depth})
+
+    def _send_get(self, node: str, names: Sequence[str], with_descriptors: bool) -> tuple[str, int, _Pending]:
+        return self._prepare(node, "get", {"names": list(names), "with_descriptors": with_descriptors})
+
+    def _send_set(
+        self, node: str, params: ParamsArg, atomic: bool, if_revision: int | Revision | None
+    ) -> tuple[str, int, _Pending]:
+        items = to_parameters(params)
+        expected: object = None
+        if isinstance(if_revision, Revision):
+            expected = str(if_revision)
+        elif if_revision is not None:
+            expected = int(if_revision)
+        body = {
+            "parameters": [{"name": p.name, "value": codec.value_out(p.value)} for p in items],
+            "atomic": atomic,
+            "if_revision": expected,
+        }
+        return self._prepare(node, "set", body)
+
+    def _fire(self, pending: _Pending, timeout: float) -> Future[Any]:
+        """Send the query; the future gets the reply's JSON object, or the error to raise."""
+        key, body = pending.sample
+        future: Future[Any] = pending.future
+        started = time.monotonic()
+        replies: list[bytes] = []
+
+        def on_reply(reply: Any) -> None:
+            sample = reply.ok
+            if sample is not None:
+                replies.append(sample.payload.to_bytes())
+            elif reply.err is not None and not future.done():
+                text = reply.err.payload.to_bytes().decode(errors="replace")
+                future.set_exception(ParamddsError(f"the gateway refused the call on {key}: {text}"))
+
+        def on_done() -> None:
+            if future.done():
+                return
+            if replies:
+                try:
+                    future.set_result(codec.loads(replies[0], f"the reply of {pending.node!r}"))
+                except ParamddsError as exc:
+                    future.set_exception(exc)
+                return
+            waited = time.monotonic() - started
+            if waited < timeout * 0.9:
+                future.set_exception(
+                    UnavailableError(
+                        f"node {pending.node!r}: no gateway of its site answered "
+                        f"(site not connected, or its uplink is down; waited {waited:.2g} s)"
+                    )
+                )
+            else:
+                future.set_exception(
+                    TimeoutError_(f"no answer from node {pending.node!r} within {timeout:g} s")
+                )
+
+        payload = codec.dumps({**body, "timeout": timeout})
+        try:
+            self._session.get(
+                key,
+                zenoh.handlers.Callback(on_reply, on_done),
+                payload=payload,
+                encoding=codec.ENCODING,
+                timeout=timeout + REPLY_MARGIN / 2,
+                target=zenoh.QueryTarget.ALL,
+                consolidation=zenoh.QueryConsolidation(zenoh.ConsolidationMode.NONE),
+            )
+        except Exception as exc:
+            raise UnavailableError(f"could not send the call to {pending.node!r}: {exc}") from None
+        return future
+
+    def _wait(self, node: str, request_id: int, pending: _Pending, timeout: float | None) -> Any:
+        limit = self.timeout if timeout is None else timeout
+        future = self._fire(pending, limit)
+        try:
+            return future.result(limit + REPLY_MARGIN)
+        except FutureTimeout:
+            raise TimeoutError_(f"no answer from node {node!r} within {limit:g} s") from None
+
+    async def _await(self, node: str, request_id: int, pending: _Pending, timeout: float | None) -> Any:
+        limit = self.timeout if timeout is None else timeout
+        future = asyncio.wrap_future(self._fire(pending, limit))
+        try:
+            return await asyncio.wait_for(future, limit + REPLY_MARGIN)
+        except asyncio.TimeoutError:
+            raise TimeoutError_(f"no answer from node {node!r} within {limit:g} s") from None
+
+    def _finish_list(self, reply: Any) -> ListResult:
+        obj = codec.check_reply(reply)
+        return ListResult(tuple(str(n) for n in obj["names"]), tuple(str(p) for p in obj["prefixes"]))
+
+    def _finish_get(self, reply: Any) -> GetReply:
+        obj = codec.check_reply(reply)
+        revision, incarnation, results = codec.get_results(obj)
+        return GetReply(str(obj["node"]), revision, results, incarnation)
+
+    def _finish_set(self, reply: Any) -> SetReply:
+        obj = codec.check_reply(reply)
+        revision, incarnation, results = codec.set_results(obj)
+        return SetReply(str(obj["node"]), revision, results, incarnation)
+
+
+def _info(msg: codec.NodeStateMsg) -> NodeInfo:
+    return NodeInfo(
+        keys.remote_name(msg.site, msg.node),
+        msg.online,
+        msg.host,
+        msg.pid,
+        msg.revision,
+        msg.announced if msg.announced >= 0 else len(msg.parameters),
+        None,
+        msg.incarnation,
+        msg.origin,
+    )

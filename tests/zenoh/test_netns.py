@@ -1,0 +1,203 @@
+"""Sites in network namespaces, linked only to a "cloud" namespace that runs the router.
+
+Three sites, each with its own DDS domain (on its own loopback: no DDS packet leaves a
+site), a server hosting ``robot1`` and ``robot2`` (the same names on every site) and a
+gateway dialling the router. The test process, in the root namespace, is the remote
+client. Needs root, iproute2 and nftables; skips with the reason without them, fails
+under ``CI=true``.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import threading
+import time
+from collections.abc import Iterator
+
+import pytest
+
+from paramdds.errors import ErrorCode, TransportError
+from paramdds.zenoh.remote import RemoteParameterClient, RemoteParameterMonitor
+
+from ..conftest import next_domain_id
+from ..reliability.conftest import PARAMDDS, Proc, make_dds_env
+from .conftest import PARAMS, SPEC, holds_online, open_remote, wait_for
+from .netns import PORT, Topology, skip_or_fail, why_not
+
+SITES = ["north", "south", "east"]
+NODES = ["robot1", "robot2"]
+ALL = [f"{s}/{n}" for s in SITES for n in NODES]
+
+pytestmark = [pytest.mark.slow, pytest.mark.timeout(150)]
+
+
+class Sites:
+    def __init__(self, topo: Topology) -> None:
+        self.topo = topo
+        self.procs: list[Proc] = []
+        self.domains = {s: next_domain_id() for s in SITES}
+        self.sessions: list[object] = []
+
+    def start(self) -> None:
+        router = Proc(
+            self.topo.exec_in(None, PARAMDDS, "zenoh", "--router", "--listen", f"tcp/0.0.0.0:{PORT}"),
+            make_dds_env(1),
+        )
+        self.procs.append(router)
+        router.wait_for("[ZENOH] Router", 20)
+        for site in SITES:
+            env = make_dds_env(self.domains[site])
+            argv = [PARAMDDS, "server", "-p", PARAMS, "--spec", SPEC]
+            for n in NODES:
+                argv += ["-n", n]
+            server = Proc(self.topo.exec_in(site, *argv), env)
+            self.procs.append(server)
+            for _ in NODES:
+                server.wait_for("[SERVER] Serving node", 20)
+        for site in SITES:
+            gw = Proc(
+                self.topo.exec_in(
+                    site, PARAMDDS, "zenoh", "--site", site, "--connect", self.topo.uplink_endpoint(site)
+                ),
+                make_dds_env(self.domains[site]),
+            )
+            self.procs.append(gw)
+            gw.wait_for("[ZENOH] Gateway for site", 30)
+
+    def local(self, site: str, *args: str) -> subprocess.CompletedProcess[str]:
+        """A paramdds verb run inside the site, on its DDS domain."""
+        return subprocess.run(
+            self.topo.exec_in(site, PARAMDDS, *args),
+            env=make_dds_env(self.domains[site]),
+            capture_output=True,
+            text=True,
+            timeout=30,
+        )
+
+    def remote(self) -> object:
+        session = open_remote(self.topo.router_endpoint, timeout=10.0)
+        self.sessions.append(session)
+        return session
+
+    def close(self) -> None:
+        for session in self.sessions:
+            session.close()  # type: ignore[attr-defined]
+        for proc in reversed(self.procs):
+            proc.stop()
+
+
+@pytest.fixture
+def sites() -> Iterator[Sites]:
+    reason = why_not()
+    if reason:
+        skip_or_fail(reason)
+    topo = Topology(SITES)
+    topo.destroy()  # leftovers of a killed earlier run with this pid
+    try:
+        try:
+            topo.create()
+        except subprocess.CalledProcessError as exc:
+            skip_or_fail(f"cannot create network namespaces here: {exc.stderr.strip()}")
+        s = Sites(topo)
+        try:
+            yield s
+        finally:
+            s.close()
+    finally:
+        topo.destroy()
+
+
+def _value(monitor: RemoteParameterMonitor, node: str, name: str) -> object:
+    st = monitor.snapshot().get(node)
+    return None if st is None or name not in st.parameters else st.parameters[name][0].value
+
+
+def test_sites_in_namespaces_late_joiner_calls_and_an_uplink_cut_and_restored(sites: Sites) -> None:
+    sites.start()
+    session = sites.remote()
+    client = RemoteParameterClient(session, timeout=5.0)
+    assert client.set("south/robot1", {"robot.max_velocity": 2.5}).successful
+    refused = client.set("east/robot2", {"robot.wheel_count": 6})
+    assert refused.results[0].code is ErrorCode.READ_ONLY
+
+    started = time.monotonic()
+    monitor = RemoteParameterMonitor(session)
+    assert holds_online(monitor, ALL, 5.0), sorted(monitor.snapshot())
+    took = time.monotonic() - started
+    snap = monitor.snapshot()
+    assert sorted(snap) == sorted(ALL)  # robot1 of three sites: three nodes
+    assert _value(monitor, "south/robot1", "robot.max_velocity") == 2.5
+    assert _value(monitor, "north/robot1", "robot.max_velocity") == 1.5
+    assert took < 1.5, took
+
+    # the uplink of "south" is cut: its nodes go offline remotely (the Zenoh lease), the others stay
+    sites.topo.set_uplink("south", False)
+    cut = time.monotonic()
+    assert monitor.wait_until(lambda s: not s["south/robot1"].online and not s["south/robot2"].online, 8.0), (
+        "the cut site's nodes still show online"
+    )
+    offline_after = time.monotonic() - cut
+    assert all(monitor.snapshot()[f"{s}/{n}"].online for s in ("north", "east") for n in NODES)
+    with pytest.raises(TransportError):
+        client.get("south/robot1", ["robot.max_velocity"], timeout=2.0)
+    # meanwhile the site goes on: a change made there while its uplink is down
+    local = sites.local("south", "set", "robot1", "robot.max_velocity=3.5")
+    assert local.returncode == 0, local.stderr
+    assert monitor.snapshot()["south/robot1"].parameters["robot.max_velocity"][0].value == 2.5
+    assert not monitor.snapshot()["south/robot1"].online  # the stale value is never shown online
+
+    sites.topo.set_uplink("south", True)
+    restored = time.monotonic()
+    assert monitor.wait_until(
+        lambda s: (
+            s["south/robot1"].online
+            and s["south/robot1"].parameters["robot.max_velocity"][0].value == 3.5
+            and s["south/robot2"].online
+        ),
+        20.0,
+    ), monitor.snapshot()["south/robot1"]
+    resync = time.monotonic() - restored
+    assert wait_for(lambda: client.get_value("south/robot1", "robot.max_velocity").value == 3.5, 5.0)
+    print(
+        f"namespaces: late joiner {took:.2f} s, offline {offline_after:.2f} s after the cut, "
+        f"resync {resync:.2f} s"
+    )
+    monitor.close()
+
+
+def test_thirty_percent_loss_on_every_uplink(sites: Sites) -> None:
+    sites.start()
+    session = sites.remote()
+    for site in SITES:  # after the gateways connected (TCP connects slowly through 30 % loss)
+        sites.topo.lossy_uplink(site, 30)
+    started = time.monotonic()
+    monitor = RemoteParameterMonitor(session, timeout=10.0)
+    assert holds_online(monitor, ALL, 10.0), sorted(monitor.snapshot())
+    took = time.monotonic() - started
+    assert sorted(monitor.snapshot()) == sorted(ALL)
+    client = RemoteParameterClient(session, timeout=10.0)
+    failures: list[str] = []
+
+    def drive(k: int, site: str) -> None:  # 15 sets per site, the sites at once
+        for i in range(15):
+            reply = client.set(f"{site}/robot2", {"robot.max_velocity": round(0.1 * i + k, 1)})
+            if not reply.successful:
+                failures.append(f"{site}: {reply.results}")
+
+    threads = [threading.Thread(target=drive, args=(k, site)) for k, site in enumerate(SITES)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(60)
+    assert not failures, failures
+    assert monitor.wait_until(
+        lambda s: all(
+            s[f"{site}/robot2"].parameters["robot.max_velocity"][0].value == round(1.4 + k, 1)
+            for k, site in enumerate(SITES)
+        ),
+        10.0,
+    )
+    dropped = sum(sites.topo.dropped(s) for s in SITES)
+    assert dropped > 10, "the loss rules dropped (almost) nothing: the test proved nothing"
+    print(f"30 % loss: late joiner {took:.2f} s, {dropped} packets dropped")
+    monitor.close()

@@ -1,0 +1,108 @@
+"""The remote monitor against a hand-written gateway (a plain Zenoh program speaking the JSON contract).
+
+Checks the receiving rules of docs/zenoh.md without DDS: a delta that follows the state
+held is applied, one that does not (a lost publication) makes the monitor ask for the
+node again, an older ``seq`` is ignored, and a node without its liveliness token is
+never shown online.
+"""
+
+from __future__ import annotations
+
+import threading
+from typing import Any
+
+from paramdds.core.descriptors import ParameterDescriptor
+from paramdds.core.values import ParameterType, ParameterValue
+from paramdds.zenoh import codec, keys
+from paramdds.zenoh.remote import RemoteParameterMonitor
+
+from .conftest import Fleet
+
+NODE = "ns/robot1"
+
+
+def _params(**values: float) -> dict[str, tuple[ParameterValue, ParameterDescriptor]]:
+    return {
+        n: (ParameterValue.of(ParameterType.DOUBLE, v), ParameterDescriptor(n, ParameterType.DOUBLE))
+        for n, v in values.items()
+    }
+
+
+class FakeGateway:
+    """Answers state queries with ``self.state``; publishes whatever the test says."""
+
+    def __init__(self, session: Any) -> None:
+        self.session = session
+        self.state = codec.NodeStateMsg(
+            "s1", NODE, "gw", 1, True, parameters=_params(a=1.0, b=2.0), announced=2
+        )
+        self.queries = 0
+        self.lock = threading.Lock()
+        self.queryable = session.declare_queryable(
+            keys.site_pattern("s1", keys.STATE), self._answer, complete=True
+        )
+
+    def _answer(self, query: Any) -> None:
+        with query:
+            with self.lock:
+                self.queries += 1
+                payload = self.state.encode()
+            query.reply(keys.node_key("s1", NODE, keys.STATE), payload)
+
+    def publish(self, msg: codec.NodeStateMsg) -> None:
+        self.session.put(keys.node_key("s1", NODE, keys.STATE), msg.encode())
+
+
+def test_deltas_gaps_old_seqs_and_tokens(fleet: Fleet) -> None:
+    gw = FakeGateway(fleet.remote())
+    monitor = RemoteParameterMonitor(fleet.remote())
+    name = "s1/ns/robot1"
+    assert monitor.wait_until(lambda s: name in s and s[name].complete, 3.0)
+    assert not monitor.snapshot()[name].online  # the gateway says online, but no token: offline
+
+    token = gw.session.liveliness().declare_token(keys.node_key("s1", NODE, keys.ALIVE))
+    assert monitor.wait_until(lambda s: s[name].online, 3.0)
+
+    # a delta that follows seq 1: applied (b changed, a deleted, c added)
+    delta = codec.NodeStateMsg(
+        "s1",
+        NODE,
+        "gw",
+        2,
+        True,
+        parameters=_params(b=3.0, c=4.0),
+        announced=2,
+        kind="delta",
+        base=1,
+        deleted=["a"],
+    )
+    gw.publish(delta)
+    assert monitor.wait_until(lambda s: sorted(s[name].parameters) == ["b", "c"], 3.0)
+    assert monitor.snapshot()[name].parameters["b"][0].value == 3.0
+
+    # an old seq is ignored (the delta after it, from the same publisher, arrives after it)
+    gw.publish(codec.NodeStateMsg("s1", NODE, "gw", 1, True, parameters=_params(z=9.0), announced=1))
+    gw.publish(
+        codec.NodeStateMsg(
+            "s1", NODE, "gw", 3, True, parameters=_params(c=7.0), announced=2, kind="delta", base=2
+        )
+    )
+    assert monitor.wait_until(lambda s: s[name].parameters["c"][0].value == 7.0, 3.0)
+    assert sorted(monitor.snapshot()[name].parameters) == ["b", "c"]
+    # a delta after a lost one (base 4, the monitor holds 3): the monitor asks for the node
+    with gw.lock:
+        before = gw.queries
+        gw.state = codec.NodeStateMsg(
+            "s1", NODE, "gw", 5, True, parameters=_params(b=5.0, c=6.0), announced=2
+        )
+    gw.publish(
+        codec.NodeStateMsg(
+            "s1", NODE, "gw", 5, True, parameters=_params(c=6.0), announced=2, kind="delta", base=4
+        )
+    )
+    assert monitor.wait_until(lambda s: s[name].parameters["b"][0].value == 5.0, 3.0)
+    assert gw.queries > before
+
+    token.undeclare()
+    assert monitor.wait_until(lambda s: not s[name].online, 3.0)
+    monitor.close()

@@ -1,0 +1,119 @@
+"""Mutual TLS with certificates from a ``paramdds keystore`` CA, and access control by certificate name.
+
+A router (a ``paramdds zenoh --router`` process) on loopback TLS grants ``gw_a`` site
+``a``, ``gw_b`` site ``a`` too (so gateway b, which serves site ``b``, publishes
+nothing), and ``operator`` site ``a``; a client without a certificate does not connect.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("cryptography", reason="the secure extra (cryptography) is not installed")
+
+from paramdds.errors import UnavailableError
+from paramdds.zenoh.config import TlsFiles, ZenohOptions, open_session
+from paramdds.zenoh.remote import RemoteParameterClient, RemoteParameterMonitor
+
+from ..conftest import next_domain_id
+from ..reliability.conftest import PARAMDDS, Proc, make_dds_env
+from .conftest import PARAMS, free_port, holds_online, wait_for
+
+pytestmark = pytest.mark.timeout(90)
+
+
+def _tls_args(d: Path) -> list[str]:
+    return ["--tls-ca", str(d / "ca.pem"), "--tls-cert", str(d / "cert.pem"), "--tls-key", str(d / "key.pem")]
+
+
+def test_mutual_tls_and_access_by_certificate_name(tmp_path: Path, procs: list[Proc]) -> None:
+    env = make_dds_env(next_domain_id())
+    ks = tmp_path / "ks"
+    assert (
+        subprocess.run([PARAMDDS, "keystore", "init", str(ks)], env=env, capture_output=True).returncode == 0
+    )
+    for name, hosts in (("router", ["127.0.0.1"]), ("gw_a", []), ("gw_b", []), ("operator", [])):
+        argv = [PARAMDDS, "zenoh", "--issue-cert", name, "--keystore", str(ks), "--out", str(tmp_path / name)]
+        for h in hosts:
+            argv += ["--host", h]
+        done = subprocess.run(argv, env=env, capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr
+    assert (tmp_path / "operator" / "key.pem").stat().st_mode & 0o077 == 0
+    endpoint = f"tls/127.0.0.1:{free_port()}"
+    router = Proc(
+        [
+            PARAMDDS, "zenoh", "--router", "--listen", endpoint, *_tls_args(tmp_path / "router"),
+            "--grant", "gw_a=a", "--grant", "gw_b=a", "--grant", "operator=a",
+        ],
+        env,
+    )  # fmt: skip
+    procs.append(router)
+    router.wait_for("[ZENOH] Router", 20)
+    for site, cert in (("a", "gw_a"), ("b", "gw_b")):
+        domain_env = make_dds_env(next_domain_id())
+        server = Proc([PARAMDDS, "server", "-p", PARAMS, "-n", "robot1"], domain_env)
+        procs.append(server)
+        server.wait_for("[SERVER] Serving node", 20)
+        gw = Proc(
+            [PARAMDDS, "zenoh", "--site", site, "--connect", endpoint, *_tls_args(tmp_path / cert)],
+            domain_env,
+        )
+        procs.append(gw)
+        gw.wait_for("[ZENOH] Gateway for site", 20)
+
+    op = tmp_path / "operator"
+    session = open_session(
+        ZenohOptions(
+            connect=[endpoint], tls=TlsFiles(str(op / "ca.pem"), str(op / "cert.pem"), str(op / "key.pem"))
+        )
+    )
+    try:
+        monitor = RemoteParameterMonitor(session, sites=["a", "b"])
+        assert holds_online(monitor, ["a/robot1"], 5.0)
+        client = RemoteParameterClient(session, timeout=3.0)
+        assert client.set("a/robot1", {"robot.max_velocity": 2.0}).successful
+        # site b's gateway is not granted its own keys: nothing of b reaches anyone
+        assert not wait_for(lambda: "b/robot1" in monitor.snapshot(), 1.5)
+        with pytest.raises(UnavailableError):
+            client.get("b/robot1", ["robot.max_velocity"], timeout=2.0)
+        monitor.close()
+    finally:
+        session.close()
+
+    # the CLI as that operator: its certificate, and the sites it is granted
+    cli = subprocess.run(
+        [PARAMDDS, "--zenoh", endpoint, "nodes", "-o", "json"],
+        env={**env, "PARAMDDS_ZENOH_TLS": str(op), "PARAMDDS_ZENOH_SITES": "a,b"},
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert cli.returncode == 0, cli.stderr
+    assert [n["node"] for n in json.loads(cli.stdout)] == ["a/robot1"]
+
+    # no certificate: no session at all, within the bounded wait
+    with pytest.raises(UnavailableError, match="no Zenoh router reachable"):
+        open_session(ZenohOptions(connect=[endpoint], open_timeout=1.5))
+    # a valid certificate of a name granted nothing: connected, but it reaches no site
+    nobody = tmp_path / "nobody"
+    subprocess.run(
+        [PARAMDDS, "zenoh", "--issue-cert", "nobody", "--keystore", str(ks), "--out", str(nobody)],
+        env=env,
+        check=True,
+        capture_output=True,
+    )
+    session = open_session(
+        ZenohOptions(
+            connect=[endpoint],
+            tls=TlsFiles(str(nobody / "ca.pem"), str(nobody / "cert.pem"), str(nobody / "key.pem")),
+        )
+    )
+    try:
+        with pytest.raises(UnavailableError):
+            RemoteParameterClient(session, timeout=2.0).get("a/robot1", ["robot.max_velocity"])
+    finally:
+        session.close()
