@@ -84,6 +84,7 @@ from ..errors import (
     TypeMismatchError,
     error_for,
 )
+from . import deadline as deadlines
 from .descriptors import ParameterDescriptor
 from .limits import MAX_PARAMETERS_PER_REQUEST, check_text, check_value
 from .listing import list_names
@@ -480,8 +481,13 @@ class ParameterTable:
 
     # --- setting ---------------------------------------------------------------------------
 
-    def set(self, params: Sequence[Parameter], *, expected_revision: int | None = None) -> SetOutcome:
-        """Set each parameter on its own; the ones that pass are committed in one revision."""
+    def set(
+        self, params: Sequence[Parameter], *, expected_revision: int | None = None, deadline: int = 0
+    ) -> SetOutcome:
+        """Set each parameter on its own; the ones that pass are committed in one revision.
+
+        ``deadline`` (ns since the Unix epoch, 0: none): past it by this host's clock at the
+        commit point (after validation and callbacks), raise EXPIRED and change nothing."""
         request = self._request(params)
         with self._lock:
             self._guard("set parameters")
@@ -501,12 +507,13 @@ class ParameterTable:
                 trial.keep()
                 applied.extend(unit)
                 results.append(SetResult(_name_of(p), True, reason))
+            deadlines.check(deadline)
             return self._finish(stage, applied, results)
 
     def set_atomically(
-        self, params: Sequence[Parameter], *, expected_revision: int | None = None
+        self, params: Sequence[Parameter], *, expected_revision: int | None = None, deadline: int = 0
     ) -> SetOutcome:
-        """Set all the parameters or none of them."""
+        """Set all the parameters or none of them (``deadline``: as :meth:`set`)."""
         request = self._request(params)
         with self._lock:
             self._guard("set parameters")
@@ -519,6 +526,7 @@ class ParameterTable:
             except _UnitFailed as failed:
                 return SetOutcome(self._atomic_failure(request, failed), self.revision, None)
             results = [SetResult(_name_of(p), True, reason) for p in request]
+            deadlines.check(deadline)
             return self._finish(stage, applied, results)
 
     @staticmethod

@@ -66,6 +66,7 @@ from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
+from ..core import deadline as deadlines
 from ..core.limits import MAX_PARAMETERS_PER_REQUEST
 from ..core.names import canonical_node_id
 from ..core.results import ChangeKind, ChangeSet, SetResult
@@ -565,6 +566,7 @@ class ParameterServer:
             self._publish(table, changes)
 
     def _apply_set(self, table: ParameterTable, request: Any) -> tuple[list[Any], int]:
+        deadlines.check(request.deadline)  # after its wait in the worker's queue (again at the commit)
         count = len(request.parameters)
         if count > MAX_PARAMETERS_PER_REQUEST:
             raise ParamddsError(
@@ -602,7 +604,8 @@ class ParameterServer:
                 for i, p in enumerate(request.parameters)
             ]
             return [_result_to_wire(r) for r in refused], table.revision
-        outcome = (table.set_atomically if request.atomic else table.set)(good, expected_revision=expected)
+        setter = table.set_atomically if request.atomic else table.set
+        outcome = setter(good, expected_revision=expected, deadline=request.deadline)
         merged = iter(outcome.results)
         results = [bad[i] if i in bad else next(merged) for i in range(len(params))]
         return [_result_to_wire(r) for r in results], outcome.revision
@@ -691,6 +694,7 @@ def _content(request: Any) -> bytes:
         expected_revision=request.expected_revision,
         parameters=request.parameters,
         expected_incarnation=request.expected_incarnation,
+        deadline=request.deadline,
     )
     return encode(sample)
 
