@@ -43,6 +43,7 @@ from cyclonedds.qos import Qos
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 
+from ..core.deadline import deadline_for
 from ..core.limits import MAX_PARAMETERS_PER_REQUEST, check_value
 from ..core.names import canonical_node_id, validate_name
 from ..core.results import GetResult, ListResult, SetResult
@@ -50,6 +51,7 @@ from ..core.revision import Revision
 from ..core.values import NOT_SET, Parameter, ParameterValue
 from ..errors import (
     NotFoundError,
+    OutcomeUnknownError,
     ParamddsError,
     TimeoutError_,
     TooLargeError,
@@ -149,11 +151,12 @@ def _to_parameters(params: ParamsArg) -> list[Parameter]:
 
 
 class _Pending:
-    __slots__ = ("future", "matched", "node", "sample", "topic", "writer")
+    __slots__ = ("future", "matched", "node", "sample", "topic", "write", "writer")
 
     def __init__(self, node: str, topic: str, sample: Any, matched: int, writer: Any) -> None:
         self.node = node
         self.topic = topic
+        self.write = topic == "SetParametersRequest"  # once sent, no answer is OUTCOME_UNKNOWN
         self.writer = writer
         self.sample = sample
         self.matched = matched  # the topic's match count when last looked at (see _newly_matched)
@@ -270,7 +273,7 @@ class ParameterClient:
                 self._discovery.close()
         for pending in list(self._pending.values()):
             if not pending.future.done():
-                pending.future.set_exception(UnavailableError("the client was closed"))
+                pending.future.set_exception(_closed_error(pending))
         self._pending.clear()
 
     def __enter__(self) -> ParameterClient:
@@ -403,7 +406,9 @@ class ParameterClient:
         the revision, so a restarted node never matches; a plain ``int`` compares the
         revision alone, which a restart can repeat.
         """
-        return self._finish_set(self._wait(*self._send_set(node, params, atomic, if_revision), timeout))
+        return self._finish_set(
+            self._wait(*self._send_set(node, params, atomic, if_revision, timeout), timeout)
+        )
 
     def delete(self, node: str, names: Sequence[str], *, timeout: float | None = None) -> SetReply:
         return self.set(node, [Parameter(n, NOT_SET) for n in names], timeout=timeout)
@@ -454,20 +459,41 @@ class ParameterClient:
         return self._send("GetParametersRequest", node, sample)
 
     def _send_set(
-        self, node: str, params: ParamsArg, atomic: bool, if_revision: int | Revision | None
+        self,
+        node: str,
+        params: ParamsArg,
+        atomic: bool,
+        if_revision: int | Revision | None,
+        timeout: float | None = None,
     ) -> tuple[str, int, _Pending]:
         node = canonical_node_id(node)
         expected = _expected(if_revision)
+        parameters = [parameter_to_wire(p) for p in _to_parameters(params)]
+        self._check_unsent(node)
         sample = wire.SetParametersRequest(
             node_id=node,
             client_id=self.client_id,
             request_id=self._next_id(),
             atomic=atomic,
             expected_revision=expected.revision,
-            parameters=[parameter_to_wire(p) for p in _to_parameters(params)],
+            parameters=parameters,
             expected_incarnation=expected.incarnation,
+            deadline=deadline_for(self.timeout if timeout is None else timeout),
         )
         return self._send("SetParametersRequest", node, sample)
+
+    def _check_unsent(self, node: str) -> None:
+        """A write to a node this client already knows to be offline or absent is not sent:
+        UNAVAILABLE is then true (the request never left this process). A client that does not
+        watch presence yet (``lazy_presence``) sends at once, and learns later."""
+        if self._discovery is None:
+            return
+        state = self.presence(node)
+        if state is Presence.OFFLINE:
+            raise UnavailableError(f"node {node!r} is offline: the request was not sent")
+        if state is Presence.ABSENT:
+            why = self._watch().state().describe()
+            raise UnavailableError(f"node {node!r} is not present ({why}): the request was not sent")
 
     def _on_replies(self, samples: Sequence[Any]) -> None:
         me = self.client_id
@@ -511,13 +537,15 @@ class ParameterClient:
         TIMEOUT that says so.
         """
         limit = self.timeout if timeout is None else timeout
-        deadline = time.monotonic() + limit
+        deadline = time.monotonic() + limit  # the request's own deadline is earlier (deadline_for)
         step = RESEND_AFTER
         next_resend = time.monotonic() + step
         seen = self._discovery.state() if self._discovery is not None else None
         while True:
             now = time.monotonic()
             if now >= deadline:
+                if pending.write:  # it was sent: it may have been applied
+                    raise self._outcome_unknown(pending.node, limit)
                 if self.presence(pending.node) is not Presence.ONLINE:
                     raise self._not_seen(pending.node, limit)
                 why = self._mismatched()
@@ -526,13 +554,15 @@ class ParameterClient:
             now = time.monotonic()
             if self._discovery is not None:
                 state = self._discovery.state()  # keeps the time of the last discovery change precise
-                if _news(seen, state) and self.presence(pending.node) in (Presence.OFFLINE, Presence.ABSENT):
+                # a write waits on: its node may come back and answer
+                news = _news(seen, state) and not pending.write
+                if news and self.presence(pending.node) in (Presence.OFFLINE, Presence.ABSENT):
                     raise self._not_seen(pending.node, now - (deadline - limit))
                 seen = state
             if now >= next_resend:
                 step = min(2 * step, 1.0)  # a big request that is merely slow is not resent often
                 next_resend = now + step
-                if self.presence(pending.node) in (Presence.OFFLINE, Presence.ABSENT):
+                if not pending.write and self.presence(pending.node) in (Presence.OFFLINE, Presence.ABSENT):
                     raise self._not_seen(pending.node, now - (deadline - limit))
             elif not self._newly_matched(pending):
                 continue
@@ -540,6 +570,19 @@ class ParameterClient:
                 pending.writer.write(pending.sample)
             except Exception as exc:
                 log.debug("resending request %d failed: %s", pending.sample.request_id, exc)
+
+    def _outcome_unknown(self, node: str, waited: float) -> OutcomeUnknownError:
+        """The error for a write sent and not answered within its caller's ``waited`` seconds."""
+        state = self.presence(node)
+        seen = {
+            Presence.OFFLINE: f"node {node!r} is offline",
+            Presence.ABSENT: f"node {node!r} is not present ({self._watch().state().describe()})",
+        }.get(state, f"node {node!r} did not answer")
+        return OutcomeUnknownError(
+            f"outcome unknown: {seen} within {waited:g} s after the request was sent, so it may or "
+            "may not have been applied; its deadline has passed, so the node will not apply it from "
+            f"now on (with clocks in sync): `get` shows the outcome{self._mismatched()}"
+        )
 
     def _mismatched(self) -> str:
         """A note for a failed call when peers were refused for their type or QoS (see :mod:`.peers`)."""
@@ -646,7 +689,8 @@ class AsyncParameterClient:
         timeout: float | None = None,
     ) -> SetReply:
         c = self.sync
-        return c._finish_set(await c._await(*c._send_set(node, params, atomic, if_revision), timeout))
+        sent = c._send_set(node, params, atomic, if_revision, timeout)
+        return c._finish_set(await c._await(*sent, timeout))
 
     async def delete(self, node: str, names: Sequence[str], *, timeout: float | None = None) -> SetReply:
         return await self.set(node, [Parameter(n, NOT_SET) for n in names], timeout=timeout)
@@ -665,6 +709,16 @@ def _news(seen: DiscoveryState | None, state: DiscoveryState) -> bool:
     if seen is None:
         return state.settled
     return (state.settled and not seen.settled) or state.liveliness != seen.liveliness
+
+
+def _closed_error(pending: _Pending) -> ParamddsError:
+    """The error of a call still waiting when its client is closed."""
+    if pending.write:
+        return OutcomeUnknownError(
+            f"outcome unknown: the client was closed before node {pending.node!r} answered; "
+            "the request was sent and may have been applied"
+        )
+    return UnavailableError("the client was closed")
 
 
 def _node_info(sample: Any) -> NodeInfo | None:
