@@ -23,13 +23,14 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+from ..core import deadline as deadlines
 from ..core.descriptors import ParameterDescriptor
 from ..core.limits import MAX_PARAMETERS_PER_REQUEST
 from ..core.names import canonical_node_id, is_valid_name
 from ..core.results import SetOutcome, SetResult
 from ..core.table import ParameterTable
 from ..core.values import Parameter, ParameterType, ParameterValue
-from ..errors import ErrorCode, ParamddsError
+from ..errors import ErrorCode, OutcomeUnknownError, ParamddsError
 from .messages import descriptor_from_ros, parameter_to_ros, result_from_ros, value_from_ros
 from .rosside import RosSide
 
@@ -68,8 +69,8 @@ class RosLink:
                 client = self._clients[service] = self.ros.client(kinds[service], f"{self.fqn}/{service}")
         return client
 
-    def _call(self, service: str, request: Any) -> Any:
-        return self.ros.call(self._client(service), request, self.timeout)
+    def _call(self, service: str, request: Any, timeout: float | None = None) -> Any:
+        return self.ros.call(self._client(service), request, self.timeout if timeout is None else timeout)
 
     def fetch(self) -> dict[str, Entry]:
         """Every parameter of the node with its value and descriptor (list, get, describe)."""
@@ -100,18 +101,22 @@ class RosLink:
             for name, v, d in zip(names, got.values, described.descriptors, strict=True)
         }
 
-    def set(self, params: Sequence[Parameter], atomic: bool) -> list[SetResult]:
-        """Forward a set; one result per parameter, in order, with ROS 2's reasons and our codes."""
+    def set(self, params: Sequence[Parameter], atomic: bool, deadline: int = 0) -> list[SetResult]:
+        """Forward a set; one result per parameter, in order, with ROS 2's reasons and our codes.
+
+        Waits for the node until ``deadline`` (the paramdds caller's, ns since the epoch; 0: the
+        link's timeout) at most: see :func:`forward_budget`."""
         from rcl_interfaces import srv
 
+        budget = forward_budget(self.timeout, deadline)
         msgs = [parameter_to_ros(p.name, p.value) for p in params]  # type: ignore[arg-type]
         if atomic:
             reply = self._call(
-                "set_parameters_atomically", srv.SetParametersAtomically.Request(parameters=msgs)
+                "set_parameters_atomically", srv.SetParametersAtomically.Request(parameters=msgs), budget
             )
             one = reply.result
             return [result_from_ros(p.name, one) for p in params]
-        reply = self._call("set_parameters", srv.SetParameters.Request(parameters=msgs))
+        reply = self._call("set_parameters", srv.SetParameters.Request(parameters=msgs), budget)
         if len(reply.results) != len(params):
             raise ParamddsError(
                 f"{self.fqn} answered {len(reply.results)} results for {len(params)} parameters",
@@ -136,18 +141,21 @@ class MirrorTable(ParameterTable):
         super().__init__(node_id)
         self.link = link
 
-    def set(self, params: Sequence[Parameter], *, expected_revision: int | None = None) -> SetOutcome:
-        return self._forward(params, expected_revision, atomic=False)
+    def set(
+        self, params: Sequence[Parameter], *, expected_revision: int | None = None, deadline: int = 0
+    ) -> SetOutcome:
+        return self._forward(params, expected_revision, atomic=False, deadline=deadline)
 
     def set_atomically(
-        self, params: Sequence[Parameter], *, expected_revision: int | None = None
+        self, params: Sequence[Parameter], *, expected_revision: int | None = None, deadline: int = 0
     ) -> SetOutcome:
-        return self._forward(params, expected_revision, atomic=True)
+        return self._forward(params, expected_revision, atomic=True, deadline=deadline)
 
     def _forward(
-        self, params: Sequence[Parameter], expected_revision: int | None, atomic: bool
+        self, params: Sequence[Parameter], expected_revision: int | None, atomic: bool, deadline: int = 0
     ) -> SetOutcome:
         request = self._request(params)
+        deadlines.check(deadline)  # not forwarded once its caller has given up
         if expected_revision is not None:
             raise ParamddsError(CAS_REFUSED, code=ErrorCode.INVALID_VALUE)
         if len(request) > MAX_PARAMETERS_PER_REQUEST:
@@ -169,8 +177,10 @@ class MirrorTable(ParameterTable):
         if atomic and len(send) < len(request):
             return SetOutcome(tuple(_all_failed(request, results)), self.revision, None)
         try:
-            answers = self.link.set([p for _, p in send], atomic) if send else []
+            answers = self.link.set([p for _, p in send], atomic, deadline) if send else []
         except ParamddsError as exc:
+            if exc.code is ErrorCode.TIMEOUT:  # sent, not answered: the ROS 2 node may apply it later
+                raise unanswered(self.link.fqn, exc) from exc
             answers = [SetResult(p.name, False, exc.message, exc.code) for _, p in send]
         entries: dict[str, Entry | None] = {}
         for (i, p), answer in zip(send, answers, strict=True):
@@ -236,6 +246,22 @@ class MirrorTable(ParameterTable):
         with self._lock:
             gone: dict[str, Entry | None] = {n: None for n in self._params if n not in entries}
             self.mirror({**entries, **gone})
+
+
+def forward_budget(timeout: float, deadline: int) -> float:
+    """How long a forwarded set waits for the ROS 2 node: the link's timeout, and never past
+    the paramdds caller's deadline (by this host's clock)."""
+    left = deadlines.remaining(deadline)
+    return timeout if left is None else max(0.0, min(timeout, left))
+
+
+def unanswered(fqn: str, exc: ParamddsError) -> OutcomeUnknownError:
+    """A forwarded set the ROS 2 node did not answer in time: ROS 2 has no deadline, so the node
+    may still apply it (its /parameter_events then update the mirror)."""
+    return OutcomeUnknownError(
+        f"outcome unknown: {exc.message}; the set was forwarded to {fqn} and ROS 2 has no deadline, "
+        "so it may still be applied (`get` shows it once the node has answered)"
+    )
 
 
 def _all_failed(request: Sequence[object], results: Sequence[SetResult | None]) -> list[SetResult]:
