@@ -574,14 +574,15 @@ class ParameterClient:
     def _outcome_unknown(self, node: str, waited: float) -> OutcomeUnknownError:
         """The error for a write sent and not answered within its caller's ``waited`` seconds."""
         state = self.presence(node)
-        seen = {
-            Presence.OFFLINE: f"node {node!r} is offline",
-            Presence.ABSENT: f"node {node!r} is not present ({self._watch().state().describe()})",
-        }.get(state, f"node {node!r} did not answer")
+        now = {
+            Presence.OFFLINE: " (it is offline now)",
+            Presence.ABSENT: f" (it is not present: {self._watch().state().describe()})",
+        }.get(state, "")
         return OutcomeUnknownError(
-            f"outcome unknown: {seen} within {waited:g} s after the request was sent, so it may or "
-            "may not have been applied; its deadline has passed, so the node will not apply it from "
-            f"now on (with clocks in sync): `get` shows the outcome{self._mismatched()}"
+            f"outcome unknown: no answer from node {node!r}{now} within {waited:g} s of sending the "
+            "request, so it may or may not have been applied; its deadline has passed, so the node "
+            "will not apply it from now on (with clocks in sync): `get` shows the outcome"
+            + self._mismatched()
         )
 
     def _mismatched(self) -> str:
