@@ -481,13 +481,12 @@ class ParameterTable:
 
     # --- setting ---------------------------------------------------------------------------
 
-    def set(
-        self, params: Sequence[Parameter], *, expected_revision: int | None = None, deadline: int = 0
-    ) -> SetOutcome:
+    def set(self, params: Sequence[Parameter], *, expected_revision: int | None = None) -> SetOutcome:
         """Set each parameter on its own; the ones that pass are committed in one revision.
 
-        ``deadline`` (ns since the Unix epoch, 0: none): past it by this host's clock at the
-        commit point (after validation and callbacks), raise EXPIRED and change nothing."""
+        Inside :func:`paramdds.core.deadline.applying` (a request's deadline, set by the
+        server): past it by this host's clock at the commit point (after validation and the
+        callbacks), raise EXPIRED and change nothing."""
         request = self._request(params)
         with self._lock:
             self._guard("set parameters")
@@ -507,13 +506,13 @@ class ParameterTable:
                 trial.keep()
                 applied.extend(unit)
                 results.append(SetResult(_name_of(p), True, reason))
-            deadlines.check(deadline)
+            deadlines.check(deadlines.current())
             return self._finish(stage, applied, results)
 
     def set_atomically(
-        self, params: Sequence[Parameter], *, expected_revision: int | None = None, deadline: int = 0
+        self, params: Sequence[Parameter], *, expected_revision: int | None = None
     ) -> SetOutcome:
-        """Set all the parameters or none of them (``deadline``: as :meth:`set`)."""
+        """Set all the parameters or none of them (a request's deadline: as :meth:`set`)."""
         request = self._request(params)
         with self._lock:
             self._guard("set parameters")
@@ -526,7 +525,7 @@ class ParameterTable:
             except _UnitFailed as failed:
                 return SetOutcome(self._atomic_failure(request, failed), self.revision, None)
             results = [SetResult(_name_of(p), True, reason) for p in request]
-            deadlines.check(deadline)
+            deadlines.check(deadlines.current())
             return self._finish(stage, applied, results)
 
     @staticmethod

@@ -605,7 +605,8 @@ class ParameterServer:
             ]
             return [_result_to_wire(r) for r in refused], table.revision
         setter = table.set_atomically if request.atomic else table.set
-        outcome = setter(good, expected_revision=expected, deadline=request.deadline)
+        with deadlines.applying(request.deadline):  # the table checks it right before its commit
+            outcome = setter(good, expected_revision=expected)
         merged = iter(outcome.results)
         results = [bad[i] if i in bad else next(merged) for i in range(len(params))]
         return [_result_to_wire(r) for r in results], outcome.revision

@@ -141,20 +141,19 @@ class MirrorTable(ParameterTable):
         super().__init__(node_id)
         self.link = link
 
-    def set(
-        self, params: Sequence[Parameter], *, expected_revision: int | None = None, deadline: int = 0
-    ) -> SetOutcome:
-        return self._forward(params, expected_revision, atomic=False, deadline=deadline)
+    def set(self, params: Sequence[Parameter], *, expected_revision: int | None = None) -> SetOutcome:
+        return self._forward(params, expected_revision, atomic=False)
 
     def set_atomically(
-        self, params: Sequence[Parameter], *, expected_revision: int | None = None, deadline: int = 0
+        self, params: Sequence[Parameter], *, expected_revision: int | None = None
     ) -> SetOutcome:
-        return self._forward(params, expected_revision, atomic=True, deadline=deadline)
+        return self._forward(params, expected_revision, atomic=True)
 
     def _forward(
-        self, params: Sequence[Parameter], expected_revision: int | None, atomic: bool, deadline: int = 0
+        self, params: Sequence[Parameter], expected_revision: int | None, atomic: bool
     ) -> SetOutcome:
         request = self._request(params)
+        deadline = deadlines.current()  # the paramdds caller's (0 for an assignment)
         deadlines.check(deadline)  # not forwarded once its caller has given up
         if expected_revision is not None:
             raise ParamddsError(CAS_REFUSED, code=ErrorCode.INVALID_VALUE)
