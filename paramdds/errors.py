@@ -20,6 +20,10 @@ map errors without matching on message text::
     ├── NotPersistedError              NOT_PERSISTED (applied, but not written to --persist)
     ├── InternalError                  INTERNAL (a bug on the node's side, reported to the caller)
     ├── NotPermittedError              NOT_PERMITTED (secure mode: DDS Security refused the action)
+    ├── ExpiredError                   EXPIRED (a write refused: it reached its commit point past its
+    │                                  deadline; nothing applied)
+    ├── OutcomeUnknownError            OUTCOME_UNKNOWN (a write sent and not answered in time: it may
+    │                                  have been applied; never a failure, see docs/reliability.md)
     ├── RemoteError                    UNKNOWN (a code this version does not know; ``remote_code``)
     └── TransportError                 the node could not be reached
         ├── TimeoutError_              TIMEOUT (no answer within the timeout)
@@ -52,6 +56,8 @@ class ErrorCode(str, Enum):
     INTERNAL = "INTERNAL"
     NOT_PERMITTED = "NOT_PERMITTED"  # secure mode: DDS Security refused this identity the action
     UNKNOWN = "UNKNOWN"  # a code this version does not know (a newer node's): see RemoteError
+    EXPIRED = "EXPIRED"  # a write refused whole: past its deadline at the node's commit point
+    OUTCOME_UNKNOWN = "OUTCOME_UNKNOWN"  # a write sent and not answered in time: applied or not
 
 
 class ParamddsError(Exception):
@@ -144,6 +150,24 @@ class NotPermittedError(ParamddsError):
     code = ErrorCode.NOT_PERMITTED
 
 
+class ExpiredError(ParamddsError):
+    """A write refused whole by the node: it reached the node's commit point after its
+    deadline (by the node's clock). Nothing was applied, and it never will be."""
+
+    code = ErrorCode.EXPIRED
+
+
+class OutcomeUnknownError(ParamddsError):
+    """A write was sent but no answer came in time: it may or may not have been applied.
+
+    Not a failure (and deliberately not a :class:`TransportError`): a node sees the
+    request's deadline and never applies it after that by its own clock, so a ``get``
+    once the error is raised shows the final outcome (docs/reliability.md gives the
+    limits when the two hosts' clocks differ)."""
+
+    code = ErrorCode.OUTCOME_UNKNOWN
+
+
 class RemoteError(ParamddsError):
     """The node answered with an error code this version does not know (a newer node):
     ``remote_code`` is the code as sent."""
@@ -184,6 +208,8 @@ _BY_CODE: dict[ErrorCode, type[ParamddsError]] = {
         NotPersistedError,
         InternalError,
         NotPermittedError,
+        ExpiredError,
+        OutcomeUnknownError,
         TimeoutError_,
         UnavailableError,
     )

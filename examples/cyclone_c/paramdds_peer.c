@@ -13,7 +13,11 @@
  * Output, one line each (values as JSON, after their paramdds type name):
  *   PARAM node name type value | NODE node host pid revision count | VALUE name type value
  *   MISSING name code | RESULT name OK | RESULT name FAILED code reason | NAME name | READY
- * Exit status: 0 success, 1 refused or missing, 2 usage, 3 no answer within 5 s.
+ *   REFUSED code reason (a set refused whole, e.g. EXPIRED)
+ * Exit status: 0 success, 1 refused or missing, 2 usage, 3 no answer within 5 s (get, list),
+ * 5 a set without an answer within 5 s (its outcome is unknown: it may have been applied).
+ * A set carries a deadline (5 s after it is sent, less 0.2 s for the reply to travel back); the node
+ * refuses a set past its deadline by its own clock with EXPIRED and applies nothing.
  */
 #include <signal.h>
 #include <stdio.h>
@@ -26,6 +30,7 @@
 #include "paramdds.h"
 
 #define ANSWER_TIMEOUT DDS_SECS (5)
+#define REPLY_ALLOWANCE DDS_MSECS (200) /* a set's deadline is this long before the caller stops waiting */
 #define MAX_PARAMS 8
 
 static const char *TYPE_NAMES[] = {"not_set", "bool", "integer", "double", "string",
@@ -329,6 +334,19 @@ static void answer_set (struct node *n, const paramdds_SetParametersRequest *rq,
   rp.client_id = rq->client_id;
   rp.request_id = rq->request_id;
   rp.code = rp.reason = "";
+  dds_time_t now = dds_time ();
+  if (rq->deadline != 0 && now > rq->deadline) /* past the caller's deadline by our clock: apply nothing */
+  {
+    char reason[200];
+    snprintf (reason, sizeof (reason),
+              "not applied: it arrived %.3f s after its deadline by this host's clock; are the two hosts' "
+              "clocks in sync?", (double) (now - rq->deadline) / 1e9);
+    rp.code = "EXPIRED", rp.reason = reason;
+    rp.revision = n->revision;
+    rp.incarnation = n->incarnation;
+    check (dds_write (wr, &rp), "write SetParametersResponse");
+    return;
+  }
   for (uint32_t i = 0; i < count; i++) /* validate everything first: an atomic set is all or nothing */
   {
     const paramdds_Parameter *in = &rq->parameters._buffer[i];
@@ -516,10 +534,13 @@ static uint64_t client_id (void)
 /* Wait until the request writer and the reply reader have matched a peer (a VOLATILE request
    written before that is lost), write, and wait for the reply carrying our ids; resend each second
    (the server answers a repeated (client_id, request_id) from its cache). */
+static int no_answer_status = 3; /* 5 for a set: once written, a request without an answer may apply */
+static dds_time_t call_start;
+
 static void *call (dds_entity_t wr, dds_entity_t rd, const void *request, const char *node, uint64_t cid,
                    uint64_t rid, dds_sample_info_t *info, void **loan)
 {
-  dds_time_t deadline = dds_time () + ANSWER_TIMEOUT;
+  dds_time_t deadline = call_start + ANSWER_TIMEOUT;
   dds_publication_matched_status_t pm;
   dds_subscription_matched_status_t sm;
   do
@@ -550,8 +571,9 @@ static void *call (dds_entity_t wr, dds_entity_t rd, const void *request, const 
     }
     dds_sleepfor (DDS_MSECS (5));
   }
-  fprintf (stderr, "paramdds_peer: no answer from node '%s' within 5 s\n", node);
-  exit (3);
+  fprintf (stderr, "paramdds_peer: no answer from node '%s' within 5 s%s\n", node,
+           no_answer_status == 5 ? ": outcome unknown" : "");
+  exit (no_answer_status);
 }
 
 static int run_client (dds_entity_t dp, const char *verb, const char *node, int argc, char **argv)
@@ -560,6 +582,7 @@ static int run_client (dds_entity_t dp, const char *verb, const char *node, int 
   dds_sample_info_t info;
   void *loan[1] = {NULL};
   int status = 0;
+  call_start = dds_time ();
   if (strcmp (verb, "get") == 0)
   {
     dds_entity_t wr = endpoint (dp, "GetParametersRequest", &paramdds_GetParametersRequest_desc, true, qos_call_writer ());
@@ -597,6 +620,8 @@ static int run_client (dds_entity_t dp, const char *verb, const char *node, int 
     snprintf (rq.node_id, sizeof (rq.node_id), "%s", node);
     rq.client_id = cid, rq.request_id = rid;
     rq.expected_revision = -1;
+    rq.deadline = call_start + ANSWER_TIMEOUT - REPLY_ALLOWANCE;
+    no_answer_status = 5;
     for (int i = 0; i < argc && i < 64; i++)
     {
       char *eq = strchr (argv[i], '=');
@@ -612,6 +637,11 @@ static int run_client (dds_entity_t dp, const char *verb, const char *node, int 
     rq.parameters._length = rq.parameters._maximum = (uint32_t) (argc < 64 ? argc : 64);
     rq.parameters._buffer = params;
     const paramdds_SetParametersResponse *rp = call (wr, rd, &rq, node, cid, rid, &info, loan);
+    if (rp->code[0])
+    {
+      printf ("REFUSED %s %s\n", rp->code, rp->reason);
+      status = 1;
+    }
     for (uint32_t i = 0; i < rp->results._length; i++)
     {
       const paramdds_SetParameterResult *r = &rp->results._buffer[i];

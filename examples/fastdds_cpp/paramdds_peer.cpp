@@ -42,6 +42,13 @@ using namespace eprosima::fastdds::dds;
 using eprosima::fastrtps::Duration_t;
 using Clock = std::chrono::steady_clock;
 
+// nanoseconds since the Unix epoch by this host's clock (a set request's deadline is one)
+static int64_t wall_ns()
+{
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
+        .count();
+}
+
 static const char *TYPE_NAMES[] = {"not_set", "bool", "integer", "double", "string", "byte_array",
                                    "bool_array", "integer_array", "double_array", "string_array"};
 
@@ -392,6 +399,21 @@ struct Node
         rp.node_id(id);
         rp.client_id(rq.client_id());
         rp.request_id(rq.request_id());
+        int64_t now = wall_ns();
+        if (rq.deadline() != 0 && now > rq.deadline())  // past the caller's deadline by our clock
+        {
+            char reason[200];
+            std::snprintf(reason, sizeof(reason),
+                          "not applied: it arrived %.3f s after its deadline by this host's clock; are the "
+                          "two hosts' clocks in sync?",
+                          static_cast<double>(now - rq.deadline()) / 1e9);
+            rp.code("EXPIRED");
+            rp.reason(reason);
+            rp.revision(revision);
+            rp.incarnation(incarnation);
+            wr->write(&rp);
+            return;
+        }
         bool all_ok = true;
         for (const auto &in : rq.parameters())  // validate everything first: atomic is all or nothing
         {
@@ -538,7 +560,7 @@ static int run_monitor(Dds &dds, double seconds)
 // written before that is lost), write, and wait for the reply carrying our ids; resend each
 // second (the server answers a repeated (client_id, request_id) from its cache).
 template <typename Rq, typename Rp>
-static Rp call(DataWriter *wr, DataReader *rd, Rq &rq, const std::string &node)
+static Rp call(DataWriter *wr, DataReader *rd, Rq &rq, const std::string &node, int no_answer = 3)
 {
     auto deadline = Clock::now() + std::chrono::seconds(5);
     PublicationMatchedStatus pm;
@@ -567,8 +589,10 @@ static Rp call(DataWriter *wr, DataReader *rd, Rq &rq, const std::string &node)
                 rp.request_id() == rq.request_id())
                 return rp;  // any other reply is another client's: not ours
     }
-    std::fprintf(stderr, "paramdds_peer: no answer from node '%s' within 5 s\n", node.c_str());
-    std::exit(3);
+    // a set without an answer (5) may have been applied: its outcome is unknown
+    std::fprintf(stderr, "paramdds_peer: no answer from node '%s' within 5 s%s\n", node.c_str(),
+                 no_answer == 5 ? ": outcome unknown" : "");
+    std::exit(no_answer);
 }
 
 static int run_client(Dds &dds, const std::string &verb, const std::string &node, int argc, char **argv)
@@ -609,6 +633,7 @@ static int run_client(Dds &dds, const std::string &verb, const std::string &node
         rq.client_id(client_id);
         rq.request_id(1);
         rq.expected_revision(-1);
+        rq.deadline(wall_ns() + 5000000000LL - 200000000LL);  // the wait, less 0.2 s for the reply
         for (int i = 0; i < argc; i++)
         {
             std::string arg = argv[i];
@@ -623,7 +648,12 @@ static int run_client(Dds &dds, const std::string &verb, const std::string &node
             p.value(parse_value(arg.substr(eq + 1)));
             rq.parameters().push_back(p);
         }
-        auto rp = call<paramdds::SetParametersRequest, paramdds::SetParametersResponse>(wr, rd, rq, node);
+        auto rp = call<paramdds::SetParametersRequest, paramdds::SetParametersResponse>(wr, rd, rq, node, 5);
+        if (!rp.code().empty())
+        {
+            std::printf("REFUSED %s %s\n", rp.code().c_str(), rp.reason().c_str());
+            status = 1;
+        }
         for (const auto &r : rp.results())
         {
             if (r.successful())

@@ -96,6 +96,7 @@ from ..errors import (
     TypeMismatchError,
     error_for,
 )
+from . import deadline as deadlines
 from .descriptors import ParameterDescriptor
 from .limits import check_request_size, check_text, check_value
 from .listing import list_names
@@ -553,7 +554,11 @@ class ParameterTable:
     # --- setting ---------------------------------------------------------------------------
 
     def set(self, params: Sequence[Parameter], *, expected_revision: int | None = None) -> SetOutcome:
-        """Set each parameter on its own; the ones that pass are committed in one revision."""
+        """Set each parameter on its own; the ones that pass are committed in one revision.
+
+        Inside :func:`paramdds.core.deadline.applying` (a request's deadline, set by the
+        server): past it by this host's clock at the commit point (after validation and the
+        callbacks), raise EXPIRED and change nothing."""
         request = self._request(params)
         with self._lock:
             self._guard("set parameters")
@@ -573,12 +578,13 @@ class ParameterTable:
                 trial.keep()
                 applied.extend(unit)
                 results.append(SetResult(_name_of(p), True, reason))
+            deadlines.check(deadlines.current())
             return self._finish(stage, applied, results)
 
     def set_atomically(
         self, params: Sequence[Parameter], *, expected_revision: int | None = None
     ) -> SetOutcome:
-        """Set all the parameters or none of them."""
+        """Set all the parameters or none of them (a request's deadline: as :meth:`set`)."""
         request = self._request(params)
         with self._lock:
             self._guard("set parameters")
@@ -591,6 +597,7 @@ class ParameterTable:
             except _UnitFailed as failed:
                 return SetOutcome(self._atomic_failure(request, failed), self.revision, None)
             results = [SetResult(_name_of(p), True, reason) for p in request]
+            deadlines.check(deadlines.current())
             return self._finish(stage, applied, results)
 
     @staticmethod

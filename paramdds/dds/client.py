@@ -40,6 +40,7 @@ from typing import Any
 from cyclonedds.core import DDSException, InstanceState
 from cyclonedds.domain import DomainParticipant
 
+from ..core.deadline import deadline_for
 from ..core.limits import check_request_size
 from ..core.names import canonical_node_id
 from ..core.request import ParamsArg, to_parameters
@@ -48,6 +49,7 @@ from ..core.revision import Revision
 from ..core.values import NOT_SET, Parameter, ParameterValue
 from ..errors import (
     NotFoundError,
+    OutcomeUnknownError,
     ParamddsError,
     TimeoutError_,
     UnavailableError,
@@ -72,6 +74,7 @@ _READ_ALL = 1 << 24  # "every sample" for read(); Cyclone refuses N >= 2**28
 PRESENCE_POLL = 0.02  # seconds between presence checks in wait_for_node
 RESEND_AFTER = 0.2  # seconds without a reply before a call checks presence and resends
 MATCH_POLL = 0.02  # seconds between checks, while a call waits, for a newly matched server
+ONLINE_FRESH = 0.1  # seconds a write trusts a node's last "online" before looking again (see _check_unsent)
 REQUEST_TOPICS = ("SetParametersRequest", "GetParametersRequest", "ListParametersRequest")
 
 
@@ -128,11 +131,12 @@ class SetReply(_At):
 
 
 class _Pending:
-    __slots__ = ("future", "matched", "node", "sample", "topic", "writer")
+    __slots__ = ("future", "matched", "node", "sample", "topic", "write", "writer")
 
     def __init__(self, node: str, topic: str, sample: Any, matched: int, writer: Any) -> None:
         self.node = node
         self.topic = topic
+        self.write = topic == "SetParametersRequest"  # once sent, no answer is OUTCOME_UNKNOWN
         self.writer = writer
         self.sample = sample
         self.matched = matched  # the topic's match count when last looked at (see _newly_matched)
@@ -185,6 +189,7 @@ class ParameterClient:
         self._presence_filter.set_nodes(None)  # every node's presence, no parameter samples
         self._presence_args = (participant, presence_grace)
         self._presence: Any = None  # the presence reader and its discovery watch: see _watch
+        self._online_at: dict[str, float] = {}  # node -> when a write last found it online
         self._discovery: DiscoveryWatch | None = None
         self._watch_lock = threading.Lock()
         if not lazy_presence:
@@ -243,7 +248,7 @@ class ParameterClient:
                 self._discovery.close()
         for pending in list(self._pending.values()):
             if not pending.future.done():
-                pending.future.set_exception(UnavailableError("the client was closed"))
+                pending.future.set_exception(_closed_error(pending))
         self._pending.clear()
 
     def __enter__(self) -> ParameterClient:
@@ -370,7 +375,9 @@ class ParameterClient:
         the revision, so a restarted node never matches; a plain ``int`` compares the
         revision alone, which a restart can repeat.
         """
-        return self._finish_set(self._wait(*self._send_set(node, params, atomic, if_revision), timeout))
+        return self._finish_set(
+            self._wait(*self._send_set(node, params, atomic, if_revision, timeout), timeout)
+        )
 
     def delete(self, node: str, names: Sequence[str], *, timeout: float | None = None) -> SetReply:
         return self.set(node, [Parameter(n, NOT_SET) for n in names], timeout=timeout)
@@ -418,20 +425,48 @@ class ParameterClient:
         return self._send("GetParametersRequest", node, sample)
 
     def _send_set(
-        self, node: str, params: ParamsArg, atomic: bool, if_revision: int | Revision | None
+        self,
+        node: str,
+        params: ParamsArg,
+        atomic: bool,
+        if_revision: int | Revision | None,
+        timeout: float | None = None,
     ) -> tuple[str, int, _Pending]:
         node = canonical_node_id(node)
         expected = _expected(if_revision)
+        parameters = [parameter_to_wire(p) for p in to_parameters(params)]
+        self._check_unsent(node)
         sample = wire.SetParametersRequest(
             node_id=node,
             client_id=self.client_id,
             request_id=self._next_id(),
             atomic=atomic,
             expected_revision=expected.revision,
-            parameters=[parameter_to_wire(p) for p in to_parameters(params)],
+            parameters=parameters,
             expected_incarnation=expected.incarnation,
+            deadline=deadline_for(self.timeout if timeout is None else timeout),
         )
         return self._send("SetParametersRequest", node, sample)
+
+    def _check_unsent(self, node: str) -> None:
+        """A write to a node this client already knows to be offline or absent is not sent:
+        UNAVAILABLE is then true (the request never left this process). A client that does not
+        watch presence yet (``lazy_presence``) sends at once, and learns later.
+
+        The verdict "online" is trusted for :data:`ONLINE_FRESH` seconds (presence itself lags
+        by up to the 1 s lease): a write that is sent is never reported failed, so a stale
+        "online" costs only a slower, still true, answer; the lookup costs ~25 µs a set."""
+        seen = self._online_at.get(node)
+        if self._discovery is None or (seen is not None and time.monotonic() - seen < ONLINE_FRESH):
+            return
+        state = self.presence(node)
+        if state is Presence.ONLINE:
+            self._online_at[node] = time.monotonic()
+        elif state is Presence.OFFLINE:
+            raise UnavailableError(f"node {node!r} is offline: the request was not sent")
+        if state is Presence.ABSENT:
+            why = self._watch().state().describe()
+            raise UnavailableError(f"node {node!r} is not present ({why}): the request was not sent")
 
     def _on_replies(self, samples: Sequence[Any]) -> None:
         me = self.client_id
@@ -475,13 +510,15 @@ class ParameterClient:
         TIMEOUT that says so.
         """
         limit = self.timeout if timeout is None else timeout
-        deadline = time.monotonic() + limit
+        deadline = time.monotonic() + limit  # the request's own deadline is earlier (deadline_for)
         step = RESEND_AFTER
         next_resend = time.monotonic() + step
         seen = self._discovery.state() if self._discovery is not None else None
         while True:
             now = time.monotonic()
             if now >= deadline:
+                if pending.write:  # it was sent: it may have been applied
+                    raise self._outcome_unknown(pending.node, limit)
                 if self.presence(pending.node) is not Presence.ONLINE:
                     raise self._not_seen(pending.node, limit)
                 why = self._mismatched()
@@ -490,13 +527,15 @@ class ParameterClient:
             now = time.monotonic()
             if self._discovery is not None:
                 state = self._discovery.state()  # keeps the time of the last discovery change precise
-                if _news(seen, state) and self.presence(pending.node) in (Presence.OFFLINE, Presence.ABSENT):
+                # a write waits on: its node may come back and answer
+                news = _news(seen, state) and not pending.write
+                if news and self.presence(pending.node) in (Presence.OFFLINE, Presence.ABSENT):
                     raise self._not_seen(pending.node, now - (deadline - limit))
                 seen = state
             if now >= next_resend:
                 step = min(2 * step, 1.0)  # a big request that is merely slow is not resent often
                 next_resend = now + step
-                if self.presence(pending.node) in (Presence.OFFLINE, Presence.ABSENT):
+                if not pending.write and self.presence(pending.node) in (Presence.OFFLINE, Presence.ABSENT):
                     raise self._not_seen(pending.node, now - (deadline - limit))
             elif not self._newly_matched(pending):
                 continue
@@ -504,6 +543,20 @@ class ParameterClient:
                 pending.writer.write(pending.sample)
             except Exception as exc:
                 log.debug("resending request %d failed: %s", pending.sample.request_id, exc)
+
+    def _outcome_unknown(self, node: str, waited: float) -> OutcomeUnknownError:
+        """The error for a write sent and not answered within its caller's ``waited`` seconds."""
+        state = self.presence(node)
+        now = {
+            Presence.OFFLINE: " (it is offline now)",
+            Presence.ABSENT: f" (it is not present: {self._watch().state().describe()})",
+        }.get(state, "")
+        return OutcomeUnknownError(
+            f"outcome unknown: no answer from node {node!r}{now} within {waited:g} s of sending the "
+            "request, so it may or may not have been applied; its deadline has passed, so the node "
+            "will not apply it from now on (with clocks in sync): `get` shows the outcome"
+            + self._mismatched()
+        )
 
     def _mismatched(self) -> str:
         """A note for a failed call when peers were refused for their type or QoS (see :mod:`.peers`)."""
@@ -610,7 +663,8 @@ class AsyncParameterClient:
         timeout: float | None = None,
     ) -> SetReply:
         c = self.sync
-        return c._finish_set(await c._await(*c._send_set(node, params, atomic, if_revision), timeout))
+        sent = c._send_set(node, params, atomic, if_revision, timeout)
+        return c._finish_set(await c._await(*sent, timeout))
 
     async def delete(self, node: str, names: Sequence[str], *, timeout: float | None = None) -> SetReply:
         return await self.set(node, [Parameter(n, NOT_SET) for n in names], timeout=timeout)
@@ -629,6 +683,16 @@ def _news(seen: DiscoveryState | None, state: DiscoveryState) -> bool:
     if seen is None:
         return state.settled
     return (state.settled and not seen.settled) or state.liveliness != seen.liveliness
+
+
+def _closed_error(pending: _Pending) -> ParamddsError:
+    """The error of a call still waiting when its client is closed."""
+    if pending.write:
+        return OutcomeUnknownError(
+            f"outcome unknown: the client was closed before node {pending.node!r} answered; "
+            "the request was sent and may have been applied"
+        )
+    return UnavailableError("the client was closed")
 
 
 def _node_info(sample: Any) -> NodeInfo | None:

@@ -64,6 +64,7 @@ from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
+from ..core import deadline as deadlines
 from ..core.limits import check_request_size
 from ..core.names import canonical_node_id
 from ..core.results import SetResult
@@ -469,6 +470,7 @@ class ParameterServer:
             self.publication.publish(table, changes)
 
     def _apply_set(self, table: ParameterTable, request: Any) -> tuple[list[Any], int]:
+        deadlines.check(request.deadline)  # after its wait in the worker's queue (again at the commit)
         check_request_size(len(request.parameters))
         params: list[Parameter | None] = []
         bad: dict[int, SetResult] = {}
@@ -501,7 +503,9 @@ class ParameterServer:
                 for i, p in enumerate(request.parameters)
             ]
             return [_result_to_wire(r) for r in refused], table.revision
-        outcome = (table.set_atomically if request.atomic else table.set)(good, expected_revision=expected)
+        setter = table.set_atomically if request.atomic else table.set
+        with deadlines.applying(request.deadline):  # the table checks it right before its commit
+            outcome = setter(good, expected_revision=expected)
         merged = iter(outcome.results)
         results = [bad[i] if i in bad else next(merged) for i in range(len(params))]
         return [_result_to_wire(r) for r in results], outcome.revision
@@ -590,6 +594,7 @@ def _content(request: Any) -> bytes:
         expected_revision=request.expected_revision,
         parameters=request.parameters,
         expected_incarnation=request.expected_incarnation,
+        deadline=request.deadline,
     )
     return encode(sample)
 

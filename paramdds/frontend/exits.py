@@ -12,6 +12,9 @@ code   when
 3      node not present, or no answer within the timeout
 4      a failure, not an answer: DDS failed in this process (participant,
        entity, write), or the node or this program hit an internal error
+5      outcome unknown: a write was sent and no answer came in time; it may
+       have been applied (the node refuses it past its deadline, so a ``get``
+       now shows the final outcome)
 130    interrupted by Ctrl-C
 =====  ==========================================================================
 
@@ -32,6 +35,7 @@ class Exit(IntEnum):
     USAGE = 2
     UNREACHABLE = 3
     FAILURE = 4
+    OUTCOME_UNKNOWN = 5
     INTERRUPTED = 130
 
 
@@ -73,6 +77,8 @@ def exit_code(exc: BaseException) -> Exit:
             return Exit.USAGE
         if exc.code in _FAILURE:
             return Exit.FAILURE
+        if exc.code is ErrorCode.OUTCOME_UNKNOWN:
+            return Exit.OUTCOME_UNKNOWN
         return Exit.REFUSED
     return Exit.FAILURE  # a DDSException, or a bug of ours
 

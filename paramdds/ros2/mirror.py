@@ -34,13 +34,14 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+from ..core import deadline as deadlines
 from ..core.descriptors import ParameterDescriptor
 from ..core.fit import fit_value
 from ..core.names import canonical_node_id, is_valid_name
 from ..core.results import SetOutcome, SetResult
 from ..core.table import ParameterTable
 from ..core.values import Parameter, ParameterType, ParameterValue
-from ..errors import ErrorCode, ParamddsError
+from ..errors import ErrorCode, OutcomeUnknownError, ParamddsError
 from .messages import descriptor_from_ros, parameter_to_ros, result_from_ros, value_from_ros
 from .rosside import RosSide
 
@@ -86,8 +87,8 @@ class RosLink:
                 client = self._clients[service] = self.ros.client(kinds[service], f"{self.fqn}/{service}")
         return client
 
-    def _call(self, service: str, request: Any) -> Any:
-        return self.ros.call(self._client(service), request, self.timeout)
+    def _call(self, service: str, request: Any, timeout: float | None = None) -> Any:
+        return self.ros.call(self._client(service), request, self.timeout if timeout is None else timeout)
 
     def fetch(self) -> dict[str, Entry]:
         """Every parameter of the node with its value and descriptor (list, get, describe)."""
@@ -118,18 +119,22 @@ class RosLink:
             for name, v, d in zip(names, got.values, described.descriptors, strict=True)
         }
 
-    def set(self, params: Sequence[Parameter], atomic: bool) -> list[SetResult]:
-        """Forward a set; one result per parameter, in order, with ROS 2's reasons and our codes."""
+    def set(self, params: Sequence[Parameter], atomic: bool, deadline: int = 0) -> list[SetResult]:
+        """Forward a set; one result per parameter, in order, with ROS 2's reasons and our codes.
+
+        Waits for the node until ``deadline`` (the paramdds caller's, ns since the epoch; 0: the
+        link's timeout) at most: see :func:`forward_budget`."""
         from rcl_interfaces import srv
 
+        budget = forward_budget(self.timeout, deadline)
         msgs = [parameter_to_ros(p.name, p.value) for p in params]  # type: ignore[arg-type]
         if atomic:
             reply = self._call(
-                "set_parameters_atomically", srv.SetParametersAtomically.Request(parameters=msgs)
+                "set_parameters_atomically", srv.SetParametersAtomically.Request(parameters=msgs), budget
             )
             one = reply.result
             return [result_from_ros(p.name, one) for p in params]
-        reply = self._call("set_parameters", srv.SetParameters.Request(parameters=msgs))
+        reply = self._call("set_parameters", srv.SetParameters.Request(parameters=msgs), budget)
         if len(reply.results) != len(params):
             raise ParamddsError(
                 f"{self.fqn} answered {len(reply.results)} results for {len(params)} parameters",
@@ -203,6 +208,8 @@ class MirrorTable(ParameterTable):
         self, params: Sequence[Parameter], expected_revision: int | None, atomic: bool
     ) -> SetOutcome:
         request, refused = self.screen(params)
+        deadline = deadlines.current()  # the paramdds caller's (0 for an assignment)
+        deadlines.check(deadline)  # not forwarded once its caller has given up
         if expected_revision is not None:
             raise ParamddsError(CAS_REFUSED, code=ErrorCode.INVALID_VALUE)
         if refused is not None:  # too many parameters: refused as the table refuses it
@@ -221,8 +228,10 @@ class MirrorTable(ParameterTable):
         if atomic and len(send) < len(request):
             return SetOutcome(tuple(_all_failed(request, results)), self.revision, None)
         try:
-            answers = self.link.set([p for _, p in send], atomic) if send else []
+            answers = self.link.set([p for _, p in send], atomic, deadline) if send else []
         except ParamddsError as exc:
+            if exc.code is ErrorCode.TIMEOUT:  # sent, not answered: the ROS 2 node may apply it later
+                raise unanswered(self.link.fqn, exc) from exc
             answers = [SetResult(p.name, False, exc.message, exc.code) for _, p in send]
         entries: dict[str, Entry | None] = {}
         for (i, p), answer in zip(send, answers, strict=True):
@@ -283,6 +292,22 @@ class MirrorTable(ParameterTable):
     def resync(self, entries: Mapping[str, Entry]) -> None:
         """Make the table hold exactly ``entries`` (a fresh fetch of the node)."""
         self.mirror_from(lambda held: {**entries, **{n: None for n in held if n not in entries}})
+
+
+def forward_budget(timeout: float, deadline: int) -> float:
+    """How long a forwarded set waits for the ROS 2 node: the link's timeout, and never past
+    the paramdds caller's deadline (by this host's clock)."""
+    left = deadlines.remaining(deadline)
+    return timeout if left is None else max(0.0, min(timeout, left))
+
+
+def unanswered(fqn: str, exc: ParamddsError) -> OutcomeUnknownError:
+    """A forwarded set the ROS 2 node did not answer in time: ROS 2 has no deadline, so the node
+    may still apply it (its /parameter_events then update the mirror)."""
+    return OutcomeUnknownError(
+        f"outcome unknown: {exc.message}; the set was forwarded to {fqn} and ROS 2 has no deadline, "
+        "so it may still be applied (`get` shows it once the node has answered)"
+    )
 
 
 def _all_failed(request: Sequence[object], results: Sequence[SetResult | None]) -> list[SetResult]:

@@ -305,12 +305,12 @@ class Console:
           401: {description: UNAUTHORIZED}
           403: {description: READ_ONLY or CROSS_ORIGIN}
           404: {description: NOT_FOUND}
-          409: {description: CONFLICT (with the current summary and rows)}
+          409: {description: CONFLICT (with the current summary and rows), or EXPIRED (nothing applied)}
           413: {description: TOO_LARGE}
           415: {description: UNSUPPORTED_MEDIA}
           422: {description: TYPE_MISMATCH, OUT_OF_RANGE, INVALID_VALUE, INVALID_NAME}
-          503: {description: UNAVAILABLE}
-          504: {description: TIMEOUT}
+          503: {description: UNAVAILABLE (not sent)}
+          504: {description: 'OUTCOME_UNKNOWN: sent, not answered in time; it may have been applied'}
         """
         body, node = await self._write_request(request)
         values = body.get("values")

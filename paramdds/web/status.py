@@ -37,6 +37,8 @@ STATUS: dict[str, int] = {
     ErrorCode.NOT_PERSISTED: 507,  # applied, but not stored: the server's disk refused
     ErrorCode.UNAVAILABLE: 503,
     ErrorCode.TIMEOUT: 504,
+    ErrorCode.OUTCOME_UNKNOWN: 504,  # a write sent, no answer in time: it may have been applied
+    ErrorCode.EXPIRED: 409,  # refused: past its deadline at the node, nothing applied
     ErrorCode.NOT_PERMITTED: 403,  # secure mode: DDS Security refuses this identity the action
     ErrorCode.INTERNAL: 500,  # the node (or this console) failed: not a refusal of the value
     ErrorCode.UNKNOWN: 502,  # the node answered with a code this version does not know

@@ -176,3 +176,14 @@ def test_same_type_identifier(compiled: dict[str, list[str]], typename: str) -> 
     assert typename in compiled, f"{typename} is in types.py but not in {IDL_FILE.name}"
     assert compiled[typename][0] == complete, f"{typename}: complete type id differs from the IDL"
     assert compiled[typename][1] == minimal, f"{typename}: minimal type id differs from the IDL"
+
+
+def test_a_set_request_ends_with_its_deadline() -> None:
+    # the third wire break before 1.0 (docs/wire.md): int64 deadline, ns since the Unix epoch by the
+    # caller's clock, appended as the last member of SetParametersRequest in both places
+    idl = IDL_FILE.read_text()
+    body = idl.split("struct SetParametersRequest {", 1)[1].split("};", 1)[0]
+    members = [line.strip() for line in body.strip().splitlines() if line.strip()]
+    assert members[-1] == "int64 deadline;"
+    fields = list(types.SetParametersRequest.__dataclass_fields__)
+    assert fields[-1] == "deadline" and types.SetParametersRequest().deadline == 0  # 0: no deadline

@@ -24,6 +24,7 @@ import os
 import signal
 import subprocess
 import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -257,5 +258,50 @@ def test_a_foreign_node_is_served_by_the_paramdds_tools(
             node.kill()
             assert wait_until(lambda: offline == ["fnode"], 10)  # the node's lease, ~1-2 s
             assert monitor.snapshot()["fnode"].parameters[f"{p}speed"][0].value == 2.5  # last values kept
+    finally:
+        node.kill()
+
+
+def test_a_foreign_node_refuses_a_set_past_its_deadline(
+    vendor: tuple[Vendor, Path], envs: tuple[dict[str, str], dict[str, str]], domain_id: int
+) -> None:
+    """The deadline (the last member of SetParametersRequest) read by another vendor's node:
+    past it, EXPIRED with nothing applied; with time left, applied."""
+    from paramdds.dds.wire import types as wire
+
+    from ..reliability.rawwire import RawPeer
+
+    info, program = vendor
+    _, cli_env = envs
+    p = info.prefix
+    node = _Node(program, "fnode", envs[0])
+    try:
+        with DdsSession(domain_id) as session:
+            peer = RawPeer(session.participant())
+
+            def call(request_id: int, deadline: int) -> Any:
+                request = wire.SetParametersRequest(
+                    node_id="fnode",
+                    client_id=99,
+                    request_id=request_id,
+                    expected_revision=-1,
+                    parameters=[wire.Parameter(f"{p}count", wire.ParameterValue(type=2, integer_value=7))],
+                    deadline=deadline,
+                )
+                for _ in range(40):  # until the peer has matched the node (a VOLATILE copy is lost before)
+                    peer.send(request)
+                    got = peer.replies(request, 1, timeout=0.5)
+                    if got:
+                        return got[0]
+                raise AssertionError("no answer from the foreign node")
+
+            late = call(1, time.time_ns() - 1_000_000_000)
+            assert late.code == "EXPIRED" and "after its deadline" in late.reason, late
+            got = _run([PARAMDDS, "get", "fnode", f"{p}count", "-o", "json"], cli_env)
+            assert json.loads(got.stdout) == {f"{p}count": 3}  # nothing applied
+            in_time = call(2, time.time_ns() + 10_000_000_000)
+            assert in_time.code == "" and in_time.results[0].successful, in_time
+            got = _run([PARAMDDS, "get", "fnode", f"{p}count", "-o", "json"], cli_env)
+            assert json.loads(got.stdout) == {f"{p}count": 7}
     finally:
         node.kill()

@@ -138,6 +138,8 @@ class SetParametersRequest(IdlStruct, typename="paramdds.SetParametersRequest"):
     retained: bool = False  # an assignment (TRANSIENT_LOCAL, never on the interactive path)
     parameters: sequence[Parameter] = field(default_factory=list)
     expected_incarnation: uint64 = 0  # 0: compare the revision alone (when expected_revision >= 0)
+    # ns since the Unix epoch (caller's clock) after which the node must not apply it; 0: none
+    deadline: int64 = 0
 
 
 @fast_cdr
