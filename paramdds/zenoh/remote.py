@@ -35,10 +35,10 @@ from typing import Any
 
 import zenoh
 
+from ..core.request import ParamsArg, to_parameters
 from ..core.results import ListResult
 from ..core.revision import Revision
-from ..dds.client import DEFAULT_TIMEOUT, GetReply, NodeInfo, ParameterClient, ParamsArg, SetReply, _Pending
-from ..core.request import to_parameters
+from ..dds.client import DEFAULT_TIMEOUT, GetReply, NodeInfo, ParameterClient, SetReply, _Pending
 from ..dds.discovery import Presence
 from ..dds.monitor import EventCallback, EventKind, MonitorEvent, NodeState, ParameterMonitor
 from ..errors import ParamddsError, TimeoutError_, UnavailableError

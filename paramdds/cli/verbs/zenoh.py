@@ -116,10 +116,10 @@ def run(args: argparse.Namespace) -> int:
     import sys
 
     from ...errors import ParamddsError
+    from ...frontend.exits import Exit, UsageError
+    from ...frontend.session import Session
     from ...zenoh.config import ZenohOptions, open_session
-    from .._errors import Exit, UsageError
     from .._live import wait_until_interrupted
-    from .._session import Session
 
     if args.issue_cert:
         from pathlib import Path
