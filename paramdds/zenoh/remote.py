@@ -41,7 +41,7 @@ from ..core.revision import Revision
 from ..dds.client import DEFAULT_TIMEOUT, GetReply, NodeInfo, ParameterClient, SetReply, _Pending
 from ..dds.discovery import Presence
 from ..dds.monitor import EventCallback, EventKind, MonitorEvent, NodeState, ParameterMonitor
-from ..errors import ParamddsError, TimeoutError_, UnavailableError
+from ..errors import OutcomeUnknownError, ParamddsError, TimeoutError_, UnavailableError
 from . import codec, keys
 
 log = logging.getLogger(__name__)
@@ -409,7 +409,12 @@ class RemoteParameterClient(ParameterClient):
         return self._prepare(node, "get", {"names": list(names), "with_descriptors": with_descriptors})
 
     def _send_set(
-        self, node: str, params: ParamsArg, atomic: bool, if_revision: int | Revision | None
+        self,
+        node: str,
+        params: ParamsArg,
+        atomic: bool,
+        if_revision: int | Revision | None,
+        timeout: float | None = None,  # the gateway's call gets the query's (see _fire)
     ) -> tuple[str, int, _Pending]:
         items = to_parameters(params)
         expected: object = None
@@ -449,7 +454,15 @@ class RemoteParameterClient(ParameterClient):
                     future.set_exception(exc)
                 return
             waited = time.monotonic() - started
-            if waited < timeout * 0.9:
+            if pending.topic == "set":  # sent: the gateway may have forwarded it (docs/reliability.md)
+                future.set_exception(
+                    OutcomeUnknownError(
+                        f"outcome unknown: no answer from node {pending.node!r} within {timeout:g} s "
+                        "through its site's gateway; the node refuses the set once its deadline has "
+                        "passed, so a get then shows the outcome"
+                    )
+                )
+            elif waited < timeout * 0.9:
                 future.set_exception(
                     UnavailableError(
                         f"node {pending.node!r}: no gateway of its site answered "
