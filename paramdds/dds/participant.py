@@ -60,6 +60,7 @@ pid that Cyclone adds itself (``__Hostname``, ``__Pid``).
 
 from __future__ import annotations
 
+import logging
 import os
 import re
 import threading
@@ -90,6 +91,8 @@ __all__ = [
 
 LOCALHOST_ENV = "PARAMDDS_LOCALHOST"
 FAST_DDS_VENDOR = "1.15"  # eProsima's RTPS vendor id (rmw_fastrtps, the default ROS 2 middleware)
+log = logging.getLogger(__name__)
+
 ROS_COEXISTENCE_XML = (
     '<CycloneDDS><Domain id="any"><Compatibility>'
     f"<IgnoreTypeInformation>{FAST_DDS_VENDOR}</IgnoreTypeInformation>"
@@ -214,6 +217,7 @@ def make_participant(
     """
     if not 0 <= domain_id <= MAX_DOMAIN_ID:
         raise ValueError(f"DDS domain id must be in 0..{MAX_DOMAIN_ID}, got {domain_id}")
+    from cyclonedds.core import DDSException
     from cyclonedds.qos import Policy, Qos
 
     from .transport import Participant
@@ -224,8 +228,32 @@ def make_participant(
         localhost=localhost, topic_discovery=topic_discovery, short_lived=short_lived, security=security
     )
     with _lock:
-        domain = _domain(domain_id, config)
+        try:
+            domain = _domain(domain_id, config)
+        except DDSException as exc:
+            options = {"localhost": localhost, "topic_discovery": topic_discovery, "short_lived": short_lived}
+            if domain_config(**options, security=security) is not None or exc.code != PRECONDITION_NOT_MET:
+                raise
+            # The application made this domain itself (its own DomainParticipant): join it as
+            # paramdds did before the coexistence setting, which it then lacks (said once).
+            _warn_existing(domain_id)
+            return Participant(domain_id, qos, grants=identity)
         return Participant(domain_id, qos, domain=domain, grants=identity)
+
+
+_warned: set[int] = set()
+PRECONDITION_NOT_MET = -4  # DDS_RETCODE_PRECONDITION_NOT_MET: dds_create_domain on an existing domain
+
+
+def _warn_existing(domain_id: int) -> None:
+    if domain_id not in _warned:
+        _warned.add(domain_id)
+        log.warning(
+            "DDS domain %d already exists in this process (made by the application): paramdds joins it "
+            "as it is, without %s (add it to CYCLONEDDS_URI to share a domain with ROS 2 on Fast DDS)",
+            domain_id,
+            ROS_COEXISTENCE_XML,
+        )
 
 
 def peer_mismatches(participant: DomainParticipant) -> list[PeerMismatch]:

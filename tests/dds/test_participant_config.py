@@ -61,3 +61,20 @@ def test_every_participant_ignores_fast_dds_type_information_unless_the_user_say
     monkeypatch.delenv("CYCLONEDDS_URI")
     assert participant_config() == ROS_COEXISTENCE_XML
     close_participant(make_participant(domain_id, localhost=True))  # the library takes the option
+
+
+def test_a_domain_the_application_made_itself_is_joined_as_it_is(domain_id: int) -> None:
+    """An application's own DomainParticipant made the domain: paramdds joins it (without its
+    coexistence setting, said once in the log) instead of failing to configure it."""
+    from cyclonedds.domain import DomainParticipant
+
+    from paramdds import ParameterClient, close_participant, make_participant
+
+    own = DomainParticipant(domain_id)
+    dp = make_participant(domain_id)
+    try:
+        with ParameterClient(dp) as client:
+            assert client.nodes() == []
+    finally:
+        close_participant(dp)
+        close_participant(own)
