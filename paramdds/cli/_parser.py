@@ -96,6 +96,15 @@ def _add_globals(p: argparse.ArgumentParser, *, top: bool) -> None:
     )
 
 
+class _Version(argparse.Action):
+    """``--version``: the installed version, looked up only when asked (importlib.metadata
+    costs every other command about 10 ms and the email package)."""
+
+    def __call__(self, parser: argparse.ArgumentParser, *_args: object, **_kwargs: object) -> None:
+        sys.stdout.write(f"paramdds {_version()}\n")
+        parser.exit()
+
+
 def _version() -> str:
     from importlib.metadata import PackageNotFoundError, version
 
@@ -115,7 +124,7 @@ def build_parser() -> Parser:
         epilog="Exit codes: 0 ok, 1 refused by the node, 2 usage or bad input, "
         "3 node absent or timeout, 130 interrupted.",
     )
-    top.add_argument("--version", action="version", version=f"paramdds {_version()}")
+    top.add_argument("--version", action=_Version, nargs=0, help="show the version and exit")
     _add_globals(top, top=True)
     sub = top.add_subparsers(dest="verb", metavar="VERB", parser_class=Parser)
     sub.required = True
