@@ -9,6 +9,16 @@ persists them, replies and publishes; a flush persists and publishes changes mad
 outside a request. The worker's thread is started on the first job, so a process
 hosting 1,000 node ids that are never written to runs no extra threads.
 
+**Group commit.** A request's set is submitted as a :data:`Commit` (its first half:
+validate, commit, take its change sets) that returns a :class:`Staged` (its second
+half: the reply, given what failed to persist). When the worker takes such a job it
+also takes every commit queued right behind it (up to :data:`GROUP_MAX`), runs their
+first halves in order, persists all their changes with one call (one journal append,
+one ``fdatasync``), then replies to each in order and publishes. So N clients setting
+one node concurrently share one flush, and no reply leaves before its change is on
+disk. A plain job (a queued get, a presence write) ends the group: it runs after the
+group's replies, so it never overtakes them.
+
 The server watches :attr:`NodeWorker.busy_since` from its dispatch loop: a job that
 runs for longer than the liveliness lease marks the worker stalled
 (:meth:`NodeWorker.check_stall`) and the node's presence is unregistered until the job
@@ -30,6 +40,33 @@ from ..core.table import ParameterTable
 log = logging.getLogger(__name__)
 
 Job = Callable[[], None]
+GROUP_MAX = 64  # commits that share one persist call at most
+
+
+class Staged:
+    """The second half of a committed request: its change sets, and its reply once they
+    are persisted (``reply(failure)``, ``failure`` "" when they reached the disk)."""
+
+    __slots__ = ("changes", "reply")
+
+    def __init__(self, changes: Sequence[ChangeSet], reply: Callable[[str], None]) -> None:
+        self.changes = changes
+        self.reply = reply
+
+
+Commit = Callable[[], "Staged | None"]
+
+
+class _Grouped:
+    """A queued :data:`Commit` (one the worker may group with the commits behind it)."""
+
+    __slots__ = ("commit",)
+
+    def __init__(self, commit: Commit) -> None:
+        self.commit = commit
+
+
+_EMPTY = object()
 
 
 class Persists(Protocol):
@@ -55,7 +92,7 @@ class NodeWorker:
         self.table = table
         self._persistence = persistence
         self._publication = publication
-        self._jobs: queue.SimpleQueue[Job | None] = queue.SimpleQueue()
+        self._jobs: queue.SimpleQueue[Job | _Grouped | None] = queue.SimpleQueue()
         self._lock = threading.Lock()
         self._pending: list[ChangeSet] = []
         self._thread: threading.Thread | None = None
@@ -66,6 +103,14 @@ class NodeWorker:
         self._listener = table.add_change_listener(self._on_change)
 
     def submit(self, job: Job) -> None:
+        self._put(job)
+
+    def submit_commit(self, commit: Commit) -> None:
+        """Queue a request's commit: run with the commits queued beside it, which share one
+        persist call; its :class:`Staged` reply runs after that call returns."""
+        self._put(_Grouped(commit))
+
+    def _put(self, job: Job | _Grouped) -> None:
         with self._lock:
             if self._closed:
                 return
@@ -108,25 +153,71 @@ class NodeWorker:
             self._publication.publish(self.table, changes)
 
     def _run(self) -> None:
-        while True:
-            job = self._jobs.get()
-            if job is None:
-                return
+        item = self._jobs.get()
+        while item is not None:
+            batch: list[Job | _Grouped] = [item]
+            after: object = _EMPTY
+            if isinstance(item, _Grouped):  # take the commits queued behind it: one flush for all
+                while len(batch) < GROUP_MAX:
+                    try:
+                        after = self._jobs.get_nowait()
+                    except queue.Empty:
+                        after = _EMPTY
+                        break
+                    if not isinstance(after, _Grouped):
+                        break
+                    batch.append(after)
+                    after = _EMPTY
             with self._lock:
                 self.busy_since = time.monotonic()
             try:
-                job()
-                self.flush()
+                if isinstance(item, _Grouped):
+                    self._commit_group(batch)  # type: ignore[arg-type]
+                else:
+                    item()
+                    self.flush()
             except Exception:  # never let one job end the node's worker
                 log.exception("%s: a job failed", self.table.node_id)
             finally:
                 with self._lock:
                     self.busy_since = None
-                    self._inflight -= 1
+                    self._inflight -= len(batch)
                     recovered, self.stalled = self.stalled, False
                 if recovered:
                     log.warning("node %r is responsive again", self.table.node_id)
                     self._publication.write_presence(self.table)
+            item = self._jobs.get() if after is _EMPTY else after  # type: ignore[assignment]
+
+    def _commit_group(self, batch: list[_Grouped]) -> None:
+        """First halves in order, one persist call for all their changes, then the replies in
+        order, then one publication (changes in revision order)."""
+        staged: list[Staged] = []
+        for grouped in batch:
+            try:
+                done = grouped.commit()
+            except Exception:
+                log.exception("%s: a job failed", self.table.node_id)
+                continue
+            if done is not None:
+                staged.append(done)
+        changes = [c for s in staged for c in s.changes]
+        outside = self.take_pending()  # the application's own, made meanwhile
+        changes += outside
+        failure = self._persistence.persist(self.table, changes) if changes else ""
+        if failure and outside:
+            log.error(
+                "%s: changes up to revision %d are not persisted: %s",
+                self.table.node_id,
+                outside[-1].revision,
+                failure,
+            )
+        for done in staged:
+            try:
+                done.reply(failure if done.changes else "")
+            except Exception:
+                log.exception("%s: a reply failed", self.table.node_id)
+        if changes:
+            self._publication.publish(self.table, changes)
 
     def check_stall(self, now: float, limit: float) -> bool:
         """Mark the worker stalled once its current job has run for ``limit`` seconds."""
