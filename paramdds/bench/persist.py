@@ -1,10 +1,12 @@
 """``paramdds bench persist``: what ``--persist`` costs per set, and a restart from a long journal.
 
 Sets per second: a ``paramdds server`` process hosting one node of ``P`` parameters
-(``--params``, default 10 and 1,000), and a client in this process that sets one
+(``--params``, default 10 and 1,000), and clients in this process (one, then
+``--clients``, default 8, each its own client on a thread of its own) that set one
 parameter after another (each waits for its reply) for ``--seconds`` (default 3). The
 same server without ``--persist`` is the baseline; the two alternate in rounds
-(``--rounds``, default 3) and the median round is reported, with the ratio.
+(``--rounds``, default 3) and the median round is reported, with the ratio. With
+several clients the server's group commit lets concurrent sets share one ``fdatasync``.
 
 Restart: a persistence file for a node of 1,000 parameters whose journal holds
 ``--requests`` changes (default 100,000; written in one append, as a server would have
@@ -20,6 +22,7 @@ import os
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -68,30 +71,53 @@ class _Server:
             self.proc.communicate()
 
 
-def _sets_per_s(client: Any, count: int, seconds: float) -> float:
+def _sets_per_s(clients: list[Any], count: int, seconds: float) -> float:
+    """Sets per second of ``clients`` setting at once, each waiting for its reply."""
     from ..core.values import Parameter, ParameterValue
 
-    client.wait_for_node(NODE, timeout=20)
+    for client in clients:
+        client.wait_for_node(NODE, timeout=20)
     names = [f"p{i:05d}" for i in range(count)]
-    done = 0
+    done = [0] * len(clients)
+    errors: list[str] = []
+    start = threading.Barrier(len(clients) + 1)
+    end = 0.0
+
+    def lane(i: int) -> None:
+        start.wait()
+        n = 0
+        while time.perf_counter() < end:
+            name = names[(i + n * len(clients)) % count]
+            reply = clients[i].set(NODE, [Parameter(name, ParameterValue.from_python(n))])
+            if not reply.successful:
+                errors.append(f"a set failed: {reply.results}")
+                return
+            n += 1
+        done[i] = n
+
+    threads = [threading.Thread(target=lane, args=(i,), daemon=True) for i in range(len(clients))]
+    for t in threads:
+        t.start()
     end = time.perf_counter() + seconds
     t0 = time.perf_counter()
-    while time.perf_counter() < end:
-        name = names[done % count]
-        reply = client.set(NODE, [Parameter(name, ParameterValue.from_python(done))])
-        if not reply.successful:
-            raise RuntimeError(f"a set failed: {reply.results}")
-        done += 1
-    return done / (time.perf_counter() - t0)
+    start.wait()
+    for t in threads:
+        t.join()
+    elapsed = time.perf_counter() - t0
+    if errors:
+        raise RuntimeError(errors[0])
+    return sum(done) / elapsed
 
 
-def _round(args: argparse.Namespace, client: Any, directory: Path, count: int, persist: bool) -> float:
+def _round(
+    args: argparse.Namespace, clients: list[Any], directory: Path, count: int, persist: bool
+) -> float:
     state = directory / f"state{count}.yaml"
     for leftover in (state, Path(f"{state}.journal")):
         leftover.unlink(missing_ok=True)
     server = _Server(args, _params_file(directory, count), state if persist else None)
     try:
-        return _sets_per_s(client, count, args.seconds or (0.5 if args.quick else 3.0))
+        return _sets_per_s(clients, count, args.seconds or (0.5 if args.quick else 3.0))
     finally:
         server.stop()
 
@@ -143,31 +169,37 @@ def run(args: argparse.Namespace) -> int:
     with tempfile.TemporaryDirectory(prefix="paramdds-bench-persist-") as tmp:
         directory = Path(tmp)
         participant = make_participant(args.domain, localhost=args.localhost)
-        client = ParameterClient(participant, timeout=10.0)
+        concurrent = args.clients or 8
+        clients = [ParameterClient(participant, timeout=10.0) for _ in range(max(1, concurrent))]
         try:
             for count in counts:
-                persisted: list[float] = []
-                plain: list[float] = []
-                for r in range(rounds):
-                    for persist in (True, False) if r % 2 == 0 else (False, True):
-                        note(
-                            f"persist: {count} params, --persist {'on' if persist else 'off'}, round {r + 1}"
+                for lanes in dict.fromkeys([1, concurrent]):
+                    persisted: list[float] = []
+                    plain: list[float] = []
+                    for r in range(rounds):
+                        for persist in (True, False) if r % 2 == 0 else (False, True):
+                            note(
+                                f"persist: {count} params, {lanes} client(s), "
+                                f"--persist {'on' if persist else 'off'}, round {r + 1}"
+                            )
+                            rate = _round(args, clients[:lanes], directory, count, persist)
+                            (persisted if persist else plain).append(rate)
+                    tag = f"{count}" if lanes == 1 else f"{count}_c{lanes}"
+                    data[f"sets_per_s_{tag}"] = round(median(persisted), 0)
+                    data[f"sets_per_s_{tag}_no_persist"] = round(median(plain), 0)
+                    data[f"ratio_{tag}"] = round(median(persisted) / median(plain), 3)
+                    data[f"ratios_{tag}"] = [round(p / q, 3) for p, q in zip(persisted, plain, strict=True)]
+                    rows.append(
+                        (
+                            f"sets/s, {count} params, {lanes} client{'s' if lanes > 1 else ''}",
+                            data[f"sets_per_s_{tag}"],
+                            data[f"sets_per_s_{tag}_no_persist"],
+                            data[f"ratio_{tag}"],
                         )
-                        rate = _round(args, client, directory, count, persist)
-                        (persisted if persist else plain).append(rate)
-                data[f"sets_per_s_{count}"] = round(median(persisted), 0)
-                data[f"sets_per_s_{count}_no_persist"] = round(median(plain), 0)
-                data[f"ratio_{count}"] = round(median(persisted) / median(plain), 3)
-                rows.append(
-                    (
-                        f"sets/s, {count} params",
-                        data[f"sets_per_s_{count}"],
-                        data[f"sets_per_s_{count}_no_persist"],
-                        data[f"ratio_{count}"],
                     )
-                )
         finally:
-            client.close()
+            for client in clients:
+                client.close()
         note(f"persist: writing a journal of {changes:,} changes")
         state = _journal_of(directory, changes)
         journal_mb = os.path.getsize(f"{state}.journal") / 1e6
@@ -200,7 +232,8 @@ def run(args: argparse.Namespace) -> int:
     )
     table = render(["measure", "--persist", "baseline", "ratio"], rows)
     table += (
-        "\n\nbaseline: the same server without --persist (sets), the same start with an empty journal "
+        "\n\nbaseline: the same server without --persist, the same clients (sets; medians of the rounds, "
+        "ratio of the medians), the same start with an empty journal "
         f"(restart); journal {data['journal_mb']} MB"
     )
     emit(args, data, table)

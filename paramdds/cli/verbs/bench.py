@@ -19,7 +19,8 @@ SCENARIOS = {
     "web": "browser console in headless Chromium: set ack → value in the DOM; first render of 1000 x 50",
     "fleet": "10 server processes x 1,000 nodes x 20 params: monitor synced, `paramdds get` vs an empty "
     "system, a server's CPU under foreign traffic (native filter vs handler), loopback bytes per request",
-    "persist": "sets/s with --persist at 10 and 1,000 params vs without; restart from a 100k-change journal",
+    "persist": "sets/s with --persist at 10 and 1,000 params, 1 and 8 clients, vs without; "
+    "restart from a 100k-change journal",
     "schema": "a set on the node of the largest Autoware JSON Schema vs the equivalent spec node; "
     "paramdds check --autoware on every realworld pair",
     "ros2": "real ROS 2 (rclpy from PyPI) vs paramdds at N = 10, 100, 300 real nodes: fresh state, "
@@ -91,7 +92,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--servers", type=_positive_int, metavar="K", help="server processes: scaling (default 2), fleet (10)"
     )
     p.add_argument(
-        "--clients", type=_positive_int, metavar="C", help="throughput: client processes (default 2)"
+        "--clients",
+        type=_positive_int,
+        metavar="C",
+        help="throughput: client processes (default 2); persist: concurrent clients (default 8)",
     )
     p.add_argument(
         "--window", type=_positive_int, metavar="W", help="throughput: requests in flight per client"
