@@ -28,7 +28,7 @@ from __future__ import annotations
 import asyncio
 import itertools
 import logging
-import secrets
+import os
 import threading
 import time
 from collections.abc import Iterator, Sequence
@@ -161,7 +161,8 @@ class ParameterClient:
         self._dp = participant
         self._qos = qos or QosProfiles.load()
         self.timeout = timeout
-        self.client_id = client_id or secrets.randbits(64) or 1
+        # os.urandom, not secrets: the same random bits without importing hmac, hashlib and random
+        self.client_id = client_id or int.from_bytes(os.urandom(8), "little") or 1
         self._ids = itertools.count(1)
         self._ids_lock = threading.Lock()
         self._pending: dict[int, _Pending] = {}

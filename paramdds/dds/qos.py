@@ -16,16 +16,16 @@ Loading costs well under a millisecond once ``cyclonedds`` is imported (the
 import itself is deferred to :meth:`QosProfiles.load`). Every profile is read
 at load time, so a user file (``-q FILE``) that is missing, malformed or lacks
 a profile fails at once with a :class:`~paramdds.errors.FileFormatError` naming
-the file and the profile, never later at the first write.
+the file and the profile, never later at the first write. The packaged file is
+not checked again by every process (its tests check it): a one-shot command then
+imports neither ``xml.etree`` nor ``importlib.resources``.
 """
 
 from __future__ import annotations
 
 import os
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from fnmatch import fnmatchcase
-from importlib.resources import as_file, files
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -53,8 +53,17 @@ _FILE_NAME = "DDS_QOS_PROFILES.xml"
 
 def default_path() -> Path:
     """The packaged ``DDS_QOS_PROFILES.xml`` (the repository's ``qos/``) as a file-system path."""
-    with as_file(files("paramdds.dds.wire.profiles") / _FILE_NAME) as path:  # a real file for any install
-        return Path(path)
+    from importlib.util import find_spec
+
+    spec = find_spec("paramdds.dds.wire.profiles")  # the package itself is never imported
+    for folder in (spec.submodule_search_locations or []) if spec else []:
+        path = Path(folder) / _FILE_NAME
+        if path.is_file():
+            return path
+    from importlib.resources import as_file, files
+
+    with as_file(files("paramdds.dds.wire.profiles") / _FILE_NAME) as found:  # a zip install, say
+        return Path(found)
 
 
 @dataclass(frozen=True)
@@ -84,7 +93,8 @@ class QosProfiles:
         """
         file = default_path() if path is None else Path(path)
         shown = str(file)
-        _precheck(file, shown)
+        if path is not None:  # a user's file; ours is checked by the tests
+            _precheck(file, shown)
         from cyclonedds.core import DDSException
         from cyclonedds.qos_provider import QosProvider
 
@@ -138,6 +148,8 @@ def _local(tag: str) -> str:
 
 def _precheck(file: Path, shown: str) -> None:
     """Fail with a clear message before Cyclone prints its own terse errors to stderr."""
+    import xml.etree.ElementTree as ET
+
     if not file.is_file():
         raise FileFormatError("QoS file not found", file=shown)
     try:
