@@ -9,7 +9,8 @@ A client that gets a reply checks at once that its revision is among them.
   arrives.
 * Eight clients at once on four nodes of one server (two per node): the same holds for
   every reply, and the 80 sets needed far fewer flushes than sets (commits of one node
-  share its worker's persist call, appends of several nodes share a flush).
+  share its worker's persist call, appends of several nodes share a flush); a ninth
+  client getting a node's value meanwhile never reads a revision that is not on disk.
 """
 
 from __future__ import annotations
@@ -122,13 +123,30 @@ def test_concurrent_clients_share_flushes_and_each_reply_follows_its_own(
         except BaseException as exc:  # reported below, not lost in the thread
             failed.append(exc)
 
+    reader = dds.client(domain_id, timeout=10.0)
+    reader.wait_for_node("n0", timeout=10)
+    unflushed: list[int] = []
+    reads = 0
+
+    def read() -> None:
+        nonlocal reads
+        while any(t.is_alive() for t in threads):
+            revision = reader.get("n0", ["x"]).revision
+            reads += 1
+            if revision > 1 and not observed.holds("n0", revision):  # r1: declared, in the snapshot
+                unflushed.append(revision)
+
     threads = [threading.Thread(target=lane, args=(i,)) for i in range(8)]
     for t in threads:
         t.start()
+    getter = threading.Thread(target=read)
+    getter.start()
     for t in threads:
         t.join(60)
+    getter.join(10)
     assert not failed, failed
     assert not early, f"replies before their flush: {early}"
+    assert reads and not unflushed, (reads, unflushed)
     # 80 sets; one flush each would be 80: sharing makes it far fewer
     assert observed.count <= 40, observed.count
     for node in nodes:  # every node's 20 sets are on disk
