@@ -7,7 +7,12 @@ commands run to completion:
 * ``paramdds get bench_n0000 group0.param_000`` (the console script, as a user runs it);
 * ``python -c "import cyclonedds"``: the import floor;
 * ``python -c`` creating one participant with paramdds's configuration: the
-  participant floor (import + participant + exit).
+  participant floor (import + participant + exit);
+* ``python -c`` importing what ``paramdds get`` imports, and nothing more: the
+  verb's imports (the rest of its time is DDS: entities, discovery, the call);
+* ``python -c "from paramdds import ParameterMonitor"``.
+
+The ratios are ``paramdds get`` over the participant floor and over the import floor.
 """
 
 from __future__ import annotations
@@ -20,6 +25,10 @@ from ._common import Workers, emit, median, node_names, note, render, run_timed,
 from .worker import param_name
 
 NODE = node_names(1)[0]
+GET_IMPORTS = (
+    "import paramdds.cli, paramdds.cli.verbs.get, paramdds.cli._output, paramdds.cli._values, "
+    "paramdds.frontend.session, paramdds.frontend.shapes, paramdds.dds.client"
+)
 
 
 def cli_command(domain: int, localhost: bool) -> list[str]:
@@ -51,6 +60,8 @@ def run(args: argparse.Namespace) -> int:
         "cli_get": cli_command(args.domain, args.localhost),
         "import": [sys.executable, "-c", "import cyclonedds"],
         "participant": [sys.executable, "-c", participant_code],
+        "get_imports": [sys.executable, "-c", GET_IMPORTS],
+        "monitor_import": [sys.executable, "-c", "from paramdds import ParameterMonitor"],
     }
     times: dict[str, list[float]] = {k: [] for k in commands}
     with Workers(localhost=args.localhost, domain=args.domain) as workers:
@@ -61,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
             run_timed(cmd, env=env)
         for r in range(rounds):
             keys = list(commands)
-            for key in keys[r % 3 :] + keys[: r % 3]:
+            for key in keys[r % len(keys) :] + keys[: r % len(keys)]:
                 elapsed, _out = run_timed(commands[key], env=env)
                 times[key].append(elapsed)
     data = {
@@ -69,6 +80,10 @@ def run(args: argparse.Namespace) -> int:
         "import_floor_ms": round(median(times["import"]), 1),
         "participant_floor_ms": round(median(times["participant"]), 1),
         "cli_get_max_ms": round(max(times["cli_get"]), 1),
+        "get_imports_ms": round(median(times["get_imports"]), 1),
+        "monitor_import_ms": round(median(times["monitor_import"]), 1),
+        "cli_get_over_participant": round(median(times["cli_get"]) / median(times["participant"]), 3),
+        "cli_get_over_import": round(median(times["cli_get"]) / median(times["import"]), 3),
         "rounds": rounds,
         "command": " ".join(commands["cli_get"]),
     }
@@ -82,7 +97,21 @@ def run(args: argparse.Namespace) -> int:
                 data["participant_floor_ms"],
                 round(max(times["participant"]), 1),
             ),
+            (
+                "python: paramdds get's imports only",
+                data["get_imports_ms"],
+                round(max(times["get_imports"]), 1),
+            ),
+            (
+                'python -c "from paramdds import ParameterMonitor"',
+                data["monitor_import_ms"],
+                round(max(times["monitor_import"]), 1),
+            ),
         ],
+    )
+    table += (
+        f"\n\nparamdds get / participant floor: {data['cli_get_over_participant']:.2f}x; "
+        f"/ import floor: {data['cli_get_over_import']:.2f}x (medians of {rounds} alternating rounds)"
     )
     emit(args, data, table)
     return 0
