@@ -185,6 +185,7 @@ class NodeWorker:
         item = self._jobs.get()
         while item is not None:
             batch: list[Job | _Grouped] = [item]
+            jobs = 1  # taken from the queue: the batch and the no-op flushes it absorbed
             after: object = _EMPTY
             if isinstance(item, _Grouped):  # take the commits queued behind it: one flush for all
                 while len(batch) < GROUP_MAX:
@@ -193,7 +194,12 @@ class NodeWorker:
                     except queue.Empty:
                         after = _EMPTY
                         break
+                    jobs += 1
+                    if after == self.flush:  # queued by a commit's own change: the group takes it
+                        after = _EMPTY
+                        continue
                     if not isinstance(after, _Grouped):
+                        jobs -= 1
                         break
                     batch.append(after)
                     after = _EMPTY
@@ -202,7 +208,9 @@ class NodeWorker:
             handed = False
             try:
                 if isinstance(item, _Grouped):
-                    handed = self._commit_group(batch)  # type: ignore[arg-type]
+                    handed = self._commit_group(batch, jobs)  # type: ignore[arg-type]
+                elif item == self.flush and not self._pending:
+                    pass  # a commit took the changes it was queued for
                 else:
                     self._wait_finished()  # after the replies of every group before it
                     item()
@@ -213,7 +221,7 @@ class NodeWorker:
                 with self._lock:
                     self.busy_since = None
                     if not handed:
-                        self._inflight -= len(batch)
+                        self._inflight -= jobs
                     recovered = self.stalled and self._completing_since is None
                     if recovered:
                         self.stalled = False
@@ -224,7 +232,7 @@ class NodeWorker:
         if self._completer is not None:
             self._handed.put(None)
 
-    def _commit_group(self, batch: list[_Grouped]) -> bool:
+    def _commit_group(self, batch: list[_Grouped], jobs: int) -> bool:
         """First halves in order; then one persist call for all their changes, the replies in
         order and one publication: on the completer when the server persists (True: handed),
         else here."""
@@ -239,7 +247,7 @@ class NodeWorker:
                 staged.append(done)
         changes = [c for s in staged for c in s.changes]
         outside = self.take_pending()  # the application's own, made meanwhile
-        handed = _Handed(staged, changes + outside, outside, len(batch))
+        handed = _Handed(staged, changes + outside, outside, jobs)
         with self._lock:
             # nothing to flush and nothing before it unreplied (a refusal, say): reply here
             inline = not self._persistence.active or not (handed.changes or self._unfinished)
