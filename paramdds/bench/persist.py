@@ -41,11 +41,24 @@ def _params_file(directory: Path, count: int) -> Path:
     return path
 
 
+# ``python -m paramdds.cli`` that ends with the bench (SIGTERM when its parent dies, on Linux),
+# so a crashed bench leaves no server answering the next run on the same domain
+_CLI_DYING_WITH_PARENT = (
+    "import ctypes, runpy, signal, sys\n"
+    "try:\n"
+    "    ctypes.CDLL(None).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG\n"
+    "except (OSError, AttributeError):\n"
+    "    pass\n"
+    "sys.argv[0] = 'paramdds'\n"
+    "runpy.run_module('paramdds.cli', run_name='__main__', alter_sys=True)\n"
+)
+
+
 class _Server:
     """A ``paramdds server`` subprocess, timed from its start until it serves the node."""
 
     def __init__(self, args: argparse.Namespace, params: Path, persist: Path | None) -> None:
-        cmd = [sys.executable, "-m", "paramdds.cli", "server", "-n", NODE, "-p", str(params)]
+        cmd = [sys.executable, "-c", _CLI_DYING_WITH_PARENT, "server", "-n", NODE, "-p", str(params)]
         if persist is not None:
             cmd += ["--persist", str(persist)]
         env = worker_env(args.localhost)
