@@ -19,9 +19,10 @@ from hypothesis import strategies as st
 from paramdds.core.descriptors import ParameterDescriptor
 from paramdds.core.results import ChangeKind, ChangeSet, ParameterChange
 from paramdds.core.table import ParameterTable
-from paramdds.core.values import NOT_SET, ParameterValue
+from paramdds.core.values import NOT_SET, Parameter, ParameterValue
 from paramdds.core.yaml.files import dump_text, parse_ros_text
 from paramdds.journal import (
+    PREALLOCATE,
     PersistError,
     PersistStore,
     _descriptor_from_json,
@@ -108,3 +109,32 @@ def test_a_journal_of_another_epoch_is_ignored(tmp_path: Path) -> None:
     assert [v.value for n, v, _ in _store(state).read("n") if n == "x"] == [5]  # positive control
     journal.write_bytes(_journal(_set(2, "x", 5), epoch="older"))
     assert [v.value for n, v, _ in _store(state).read("n") if n == "x"] == [0]
+
+
+def test_the_preallocated_zeros_are_not_records() -> None:
+    # the journal grows in zero-filled steps: a reader stops at the first NUL byte
+    a, b = _set(2, "x", 1), _set(3, "x", 2)
+    zeros = b"\0" * 4096
+    _, nodes = read_journal(_journal(a, b) + zeros, "j")  # a clean end: both apply
+    assert nodes["n"]["x"][2] == 2
+    _, nodes = read_journal(_journal(a, b[:-5]) + zeros, "j")  # torn before the zeros: dropped
+    assert nodes["n"]["x"][2] == 1
+    _, nodes = read_journal(_journal(a, b[:20] + b"\0" * 10 + b[30:]) + zeros, "j")  # a hole in the tail
+    assert nodes["n"]["x"][2] == 1
+
+
+def test_a_store_preallocates_and_reloads_what_it_appended(tmp_path: Path) -> None:
+    table = ParameterTable("n")
+    table.declare("x", 0)
+    changes: list[ChangeSet] = []
+    table.add_change_listener(changes.append)
+    store = _store(tmp_path / "s.yaml")
+    store.attach({"n": table})
+    for v in range(1, 6):
+        table.set([Parameter("x", ParameterValue.from_python(v))])
+        store.record(table, changes[-1:])
+    store.close()
+    raw = Path(f"{tmp_path / 's.yaml'}.journal").read_bytes()
+    assert len(raw) >= PREALLOCATE and raw.endswith(b"\0")  # zeros ahead of the appends
+    reread = _store(tmp_path / "s.yaml")
+    assert {name: value.value for name, value, _ in reread.read("n")} == {"x": 5}

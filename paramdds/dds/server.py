@@ -75,7 +75,7 @@ from ..errors import ErrorCode, ParamddsError
 from ._binding import take_serialized
 from .dispatch import SERIALIZED, Dispatcher
 from .filters import NativeFilter, filter_tag, filtered_topic, gone_tag
-from .node_worker import NodeWorker
+from .node_worker import NodeWorker, Staged
 from .participant import poll_peers
 from .publication import Persistence, StatePublication
 from .qos import QosProfiles
@@ -190,7 +190,7 @@ class ParameterServer:
             self._refilter()
             retained = self._retained.pop(node_id, [])
         for request in retained:  # assignments that arrived before this node was hosted
-            worker.submit(partial(self._handle_set, worker, request, reply=False))
+            worker.submit_commit(partial(self._handle_set, worker, request, reply=False))
 
     def remove_node(self, node_id: str) -> None:
         """Stop hosting ``node_id`` gracefully: its instances become "no writers", not deleted."""
@@ -402,7 +402,7 @@ class ParameterServer:
                 if worker is None:
                     self.foreign_requests += 1
                 else:
-                    worker.submit(partial(self._handle_set, worker, request, reply=True))
+                    worker.submit_commit(partial(self._handle_set, worker, request, reply=True))
 
     def _on_assignment(self, samples: Sequence[Any]) -> None:
         for request in samples:
@@ -413,7 +413,7 @@ class ParameterServer:
                 if worker is None:
                     self._keep_retained(request)
             if worker is not None:
-                worker.submit(partial(self._handle_set, worker, request, reply=False))
+                worker.submit_commit(partial(self._handle_set, worker, request, reply=False))
 
     def _keep_retained(self, request: Any) -> None:
         """Keep an assignment for a node not hosted (yet): applied if it is added later."""
@@ -428,8 +428,10 @@ class ParameterServer:
         while len(self._retained) > RETAINED_NODES:
             self._retained.popitem(last=False)
 
-    def _handle_set(self, worker: NodeWorker, request: Any, *, reply: bool) -> None:
-        """Validate and commit, persist, reply, publish: one request, on the node's worker."""
+    def _handle_set(self, worker: NodeWorker, request: Any, *, reply: bool) -> Staged:
+        """Validate and commit one request, on the node's worker; the :class:`Staged` it returns
+        replies once the worker has persisted its changes (with those of the requests committed
+        beside it: one flush), then the worker publishes them."""
         table = worker.table
         key = (table.node_id, request.client_id, request.request_id)
         content = b""
@@ -440,8 +442,8 @@ class ParameterServer:
             # a retry carries the same bytes; the same ids with other content are a new
             # request (a client restarted with a fixed client_id counts from 1 again)
             if seen is not None and seen[0] == content:
-                self._send_reply("SetParametersResponse", seen[1])
-                return
+                # after the group's flush: the original may be in this very group
+                return Staged((), partial(self._resend, seen[1]))
         response = wire.SetParametersResponse(
             node_id=table.node_id,
             client_id=request.client_id,
@@ -457,17 +459,23 @@ class ParameterServer:
             response.code, response.reason = ErrorCode.INTERNAL.value, f"internal error: {exc}"
             response.revision = table.revision
         changes = worker.take_pending()
-        failure = self.persistence.persist(table, changes)
+        if reply:  # known at once, so a retry committed in the same group is not applied again
+            self._remember(key, content, response)
+        return Staged(changes, partial(self._finish_set, table, response, changes, reply))
+
+    def _resend(self, response: Any, _failure: str) -> None:
+        self._send_reply("SetParametersResponse", response)
+
+    def _finish_set(
+        self, table: ParameterTable, response: Any, changes: Sequence[Any], reply: bool, failure: str
+    ) -> None:
+        """A set's second half, once its changes are persisted (``failure`` says what failed)."""
         if failure:
             response.results = [_not_persisted(r, changes[-1].revision, failure) for r in response.results]
-        if reply:
-            self._remember(key, content, response)
-        elif not all(r.successful for r in response.results) or response.code:
+        if not reply and (not all(r.successful for r in response.results) or response.code):
             log.warning("assignment for %s partly refused: %s", table.node_id, _summary(response))
         # an assignment is answered too: its assigner reports each refusal (paramdds.dds.assign)
         self._send_reply("SetParametersResponse", response)
-        if changes:
-            self.publication.publish(table, changes)
 
     def _apply_set(self, table: ParameterTable, request: Any) -> tuple[list[Any], int]:
         deadlines.check(request.deadline)  # after its wait in the worker's queue (again at the commit)
