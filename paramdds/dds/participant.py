@@ -64,7 +64,7 @@ import logging
 import os
 import re
 import threading
-import weakref
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -127,7 +127,18 @@ _TOPIC_DISCOVERY_XML = (
 
 _lock = threading.Lock()
 # domain id -> (configuration, Domain); weak, so a Domain goes when its last participant does
-_domains: dict[int, tuple[str, weakref.ref[Domain]]] = {}
+@dataclass
+class _Held:
+    """A Domain this module made, with the configuration it was made with and how many open
+    participants use it: deleted with the last one (Cyclone keeps a Domain it was given a
+    configuration for until it is deleted, and refuses to make that domain id again)."""
+
+    config: str
+    domain: Domain
+    users: int = 0
+
+
+_domains: dict[int, _Held] = {}
 
 
 def localhost_from_env(environ: dict[str, str] | None = None) -> bool:
@@ -238,7 +249,9 @@ def make_participant(
             # paramdds did before the coexistence setting, which it then lacks (said once).
             _warn_existing(domain_id)
             return Participant(domain_id, qos, grants=identity)
-        return Participant(domain_id, qos, domain=domain, grants=identity)
+        participant = Participant(domain_id, qos, domain=domain, grants=identity)
+        _domains[domain_id].users += 1
+        return participant
 
 
 _warned: set[int] = set()
@@ -282,14 +295,13 @@ def _domain(domain_id: int, config: str) -> Domain:
     from cyclonedds.core import DDSException
     from cyclonedds.domain import Domain
 
-    known = _domains.get(domain_id)
-    existing = known[1]() if known else None
-    if known is not None and existing is not None:
-        if known[0] != config:
+    held = _domains.get(domain_id)
+    if held is not None:
+        if held.config != config:
             raise ValueError(
                 f"DDS domain {domain_id} is already in use in this process with another configuration"
             )
-        return existing
+        return held.domain
     try:
         domain = Domain(domain_id, config)
     except DDSException as exc:  # still a DDS failure (the CLI exits 4), with what to look at
@@ -299,8 +311,26 @@ def _domain(domain_id: int, config: str) -> Domain:
             f"(CYCLONEDDS_URI: interfaces, peers), or the domain already exists in this process "
             f"without paramdds's configuration ({exc.msg})",
         ) from exc
-    _domains[domain_id] = (config, weakref.ref(domain))
+    _domains[domain_id] = _Held(config, domain)
     return domain
+
+
+def _release(participant: DomainParticipant) -> None:
+    """The participant no longer uses its Domain: delete the Domain if it was the last one."""
+    from cyclonedds.core import Entity
+
+    domain = getattr(participant, "domain", None)
+    if domain is None:
+        return
+    participant.domain = None  # type: ignore[attr-defined]  # released once, however often closed
+    with _lock:
+        for domain_id, held in list(_domains.items()):
+            if held.domain is domain:
+                held.users -= 1
+                if held.users <= 0:
+                    del _domains[domain_id]
+                    Entity.__del__(domain)
+                return
 
 
 def close_participant(participant: DomainParticipant) -> None:
@@ -318,3 +348,4 @@ def close_participant(participant: DomainParticipant) -> None:
     if watch is not None:
         watch.close()
     Entity.__del__(participant)
+    _release(participant)

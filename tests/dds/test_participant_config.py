@@ -78,3 +78,22 @@ def test_a_domain_the_application_made_itself_is_joined_as_it_is(domain_id: int)
     finally:
         close_participant(dp)
         close_participant(own)
+
+
+def test_a_domain_id_can_be_used_again_after_its_participants_closed(domain_id: int) -> None:
+    """The configured Domain goes with its last participant: Cyclone refused to configure the
+    domain id again in the same process (a long-lived process, or a test run that wraps its
+    domain ids), while the first Domain outlived every participant."""
+    from cyclonedds.domain import Domain
+
+    from paramdds import ParameterClient, close_participant, make_participant
+
+    for _ in range(2):
+        first = make_participant(domain_id, localhost=True)
+        second = make_participant(domain_id, localhost=True)
+        close_participant(first)
+        close_participant(first)  # twice is harmless, and releases the Domain once
+        with ParameterClient(second) as client:  # the Domain is still there for the other
+            assert client.nodes() == []
+        close_participant(second)
+    Domain(domain_id, "<CycloneDDS/>")  # nothing of ours is left on that id
