@@ -131,12 +131,13 @@ class SetReply(_At):
 
 
 class _Pending:
-    __slots__ = ("future", "matched", "node", "sample", "topic", "write", "writer")
+    __slots__ = ("future", "matched", "node", "reached", "sample", "topic", "write", "writer")
 
     def __init__(self, node: str, topic: str, sample: Any, matched: int, writer: Any) -> None:
         self.node = node
         self.topic = topic
-        self.write = topic == "SetParametersRequest"  # once sent, no answer is OUTCOME_UNKNOWN
+        self.write = topic == "SetParametersRequest"  # once it reached a node, no answer is OUTCOME_UNKNOWN
+        self.reached = False  # a copy went out while a reader was matched (see ParameterClient._write)
         self.writer = writer
         self.sample = sample
         self.matched = matched  # the topic's match count when last looked at (see _newly_matched)
@@ -394,7 +395,7 @@ class ParameterClient:
         pending = _Pending(node, topic, sample, self._match_counts.get(id(writer), 0), writer)
         self._pending[sample.request_id] = pending
         try:
-            writer.write(sample)
+            _write(pending)
         except Exception as exc:
             del self._pending[sample.request_id]
             raise ParamddsError(f"could not send the request to {node!r}: {exc}") from exc
@@ -518,7 +519,7 @@ class ParameterClient:
         while True:
             now = time.monotonic()
             if now >= deadline:
-                if pending.write:  # it was sent: it may have been applied
+                if _may_apply(pending):  # it reached a node: it may have been applied
                     raise self._outcome_unknown(pending.node, limit)
                 if self.presence(pending.node) is not Presence.ONLINE:
                     raise self._not_seen(pending.node, limit)
@@ -529,19 +530,20 @@ class ParameterClient:
             if self._discovery is not None:
                 state = self._discovery.state()  # keeps the time of the last discovery change precise
                 # a write waits on: its node may come back and answer
-                news = _news(seen, state) and not pending.write
+                news = _news(seen, state) and not _may_apply(pending)
                 if news and self.presence(pending.node) in (Presence.OFFLINE, Presence.ABSENT):
                     raise self._not_seen(pending.node, now - (deadline - limit))
                 seen = state
             if now >= next_resend:
                 step = min(2 * step, 1.0)  # a big request that is merely slow is not resent often
                 next_resend = now + step
-                if not pending.write and self.presence(pending.node) in (Presence.OFFLINE, Presence.ABSENT):
+                gone = (Presence.OFFLINE, Presence.ABSENT)
+                if not _may_apply(pending) and self.presence(pending.node) in gone:
                     raise self._not_seen(pending.node, now - (deadline - limit))
             elif not self._newly_matched(pending):
                 continue
             try:
-                pending.writer.write(pending.sample)
+                _write(pending)
             except Exception as exc:
                 log.debug("resending request %d failed: %s", pending.sample.request_id, exc)
 
@@ -686,9 +688,28 @@ def _news(seen: DiscoveryState | None, state: DiscoveryState) -> bool:
     return (state.settled and not seen.settled) or state.liveliness != seen.liveliness
 
 
+def _write(pending: _Pending) -> None:
+    """Send (or send again) ``pending``'s request, noting whether a copy can have reached a node:
+    a VOLATILE writer with no matched reader delivers to no one, then or later (a reader that
+    matches later gets a resend, see ``_slices``), so a write that never met a reader was never
+    sent and cannot be applied (secure mode without a valid identity: nobody matches)."""
+    writer: Any = pending.writer  # the binding's status getters are untyped
+    if not pending.write or pending.reached:
+        writer.write(pending.sample)
+        return
+    before = writer.get_publication_matched_status().current_count
+    writer.write(pending.sample)
+    pending.reached = bool(before or writer.get_publication_matched_status().current_count)
+
+
+def _may_apply(pending: _Pending) -> bool:
+    """A write that can have reached its node: without an answer, its outcome is unknown."""
+    return pending.write and pending.reached
+
+
 def _closed_error(pending: _Pending) -> ParamddsError:
     """The error of a call still waiting when its client is closed."""
-    if pending.write:
+    if _may_apply(pending):
         return OutcomeUnknownError(
             f"outcome unknown: the client was closed before node {pending.node!r} answered; "
             "the request was sent and may have been applied"

@@ -121,9 +121,10 @@ def test_a_node_whose_services_never_answer_shows_unreachable_until_they_do(shar
         assert time.monotonic() - started < 12.0
         assert mirrored(monitor, ["/quiet/other"]) == 1  # the other node of its process is mirrored
         table = _cli(env, "nodes")
-        assert any(line.split()[:2] == ["quiet/node", "unreachable"] for line in table.stdout.splitlines())
+        assert any(line.split()[:2] == ["/quiet/node", "unreachable"] for line in table.stdout.splitlines())
         listed = json.loads(_cli(env, "nodes", "-o", "json").stdout)
-        assert {n["node"]: n["status"] for n in listed} == {"quiet/node": "unreachable", "quiet/other": None}
+        statuses = {n["node"]: n["status"] for n in listed}
+        assert statuses == {"/quiet/node": "unreachable", "/quiet/other": None}
         got = _cli(env, "get", "quiet/node", "use_sim_time")
         assert got.returncode != 0 and "parameter services do not answer" in got.stderr, got.stderr
         assert host.command("serve /quiet/node") == "served"
