@@ -24,6 +24,7 @@ from paramdds.core.values import ParameterValue as PV
 from paramdds.core.yaml.files import dump_text, parse_ros_text
 from paramdds.frontend.load import load, plan_load
 
+from ..core.test_yaml_dump import _VALUES  # every value type, with the YAML-tricky strings
 from ..dds.helpers import DdsSession
 from ._support import Proc, next_domain, run_cli, start_server
 
@@ -106,23 +107,6 @@ def _held(name: str, value: PV) -> object:
 
 # -- the property: for any node, dump | load is a no-op ------------------------------------------------
 
-_CHARS = st.characters(exclude_categories=("Cs",), exclude_characters="\x00")
-_STRINGS = st.one_of(
-    st.sampled_from(["", "on", "1.5", "null", "/scan", "a: b", "\n", "é"]), st.text(_CHARS, max_size=8)
-)
-_DOUBLES = st.floats(allow_nan=True, allow_infinity=True)
-_INTS = st.integers(min_value=-(2**63), max_value=2**63 - 1)
-_VALUES = st.one_of(
-    st.booleans().map(lambda v: PV(T.BOOL, v)),
-    _INTS.map(lambda v: PV(T.INTEGER, v)),
-    _DOUBLES.map(lambda v: PV(T.DOUBLE, v)),
-    _STRINGS.map(lambda v: PV(T.STRING, v)),
-    st.binary(max_size=4).map(lambda v: PV(T.BYTE_ARRAY, v)),
-    st.lists(st.booleans(), max_size=3).map(lambda v: PV(T.BOOL_ARRAY, tuple(v))),
-    st.lists(_INTS, max_size=3).map(lambda v: PV(T.INTEGER_ARRAY, tuple(v))),
-    st.lists(_DOUBLES, max_size=3).map(lambda v: PV(T.DOUBLE_ARRAY, tuple(v))),
-    st.lists(_STRINGS, max_size=3).map(lambda v: PV(T.STRING_ARRAY, tuple(v))),
-)
 _NAMES = st.lists(
     st.sampled_from(["a", "b", "robot", "x_1", "on", "n-2", "s/t"]), min_size=1, max_size=3
 ).map(".".join)
