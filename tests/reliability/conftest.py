@@ -239,6 +239,14 @@ class DDS:
             obj = self._closers.pop()
             with contextlib.suppress(Exception):
                 obj.close()
+        # delete the participants (and every raw reader and writer a test made in them) now:
+        # gc does not, and a TRANSIENT_LOCAL sample left behind would reach the next test
+        # that gets this domain id when the counter wraps
+        from paramdds.dds.participant import close_participant
+
+        for participant in self._participants.values():
+            with contextlib.suppress(Exception):
+                close_participant(participant)
         self._participants.clear()
         gc.collect()
 
