@@ -11,8 +11,8 @@ Roles (see :mod:`paramdds.bench._common` for the READY / RESULT protocol):
 ``load``     a throughput client: keep ``--window`` gets (or echoes) in flight;
 ``partition`` the partition-per-node alternative (fleet bench): a request reader
              whose subscriber's partitions are the hosted node ids;
-``setter``   a client of ``bench persist``: on ``wait`` it waits for ``--node`` (then
-             ``RESULT {}``), on ``go {json}`` it sets from the job's ``start`` until its
+``setter``   a client of ``bench persist``: on ``wait`` it waits until ``--node`` answers
+             (then ``RESULT {}``), on ``go {json}`` it sets from the job's ``start`` until its
              ``end`` (``time.monotonic()``, the same clock in every process) and reports
              ``RESULT {"sets": n, "finished": t}`` (or ``{"error": …}``).
 
@@ -364,15 +364,25 @@ def role_load(args: argparse.Namespace) -> None:
 
 def role_setter(args: argparse.Namespace) -> None:
     from ..dds.client import ParameterClient
+    from ..errors import ParamddsError
     from .persist import set_until
 
-    client = ParameterClient(_participant(args), timeout=10.0)
+    # lazy presence, as the CLI's one-shot verbs: no presence reader, so the node's state
+    # samples (one per set) are not sent to this process too
+    client = ParameterClient(_participant(args), timeout=10.0, lazy_presence=True)
     _say("READY", pid=os.getpid())
     try:
         for line in sys.stdin:
             word, _, rest = line.strip().partition(" ")
-            if word == "wait":
-                client.wait_for_node(args.node, timeout=20.0)
+            if word == "wait":  # until the node (a server started for this round) answers
+                deadline = time.monotonic() + 20.0
+                while True:
+                    try:
+                        client.list(args.node, timeout=0.5)
+                        break
+                    except ParamddsError:
+                        if time.monotonic() > deadline:
+                            raise
                 _say("RESULT")
             elif word == "go":
                 job = json.loads(rest)
