@@ -11,8 +11,7 @@
 * :class:`PollingClient`: the seed's client design, a get request answered by the
   paramdds server, whose reply is found by taking from the reader and sleeping
   10 ms between attempts.
-* :class:`~paramdds.dds.dispatch.IndexedWaitSet` (the dispatcher's own): a WaitSet
-  that reports *which* attached entities
+* :class:`IndexedWaitSet`: a WaitSet that reports *which* attached entities
   triggered (Cyclone's attach argument), so the ROS 2 layout baseline with
   thousands of readers dispatches in O(triggered), not O(readers). Without it
   the baseline would pay for our Python loop rather than for its topic layout.
@@ -30,7 +29,7 @@ from concurrent.futures import Future
 from dataclasses import dataclass, field
 from typing import Any
 
-from cyclonedds.core import InstanceState, ReadCondition, SampleState, ViewState
+from cyclonedds.core import InstanceState, ReadCondition, SampleState, ViewState, WaitSet
 from cyclonedds.idl import IdlStruct
 from cyclonedds.idl.annotations import key
 from cyclonedds.idl.types import sequence, uint8, uint64
@@ -38,8 +37,8 @@ from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 
-from ..dds._binding import write_serialized
-from ..dds.dispatch import Dispatcher, IndexedWaitSet
+from ..dds._binding import cookie_buffer, waitset_attach_indexed, waitset_wait_indexed, write_serialized
+from ..dds.dispatch import Dispatcher
 from ..dds.qos import QosProfiles
 from ..dds.wire import types as wire
 
@@ -199,6 +198,23 @@ def wait_matched(writers: Sequence[Any], readers: Sequence[Any], timeout: float)
             return True
         time.sleep(0.001)
     return False
+
+
+class IndexedWaitSet:
+    """A WaitSet whose ``wait`` returns the indices of the entities that triggered."""
+
+    def __init__(self, participant: Any, capacity: int = 1024) -> None:
+        self.ws = WaitSet(participant)
+        self._buf = cookie_buffer(capacity)
+
+    def attach(self, entity: Any, index: int) -> None:
+        waitset_attach_indexed(self.ws, entity, index + 1)  # 0 would read back as None
+
+    def detach(self, entity: Any) -> None:
+        self.ws.detach(entity)
+
+    def wait(self, timeout_ns: int) -> list[int]:
+        return [cookie - 1 for cookie in waitset_wait_indexed(self.ws, self._buf, timeout_ns)]
 
 
 # -- the ROS 2 layout: per node six services (twelve topics) + one shared events topic -----------

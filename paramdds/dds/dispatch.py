@@ -5,11 +5,6 @@ callbacks run on Cyclone's receive thread and a listener still attached at exit
 can hang the process). ``close()`` wakes the thread through a GuardCondition and
 joins it, so shutdown is prompt.
 
-On each wake-up the thread drains only the readers whose condition triggered (an
-:class:`IndexedWaitSet` says which): a take of an empty reader costs little, but it is
-made holding the interpreter lock, so before the handler it delays the answer and after
-it delays the thread the handler woke (a client's caller waiting for its reply).
-
 A reader added with :meth:`Dispatcher.add_raw` skips the binding's decoder: its
 samples come as serialized bytes and a ``decode`` function of ours turns each
 into what the handler needs (the monitor decodes state samples straight into
@@ -46,7 +41,7 @@ from cyclonedds.domain import DomainParticipant
 from cyclonedds.internal import InvalidSample
 from cyclonedds.util import duration
 
-from ._binding import cookie_buffer, take_serialized, waitset_attach_indexed, waitset_wait_indexed
+from ._binding import take_serialized
 from .wire.cdr import MalformedSample, is_malformed
 
 log = logging.getLogger(__name__)
@@ -57,25 +52,6 @@ Take = Callable[[], tuple[list[Any], int]]  # one batch: (good samples, samples 
 _TAKE_BATCH = 256
 SERIALIZED = "_paramdds_serialized"  # attribute of a sample taken by add(): its bytes as received
 _ANY = SampleState.Any | ViewState.Any | InstanceState.Any
-_CAPACITY = 64  # triggered entities one wait reports; more (never seen) means: drain them all
-
-
-class IndexedWaitSet:
-    """A WaitSet whose ``wait`` returns the indices of the entities that triggered."""
-
-    def __init__(self, participant: Any, capacity: int = 1024) -> None:
-        self.ws = WaitSet(participant)
-        self.capacity = capacity
-        self._buf = cookie_buffer(capacity)
-
-    def attach(self, entity: Any, index: int) -> None:
-        waitset_attach_indexed(self.ws, entity, index + 1)  # 0 would read back as None
-
-    def detach(self, entity: Any) -> None:
-        self.ws.detach(entity)
-
-    def wait(self, timeout_ns: int) -> list[int]:
-        return [cookie - 1 for cookie in waitset_wait_indexed(self.ws, self._buf, timeout_ns)]
 
 
 class Dispatcher:
@@ -91,9 +67,9 @@ class Dispatcher:
         self._tick = tick
         self._period = period
         self._next_tick = 0.0
-        self._waitset = IndexedWaitSet(participant, _CAPACITY)
+        self._waitset = WaitSet(participant)
         self._guard = GuardCondition(participant)
-        self._waitset.attach(self._guard, 0)  # entry i is index i + 1
+        self._waitset.attach(self._guard)
         self._entries: list[tuple[Take, Any, Handler, str]] = []
         self.readers: list[Any] = []  # in the order added
         self._stopping = False
@@ -157,7 +133,7 @@ class Dispatcher:
         condition = ReadCondition(reader, _ANY)
         self._entries.append((take, condition, handler, reader.topic.name))
         self.readers.append(reader)
-        self._waitset.attach(condition, len(self._entries))  # after the append: a trigger finds it
+        self._waitset.attach(condition)
 
     def start(self) -> None:
         self._thread.start()
@@ -180,18 +156,13 @@ class Dispatcher:
 
     def _loop(self) -> None:
         timeout = duration(infinite=True) if self._tick is None else int(self._period * 1e9)
-        entries = self._entries
         while not self._stopping:
-            triggered = self._waitset.wait(timeout)
+            self._waitset.wait(timeout)
             if self._stopping:
                 break
             self._run_tick()
-            if len(triggered) >= _CAPACITY:  # some may not be listed: every reader
-                triggered = list(range(1, len(entries) + 1))
-            for index in triggered:
-                if index > 0:  # 0: the guard (close)
-                    take, _, handler, topic = entries[index - 1]
-                    self._drain(take, handler, topic)
+            for take, _, handler, topic in self._entries:
+                self._drain(take, handler, topic)
 
     def _run_tick(self) -> None:
         if self._tick is None:
