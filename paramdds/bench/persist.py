@@ -1,12 +1,16 @@
 """``paramdds bench persist``: what ``--persist`` costs per set, and a restart from a long journal.
 
 Sets per second: a ``paramdds server`` process hosting one node of ``P`` parameters
-(``--params``, default 10 and 1,000), and clients in this process (one, then
-``--clients``, default 8, each its own client on a thread of its own) that set one
-parameter after another (each waits for its reply) for ``--seconds`` (default 3). The
-same server without ``--persist`` is the baseline; the two alternate in rounds
-(``--rounds``, default 3) and the median round is reported, with the ratio. With
-several clients the server's group commit lets concurrent sets share one ``fdatasync``.
+(``--params``, default 10 and 1,000), and client processes (one, then ``--clients``,
+default 8: ``setter`` workers, each with its own participant and client, without a
+presence reader, as the CLI's) that set one
+parameter after another (each waits for its reply) for ``--seconds`` (default 3), all
+from the same instant of the machine's monotonic clock. The same server without
+``--persist`` is the baseline; the two alternate in rounds (``--rounds``, default 3)
+and the median round is reported, with the ratio. With several clients the server's
+group commit lets concurrent sets share one ``fdatasync``. The clients are processes,
+not threads of the bench: threads of one process share its interpreter lock, so eight
+of them measured the bench's own Python as much as the server.
 
 Restart: a persistence file for a node of 1,000 parameters whose journal holds
 ``--requests`` changes (default 100,000; written in one append, as a server would have
@@ -18,16 +22,16 @@ snapshot with an empty journal.
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
 from typing import Any
 
-from ._common import emit, median, note, render, worker_env
+from ._common import RESULT, Worker, Workers, emit, median, note, render, worker_env
 
 NODE = "bench_persist"
 RESTART_PARAMS = 1000
@@ -36,7 +40,7 @@ RESTART_PARAMS = 1000
 def _params_file(directory: Path, count: int) -> Path:
     path = directory / f"params{count}.yaml"
     lines = [f"{NODE}:", "  ros__parameters:"]
-    lines += [f"    p{i:05d}: {i}" for i in range(count)]
+    lines += [f"    {param_name(i)}: {i}" for i in range(count)]
     path.write_text("\n".join(lines) + "\n")
     return path
 
@@ -84,46 +88,45 @@ class _Server:
             self.proc.communicate()
 
 
-def _sets_per_s(clients: list[Any], count: int, seconds: float) -> float:
-    """Sets per second of ``clients`` setting at once, each waiting for its reply."""
+def param_name(i: int) -> str:
+    return f"p{i:05d}"
+
+
+def set_until(client: Any, count: int, lane: int, lanes: int, end: float) -> int:
+    """Lane ``lane`` of ``lanes``: set the node's parameters in turn until ``end``
+    (``time.monotonic()``), each set waiting for its reply; how many were set."""
     from ..core.values import Parameter, ParameterValue
 
+    n = 0
+    while time.monotonic() < end:
+        name = param_name((lane + n * lanes) % count)
+        reply = client.set(NODE, [Parameter(name, ParameterValue.from_python(n))])
+        if not reply.successful:
+            raise RuntimeError(f"a set failed: {reply.results}")
+        n += 1
+    return n
+
+
+def _sets_per_s(clients: list[Worker], count: int, seconds: float) -> float:
+    """Sets per second of the ``clients`` (setter workers) setting at once."""
     for client in clients:
-        client.wait_for_node(NODE, timeout=20)
-    names = [f"p{i:05d}" for i in range(count)]
-    done = [0] * len(clients)
-    errors: list[str] = []
-    start = threading.Barrier(len(clients) + 1)
-    end = 0.0
-
-    def lane(i: int) -> None:
-        start.wait()
-        n = 0
-        while time.perf_counter() < end:
-            name = names[(i + n * len(clients)) % count]
-            reply = clients[i].set(NODE, [Parameter(name, ParameterValue.from_python(n))])
-            if not reply.successful:
-                errors.append(f"a set failed: {reply.results}")
-                return
-            n += 1
-        done[i] = n
-
-    threads = [threading.Thread(target=lane, args=(i,), daemon=True) for i in range(len(clients))]
-    for t in threads:
-        t.start()
-    end = time.perf_counter() + seconds
-    t0 = time.perf_counter()
-    start.wait()
-    for t in threads:
-        t.join()
-    elapsed = time.perf_counter() - t0
+        client.send("wait")
+    for client in clients:
+        client.read(RESULT, 30.0)  # each has found the node
+    start = time.monotonic() + 0.2  # every worker is asleep until then (the clock is the machine's)
+    for i, client in enumerate(clients):
+        job = {"count": count, "lane": i, "lanes": len(clients), "start": start, "end": start + seconds}
+        client.send(f"go {json.dumps(job)}")
+    done = [client.read(RESULT, seconds + 60.0) for client in clients]
+    errors = [d["error"] for d in done if "error" in d]
     if errors:
         raise RuntimeError(errors[0])
-    return sum(done) / elapsed
+    sets = sum(int(d["sets"]) for d in done)
+    return sets / (max(float(d["finished"]) for d in done) - start)
 
 
 def _round(
-    args: argparse.Namespace, clients: list[Any], directory: Path, count: int, persist: bool
+    args: argparse.Namespace, clients: list[Worker], directory: Path, count: int, persist: bool
 ) -> float:
     state = directory / f"state{count}.yaml"
     for leftover in (state, Path(f"{state}.journal")):
@@ -146,7 +149,7 @@ def _journal_of(directory: Path, changes: int) -> Path:
     state = directory / "restart.yaml"
     table = ParameterTable(NODE)
     for i in range(RESTART_PARAMS):
-        table.declare(f"p{i:05d}", i)
+        table.declare(param_name(i), i)
     store = persist_store(str(state))
     store.compact_every = changes + 1
     store.attach({NODE: table})
@@ -157,9 +160,9 @@ def _journal_of(directory: Path, changes: int) -> Path:
             (
                 ParameterChange(
                     ChangeKind.CHANGED,
-                    f"p{n % RESTART_PARAMS:05d}",
+                    param_name(n % RESTART_PARAMS),
                     ParameterValue.from_python(n),
-                    ParameterDescriptor(f"p{n % RESTART_PARAMS:05d}", ParameterType.INTEGER),
+                    ParameterDescriptor(param_name(n % RESTART_PARAMS), ParameterType.INTEGER),
                 ),
             ),
         )
@@ -171,9 +174,6 @@ def _journal_of(directory: Path, changes: int) -> Path:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..dds.client import ParameterClient
-    from ..dds.participant import make_participant
-
     counts = [args.params] if args.params else [10, 1000]
     rounds = args.rounds or (1 if args.quick else 3)
     changes = args.requests or (10_000 if args.quick else 100_000)
@@ -181,38 +181,38 @@ def run(args: argparse.Namespace) -> int:
     rows: list[tuple[object, ...]] = []
     with tempfile.TemporaryDirectory(prefix="paramdds-bench-persist-") as tmp:
         directory = Path(tmp)
-        participant = make_participant(args.domain, localhost=args.localhost)
         concurrent = args.clients or 8
-        clients = [ParameterClient(participant, timeout=10.0) for _ in range(max(1, concurrent))]
-        try:
-            for count in counts:
-                for lanes in dict.fromkeys([1, concurrent]):
-                    persisted: list[float] = []
-                    plain: list[float] = []
+        for count in counts:
+            for lanes in dict.fromkeys([1, concurrent]):
+                persisted: list[float] = []
+                plain: list[float] = []
+                with Workers(localhost=args.localhost, domain=args.domain) as workers:
+                    # only the clients measured exist: every client process receives the node's
+                    # state, so idle ones would cost the server as much as busy ones
+                    clients = [workers.start("setter", "--node", NODE) for _ in range(lanes)]
+                    for client in clients:
+                        client.read("READY", 60.0)
                     for r in range(rounds):
                         for persist in (True, False) if r % 2 == 0 else (False, True):
                             note(
                                 f"persist: {count} params, {lanes} client(s), "
                                 f"--persist {'on' if persist else 'off'}, round {r + 1}"
                             )
-                            rate = _round(args, clients[:lanes], directory, count, persist)
+                            rate = _round(args, clients, directory, count, persist)
                             (persisted if persist else plain).append(rate)
-                    tag = f"{count}" if lanes == 1 else f"{count}_c{lanes}"
-                    data[f"sets_per_s_{tag}"] = round(median(persisted), 0)
-                    data[f"sets_per_s_{tag}_no_persist"] = round(median(plain), 0)
-                    data[f"ratio_{tag}"] = round(median(persisted) / median(plain), 3)
-                    data[f"ratios_{tag}"] = [round(p / q, 3) for p, q in zip(persisted, plain, strict=True)]
-                    rows.append(
-                        (
-                            f"sets/s, {count} params, {lanes} client{'s' if lanes > 1 else ''}",
-                            data[f"sets_per_s_{tag}"],
-                            data[f"sets_per_s_{tag}_no_persist"],
-                            data[f"ratio_{tag}"],
-                        )
+                tag = f"{count}" if lanes == 1 else f"{count}_c{lanes}"
+                data[f"sets_per_s_{tag}"] = round(median(persisted), 0)
+                data[f"sets_per_s_{tag}_no_persist"] = round(median(plain), 0)
+                data[f"ratio_{tag}"] = round(median(persisted) / median(plain), 3)
+                data[f"ratios_{tag}"] = [round(p / q, 3) for p, q in zip(persisted, plain, strict=True)]
+                rows.append(
+                    (
+                        f"sets/s, {count} params, {lanes} client{'s' if lanes > 1 else ''}",
+                        data[f"sets_per_s_{tag}"],
+                        data[f"sets_per_s_{tag}_no_persist"],
+                        data[f"ratio_{tag}"],
                     )
-        finally:
-            for client in clients:
-                client.close()
+                )
         note(f"persist: writing a journal of {changes:,} changes")
         state = _journal_of(directory, changes)
         journal_mb = os.path.getsize(f"{state}.journal") / 1e6

@@ -10,7 +10,11 @@ Roles (see :mod:`paramdds.bench._common` for the READY / RESULT protocol):
 ``census``   count topics and endpoints in the domain with the builtin topics;
 ``load``     a throughput client: keep ``--window`` gets (or echoes) in flight;
 ``partition`` the partition-per-node alternative (fleet bench): a request reader
-             whose subscriber's partitions are the hosted node ids.
+             whose subscriber's partitions are the hosted node ids;
+``setter``   a client of ``bench persist``: on ``wait`` it waits until ``--node`` answers
+             (then ``RESULT {}``), on ``go {json}`` it sets from the job's ``start`` until its
+             ``end`` (``time.monotonic()``, the same clock in every process) and reports
+             ``RESULT {"sets": n, "finished": t}`` (or ``{"error": …}``).
 
 A worker exits when its stdin closes or on SIGTERM, closing its DDS entities.
 """
@@ -358,9 +362,44 @@ def role_load(args: argparse.Namespace) -> None:
         closer.close()
 
 
+def role_setter(args: argparse.Namespace) -> None:
+    from ..dds.client import ParameterClient
+    from ..errors import ParamddsError
+    from .persist import set_until
+
+    # lazy presence, as the CLI's one-shot verbs: no presence reader, so the node's state
+    # samples (one per set) are not sent to this process too
+    client = ParameterClient(_participant(args), timeout=10.0, lazy_presence=True)
+    _say("READY", pid=os.getpid())
+    try:
+        for line in sys.stdin:
+            word, _, rest = line.strip().partition(" ")
+            if word == "wait":  # until the node (a server started for this round) answers
+                deadline = time.monotonic() + 20.0
+                while True:
+                    try:
+                        client.list(args.node, timeout=0.5)
+                        break
+                    except ParamddsError:
+                        if time.monotonic() > deadline:
+                            raise
+                _say("RESULT")
+            elif word == "go":
+                job = json.loads(rest)
+                time.sleep(max(0.0, job["start"] - time.monotonic()))
+                try:
+                    sets = set_until(client, job["count"], job["lane"], job["lanes"], job["end"])
+                except Exception as exc:  # reported to the bench, which fails the run with it
+                    _say("RESULT", error=f"{type(exc).__name__}: {exc}")
+                    continue
+                _say("RESULT", sets=sets, finished=time.monotonic())
+    finally:
+        client.close()
+
+
 def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(prog="python -m paramdds.bench.worker")
-    p.add_argument("role", choices=("server", "echo", "monitor", "census", "load", "partition"))
+    p.add_argument("role", choices=("server", "echo", "monitor", "census", "load", "partition", "setter"))
     p.add_argument("-d", "--domain", type=int, required=True)
     p.add_argument("--localhost", action="store_true")
     p.add_argument("--layout", choices=("paramdds", "ros"), default="paramdds")
@@ -390,6 +429,7 @@ def main(argv: list[str] | None = None) -> None:
             "census": role_census,
             "load": role_load,
             "partition": role_partition,
+            "setter": role_setter,
         }[args.role](args)
     finally:
         _delete_participants()

@@ -32,7 +32,11 @@ measured reason:
 * :func:`install_native_filter` installs a C filter function (see
   :mod:`.filters`) on a topic with ``dds_set_topic_filter_and_arg``, through the
   binding's handle on the C library. The binding's samples reach it as its sample
-  container (pointer and size of the CDR bytes, ``clayer/pysertype.c``).
+  container (pointer and size of the CDR bytes, ``clayer/pysertype.c``);
+* :data:`QOS_LOCK` serializes the binding's QoS conversions (see
+  :func:`_serialize_qos_reads`), installed when this module is imported;
+  :func:`read_participant_keys` reads the built-in participant topic without
+  converting any QoS at all.
 
 All of them are checked against one binding version: importing this module with
 another major.minor version of cyclonedds raises :class:`ImportError` naming
@@ -43,12 +47,15 @@ dispatch thread.
 from __future__ import annotations
 
 import ctypes as ct
+import functools
+import threading
 from pathlib import Path
 from typing import Any
 
 import cyclonedds
 
 __all__ = [
+    "QOS_LOCK",
     "SUPPORTED_VERSION",
     "Endianness",
     "assert_liveliness",
@@ -64,6 +71,7 @@ __all__ = [
     "matched_publications",
     "matched_subscriptions",
     "read_new_infos",
+    "read_participant_keys",
     "take_serialized",
     "unregister_serialized",
     "waitset_attach_indexed",
@@ -100,13 +108,78 @@ _check_version()
 from cyclonedds._clayer import (  # noqa: E402  (after the version check)
     ddspy_dispose,
     ddspy_read,
+    ddspy_read_participant,
     ddspy_take,
     ddspy_unregister_instance,
     ddspy_write,
 )
+from cyclonedds.builtin_types import participant_constructor  # noqa: E402
 from cyclonedds.core import DDSException  # noqa: E402
 from cyclonedds.idl._support import Endianness  # noqa: E402
 from cyclonedds.internal import DDS  # noqa: E402
+from cyclonedds.qos import _CQos  # noqa: E402
+
+# -- QoS conversions: one at a time in the process ---------------------------------------
+#
+# The binding turns a C QoS into a Python ``Qos`` with ``_CQos._get_p_*`` class methods
+# that use ctypes buffers stored on the *class* (``_CQos._gc_*``), shared by every thread:
+# Cyclone writes into them, Python reads them back, and for the entity name the binding
+# then frees the string Cyclone allocated. Two threads converting at once read each
+# other's values (a ``UnicodeDecodeError`` on a half-written name, the wrong partitions) or
+# free one string twice (``free(): double free detected in tcache 2``: the process
+# aborts). Every conversion goes through those methods, whoever calls them:
+#
+# * a built-in topic's samples (DcpsParticipant, DcpsPublication, DcpsSubscription: the
+#   binding converts each sample's QoS while reading, ``builtin_types.cqos_to_qos``);
+# * ``Entity.get_qos()``, ``get_matched_publication_data`` / ``_subscription_data``;
+# * ``QosProvider.get_*_qos`` (loading the QoS profiles);
+# * creating a DataWriter (it reads back its data representation).
+#
+# The other direction (``Qos`` -> C, when an entity is created) allocates per call and
+# needs no lock. So the getters are wrapped here, once, with one process-wide lock, and
+# every caller is covered, paramdds's own modules and any other code in the process
+# alike. Inside the lock only Cyclone's ``dds_qget_*`` accessors (pure reads of the
+# QoS struct), ``dds_free`` and Python object creation run: nothing that waits for a
+# Cyclone lock or for another thread.
+
+QOS_LOCK = threading.RLock()
+
+
+def _serialize_qos_reads() -> None:
+    for name, attribute in list(vars(_CQos).items()):
+        if (name.startswith("_get_p_") or name == "cqos_to_qos") and isinstance(attribute, classmethod):
+            setattr(_CQos, name, classmethod(_under_qos_lock(attribute.__func__)))
+
+
+def _under_qos_lock(function: Any) -> Any:
+    @functools.wraps(function)
+    def locked(*args: Any) -> Any:
+        with QOS_LOCK:
+            return function(*args)
+
+    locked.__paramdds_locked__ = True  # type: ignore[attr-defined]
+    return locked
+
+
+if not getattr(_CQos.cqos_to_qos, "__paramdds_locked__", False):  # once per process, also on reload
+    _serialize_qos_reads()
+
+
+def _no_qos(_pointer: Any) -> None:
+    return None
+
+
+def read_participant_keys(reader: Any, condition: Any, count: int) -> list[Any]:
+    """Read up to ``count`` samples of a built-in DcpsParticipant ``reader`` matching ``condition``
+    (a ReadCondition of it), without their QoS: ``sample.qos`` is None.
+
+    The binding would convert every sample's QoS (under :data:`QOS_LOCK`); the key and the
+    sample info are all a discovery watch needs.
+    """
+    batch = ddspy_read_participant(condition._ref, count, participant_constructor, _no_qos)
+    if isinstance(batch, int):
+        raise DDSException(batch, f"Occurred while reading data in {reader!r}")
+    return batch  # type: ignore[no-any-return]
 
 
 def entity_handle(entity: Any) -> int:

@@ -97,7 +97,7 @@ from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsParticipant
 from cyclonedds.core import DDSException, Entity, InstanceState, ReadCondition, SampleState, ViewState
 from cyclonedds.domain import DomainParticipant
 
-from ._binding import matched_publications, read_new_infos
+from ._binding import matched_publications, read_new_infos, read_participant_keys
 
 log = logging.getLogger(__name__)
 
@@ -347,7 +347,7 @@ class DiscoveryWatch:
         )
 
     def _read_participants(self) -> None:
-        for sample in self._participants.read(N=_BATCH, condition=self._new_participants):
+        for sample in read_participant_keys(self._participants, self._new_participants, _BATCH):
             key = getattr(sample, "key", None)
             if key is None or key in self._own:
                 continue

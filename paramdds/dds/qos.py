@@ -98,6 +98,8 @@ class QosProfiles:
         from cyclonedds.core import DDSException
         from cyclonedds.qos_provider import QosProvider
 
+        from . import _binding  # noqa: F401  (the provider converts QoS: under the binding's lock)
+
         try:
             provider = QosProvider(str(file))
         except DDSException as exc:
