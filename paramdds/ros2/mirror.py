@@ -43,7 +43,7 @@ from ..core.table import ParameterTable
 from ..core.values import Parameter, ParameterType, ParameterValue
 from ..errors import ErrorCode, OutcomeUnknownError, ParamddsError
 from .messages import descriptor_from_ros, parameter_to_ros, result_from_ros, value_from_ros
-from .rosside import RosSide
+from .rosside import RosSide, Unanswered
 
 log = logging.getLogger(__name__)
 
@@ -190,7 +190,12 @@ class UnreachableTable(ParameterTable):
 
 
 class MirrorTable(ParameterTable):
-    """The table of a mirrored ROS 2 node: reads are local, sets go to the node first."""
+    """The table of a mirrored ROS 2 node: reads are local, sets go to the node first.
+
+    Its reads never wait for a forwarded set (``forwards_writes``): while the node is stalled
+    they are answered from what the table holds, and the node shows ``status=stale``."""
+
+    forwards_writes = True
 
     def __init__(self, node_id: str, link: RosLink) -> None:
         super().__init__(node_id)
@@ -229,9 +234,9 @@ class MirrorTable(ParameterTable):
             return SetOutcome(tuple(_all_failed(request, results)), self.revision, None)
         try:
             answers = self.link.set([p for _, p in send], atomic, deadline) if send else []
-        except ParamddsError as exc:
-            if exc.code is ErrorCode.TIMEOUT:  # sent, not answered: the ROS 2 node may apply it later
-                raise unanswered(self.link.fqn, exc) from exc
+        except Unanswered as exc:  # sent, then no answer or a failure: the node may apply it
+            raise unanswered(self.link.fqn, exc) from exc
+        except ParamddsError as exc:  # not sent (its service is not there)
             answers = [SetResult(p.name, False, exc.message, exc.code) for _, p in send]
         entries: dict[str, Entry | None] = {}
         for (i, p), answer in zip(send, answers, strict=True):
@@ -295,15 +300,17 @@ class MirrorTable(ParameterTable):
 
 
 def forward_budget(timeout: float, deadline: int) -> float:
-    """How long a forwarded set waits for the ROS 2 node: the link's timeout, and never past
-    the paramdds caller's deadline (by this host's clock)."""
+    """How long a forwarded set waits for the ROS 2 node: until the paramdds caller's deadline
+    (by this host's clock; the caller's ``--timeout`` is honoured, whatever the link's), or
+    the link's timeout for a set without a deadline (an assignment)."""
     left = deadlines.remaining(deadline)
-    return timeout if left is None else max(0.0, min(timeout, left))
+    return timeout if left is None else max(0.0, left)
 
 
 def unanswered(fqn: str, exc: ParamddsError) -> OutcomeUnknownError:
-    """A forwarded set the ROS 2 node did not answer in time: ROS 2 has no deadline, so the node
-    may still apply it (its /parameter_events then update the mirror)."""
+    """A forwarded set the ROS 2 node did not answer in time (or whose call failed after it was
+    sent): ROS 2 has no deadline, so the node may still apply it (its /parameter_events then
+    update the mirror)."""
     return OutcomeUnknownError(
         f"outcome unknown: {exc.message}; the set was forwarded to {fqn} and ROS 2 has no deadline, "
         "so it may still be applied (`get` shows it once the node has answered)"
