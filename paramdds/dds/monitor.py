@@ -15,7 +15,9 @@ Events report changes, so a watcher sees the same story whatever it missed:
 * after a stall, an offline/online or a restart the node's table arrives again; a
   sample whose value and descriptor equal what the monitor holds is no event;
 * a sample of a new incarnation (the node's server started again) is one
-  ``restarted`` event, then only what differs from before;
+  ``restarted`` event, then only what differs from before; a node online until then
+  goes ``offline`` first (its old incarnation is gone, even when its going came too
+  fast to be seen), so a restart always shows offline, restarted, online;
 * within one incarnation an event never carries a revision lower than one emitted
   before for that node (a re-delivered sample keeps the revision it was written at;
   it is reported at the highest revision shown, the state it is part of);
@@ -293,6 +295,11 @@ class ParameterMonitor:
         # two processes hosting one node id (a warned misconfiguration, see duplicates) each have
         # an incarnation of their own: their samples alternating is no restart
         restarted = state.incarnation != 0 and not state.duplicates
+        if restarted and state.online:
+            # the old incarnation is gone even when its going was never seen (a restart faster
+            # than this reader's look: keyed state kept only the new presence): offline first
+            self._flush_deleted(state, state.revision, events)
+            self._add(events, self._set_online(state, False))
         state.incarnation, state.shown = s.incarnation, 0
         if restarted and self._callbacks:
             self._flush_deleted(state, state.revision, events)

@@ -53,6 +53,7 @@ UNREACHABLE_AFTER = 3.0  # seconds of failing reads before a node is shown unrea
 RESCUE_AT = 3  # the failure from which the node's clients live in a new participant
 RESCUE_EVERY = 10.0  # seconds: a new rescue participant at most this often
 UNREACHABLE = "unreachable"
+MIN_AGE = 1.0  # seconds a node must have been in the graph before it is mirrored (not tool nodes)
 
 Entry = tuple[ParameterValue, ParameterDescriptor]
 CAS_REFUSED = (
@@ -375,6 +376,8 @@ class Mirror:
         self._rescues: list[tuple[RosSide, float]] = []  # new participants, the newest last
         self._rescue_lock = threading.Lock()
         self._departed: dict[str, list[str]] = {}  # node id -> the names it had when it left
+        self._first_seen: dict[str, float] = {}  # fqn -> when a node not mirrored yet was first seen
+        self._looking_since: float | None = None  # the first look at the graph
         self.timeout = timeout
         self.resync_period = resync
         self.nodes: dict[str, Mirrored] = {}  # by fqn
@@ -392,14 +395,20 @@ class Mirror:
             current = dict(self.nodes)
         for fqn in current.keys() - wanted.keys():
             self._remove(fqn)
+        if self._looking_since is None:
+            self._looking_since = now
+        for fqn in self._first_seen.keys() - wanted.keys():
+            del self._first_seen[fqn]
         for fqn, writers in wanted.items():
             m = current.get(fqn)
             if m is None:
+                if not self._old_enough(fqn, now):
+                    continue
                 m = self._add(fqn, writers)
                 if m is None:
                     continue
                 self._submit(m)
-            elif writers - m.writers:  # a writer we did not know: the node restarted
+            elif m.writers and writers - m.writers:  # a writer we did not know: the node restarted
                 log.info("%s restarted: resynchronizing it under a new incarnation", fqn)
                 m.writers = writers
                 with m.lock:
@@ -410,6 +419,17 @@ class Mirror:
                 due = m.failures and now >= m.retry_at
                 if due or (m.hosted and self.resync_period > 0 and now - m.synced_at >= self.resync_period):
                     self._submit(m)
+
+    def _old_enough(self, fqn: str, now: float) -> bool:
+        """Whether a node not mirrored yet has been in the graph for :data:`MIN_AGE` seconds, so
+        that a tool's node (``ros2 param`` lives well under a second) is never mirrored. The
+        nodes of the bridge's first second of looking were there before it: mirrored at once."""
+        assert self._looking_since is not None
+        seen = self._first_seen.setdefault(fqn, now)
+        if seen - self._looking_since < MIN_AGE or now - seen >= MIN_AGE:
+            self._first_seen.pop(fqn, None)
+            return True
+        return False
 
     def _add(self, fqn: str, writers: frozenset[bytes]) -> Mirrored | None:
         try:
@@ -469,6 +489,8 @@ class Mirror:
             if renew:
                 self._departed[m.node_id] = m.table.names()
                 self._unhost(m.node_id)
+                # a new table: its revisions start again, as a restarted server's node's do
+                m.table = MirrorTable(m.node_id, m.link)
             m.table.resync(entries)
             with self._lock:
                 still = self.nodes.get(m.fqn) is m

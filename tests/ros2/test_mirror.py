@@ -194,13 +194,19 @@ def test_a_change_made_in_rclpy_reaches_paramdds_watch(
 
 
 def test_a_node_killed_and_restarted_goes_offline_and_comes_back_resynced(
-    ros_env: dict[str, str], ros_hosts: Any, bridge: Any, paramdds_side: Any, tmp_path: Any
+    ros_env: dict[str, str], ros_hosts: Any, bridge: Any, paramdds_side: Any, tmp_path: Any, domain_id: int
 ) -> None:
     first = tmp_path / "first.yaml"
     first.write_text("/arm/driver:\n  ros__parameters:\n    gain: 1.0\n    port: /dev/a\n")
     second = tmp_path / "second.yaml"
     second.write_text("/arm/driver:\n  ros__parameters:\n    gain: 2.0\n    baud: 9600\n")
     client, monitor = paramdds_side
+    events: list[tuple[str, int]] = []  # what `paramdds watch` shows of the node: (event, revision)
+    watcher_dp = make_participant(domain_id, localhost=True)
+    watcher = ParameterMonitor(
+        watcher_dp,
+        on_event=lambda e: events.append((e.event.value, e.revision)) if e.node == "arm/driver" else None,
+    )
     host: RosHost = ros_hosts("--params-file", str(first))
     client.wait_for_node("arm/driver", timeout=30)
 
@@ -209,6 +215,7 @@ def test_a_node_killed_and_restarted_goes_offline_and_comes_back_resynced(
         return {n: v.value for n, (v, _) in st.parameters.items()} if st and st.online else None
 
     wait_for(lambda: (values() or {}).get("gain") == 1.0, 10, "the first values")
+    first_hosting = monitor.snapshot()["arm/driver"]
     host.close()  # a clean shutdown: the node leaves the graph at once
     wait_for(lambda: monitor.snapshot()["arm/driver"].online is False, 10, "offline after a clean stop")
 
@@ -222,6 +229,7 @@ def test_a_node_killed_and_restarted_goes_offline_and_comes_back_resynced(
 
     # kill -9 and restart at once: the dead participant stays in the ROS 2 graph for
     # Fast DDS's lease, but the new /parameter_events writer says it restarted
+    before = len(events)
     host.kill()
     host = ros_hosts("--params-file", str(first))
     wait_for(
@@ -229,6 +237,33 @@ def test_a_node_killed_and_restarted_goes_offline_and_comes_back_resynced(
         20,
         "resynced after kill -9 and restart",
     )
+    # its revisions start again, as a restarted native node's: those of its first hosting (the
+    # same file), under a new incarnation; and the watch shows it offline, then online
+    again = monitor.snapshot()["arm/driver"]
+    assert again.revision == first_hosting.revision and again.incarnation != first_hosting.incarnation
+    wait_for(lambda: "online" in [e for e, _ in events[before:]], 10, "online in the watch")
+    kinds = [e for e, _ in events[before:]]
+    assert "offline" in kinds and kinds.index("offline") < kinds.index("online"), events[before:]
+    watcher.close()
+    close_participant(watcher_dp)
+
+
+def test_a_tool_node_living_under_a_second_is_not_mirrored(
+    ros_hosts: Any, bridge: Any, paramdds_side: Any
+) -> None:
+    """Nodes like the one `ros2 param` makes for a moment are not mirrored (docs/ros2.md); a
+    node that stays for a few seconds is (the control)."""
+    client, monitor = paramdds_side
+    host: RosHost = ros_hosts("--node", "/tools/host")
+    client.wait_for_node("tools/host", timeout=30)
+    seen: set[str] = set()
+    for i in range(3):  # each its own name, as each `ros2 param` run's node
+        assert host.command(f"blink /tools/brief{i} 0.3") == "blinked"
+        seen |= set(monitor.snapshot())
+    time.sleep(1.5)  # a mirror of one would be on paramdds by now
+    assert not {n for n in seen | set(monitor.snapshot()) if n.startswith("tools/brief")}
+    assert host.command("blink /tools/lasting 3.0") == "blinked"
+    assert "tools/lasting" in monitor.snapshot()
 
 
 def test_a_hanging_callback_delays_only_its_node(
