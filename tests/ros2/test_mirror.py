@@ -384,3 +384,44 @@ def test_the_periodic_resync_repairs_a_mirror_that_missed_a_change(
     finally:
         bridge.close()
         close_participant(dp)
+
+
+def test_a_dump_piped_into_load_onto_a_mirrored_rclpy_node_is_a_no_op(
+    ros_env: dict[str, str], ros_hosts: Any, bridge: Any, paramdds_side: Any, domain_id: int
+) -> None:
+    """`paramdds dump NODE | paramdds load NODE` (read-only parameters and descriptors included)
+    changes nothing: exit 0, the same revision, no change event."""
+    ros_hosts("--rich", "/robot/rich")
+    client, monitor = paramdds_side
+    client.wait_for_node("robot/rich", timeout=30)
+    dp = make_participant(domain_id, localhost=True)
+    changes: list[Any] = []
+    watcher = ParameterMonitor(
+        dp,
+        on_event=lambda e: changes.append(e) if e.event.value in ("added", "modified", "deleted") else None,
+    )
+    try:
+        assert watcher.wait_synced(timeout=10)
+        changes.clear()  # the initial state
+        before = monitor.snapshot()["robot/rich"]
+        cli = f"{sys.executable} -m paramdds.cli"
+        piped = subprocess.run(
+            ["bash", "-o", "pipefail", "-c", f"{cli} dump /robot/rich | {cli} load /robot/rich /dev/stdin"],
+            env=ros_env,
+            capture_output=True,
+            text=True,
+            timeout=60,
+            check=False,
+        )
+        assert piped.returncode == 0, piped.stdout + piped.stderr
+        lines = piped.stdout.splitlines()
+        # every parameter was loaded and found unchanged, read-only ones included
+        assert {line.split(":")[0] for line in lines[:-1]} == set(before.parameters), lines
+        assert all(line.endswith(": unchanged") for line in lines[:-1]), lines
+        time.sleep(1.0)  # a change would have reached the monitors by now
+        after = monitor.snapshot()["robot/rich"]
+        assert changes == [] and after.revision == before.revision, (changes, before.revision, after.revision)
+        assert after.parameters == before.parameters
+    finally:
+        watcher.close()
+        close_participant(dp)
