@@ -104,6 +104,7 @@ class Bridge:
             self.exposer = Exposer(self.ros, participant, self._qos, options.timeout)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        self._seen: tuple[int, int, int] = (-1, -1, -1)  # what step() logged last (see there)
 
     def start(self) -> Bridge:
         self.server.start()
@@ -152,15 +153,25 @@ class Bridge:
             info.node: info for info in self.client.nodes() if info.online and info.node not in ours
         }
         wanted: dict[str, frozenset[bytes]] = {}
+        elsewhere = 0  # selected, but already on paramdds from another process
         for fqn, enclave in graph.items():
             if enclave == ENCLAVE or not matches(fqn, self.options.mirror, self.options.exclude):
                 continue
             try:
                 if canonical_node_id(fqn) in on_paramdds:
+                    elsewhere += 1
                     continue
             except ParamddsError:
                 continue
             wanted[fqn] = writers.get(fqn, frozenset())
+        seen = (len(graph), len(wanted), elsewhere)
+        if seen != self._seen:  # what a start that mirrors nothing needs said (--log-level info)
+            self._seen = seen
+            log.info(
+                "the ROS 2 graph has %d nodes: %d to mirror, %d selected but hosted on paramdds by "
+                "another process",
+                *seen,
+            )
         self.mirror.update(wanted, time.monotonic())
         if self.exposer is not None:
             # a name taken in ROS 2 by anyone but this bridge's own exposed nodes (a ROS 2
