@@ -90,7 +90,7 @@ class Bridge:
         self.mirror = Mirror(
             self.ros,
             self.server.add_node,
-            self.server.remove_node,
+            self._unhost,
             self.server.forget,
             timeout=options.timeout,
             resync=options.resync,
@@ -111,6 +111,14 @@ class Bridge:
         self._thread = threading.Thread(target=self._run, name="paramdds-ros2-bridge", daemon=True)
         self._thread.start()
         return self
+
+    def _unhost(self, node_id: str) -> None:
+        """Stop hosting a mirror; one that a concurrent resynchronization took down already is
+        no error (it raised KeyError out of the bridge's loop)."""
+        try:
+            self.server.remove_node(node_id)
+        except KeyError:
+            log.debug("%s was not hosted any more", node_id)
 
     def _show_unreachable(self, table: ParameterTable) -> None:
         """Host a node whose services do not answer, with ``status=unreachable`` in its presence."""
@@ -148,10 +156,14 @@ class Bridge:
         """One look at both graphs (the loop's body)."""
         graph = self.ros.graph()
         writers = self.ros.event_publishers()
-        ours = {*self.server.nodes, *self.unreachable}  # the mirrors this bridge hosts
-        on_paramdds = {
-            info.node: info for info in self.client.nodes() if info.online and info.node not in ours
-        }
+        listed = self.client.nodes()
+        # Ours: every node the mirror holds, hosted or not at this instant, taken after the
+        # listing. A mirror being hosted, or hosted again after a restart, is online in the
+        # listing before (or still, while it is being taken down) it is in the server's
+        # nodes; counted as "another process's" it was dropped and added again, over and over
+        # while a start hosted 100 nodes (CI: '0 of 100 mirrored').
+        ours = {*self.mirror.node_ids(), *self.server.nodes, *self.unreachable}
+        on_paramdds = {info.node: info for info in listed if info.online and info.node not in ours}
         wanted: dict[str, frozenset[bytes]] = {}
         elsewhere = 0  # selected, but already on paramdds from another process
         for fqn, enclave in graph.items():

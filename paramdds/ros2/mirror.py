@@ -420,6 +420,11 @@ class Mirror:
                 if due or (m.hosted and self.resync_period > 0 and now - m.synced_at >= self.resync_period):
                     self._submit(m)
 
+    def node_ids(self) -> set[str]:
+        """The paramdds node ids of every node mirrored, hosted at this instant or not."""
+        with self._lock:
+            return {m.node_id for m in self.nodes.values()}
+
     def _old_enough(self, fqn: str, now: float) -> bool:
         """Whether a node not mirrored yet has been in the graph for :data:`MIN_AGE` seconds, so
         that a tool's node (``ros2 param`` lives well under a second) is never mirrored. The
