@@ -57,7 +57,7 @@ class BridgeOptions:
     mirror: Sequence[str] = ("*",)  # fqn globs of ROS 2 nodes to mirror
     exclude: Sequence[str] = ()  # fqn globs never mirrored
     expose: Sequence[str] = ()  # paramdds node globs to expose to ROS 2 (none by default)
-    timeout: float = 5.0  # seconds a forwarded call waits for the ROS 2 node
+    timeout: float = 5.0  # seconds a ROS 2 call waits with no caller's deadline (reads, assignments)
     resync: float = 60.0  # seconds between full re-reads of each mirrored node (0: never)
     ros_domain: int | None = None  # ROS_DOMAIN_ID when None
     name: str = "paramdds_bridge"

@@ -53,7 +53,7 @@ UNREACHABLE_AFTER = 3.0  # seconds of failing reads before a node is shown unrea
 RESCUE_AT = 3  # the failure from which the node's clients live in a new participant
 RESCUE_EVERY = 10.0  # seconds: a new rescue participant at most this often
 UNREACHABLE = "unreachable"
-MIN_AGE = 1.0  # seconds a node must have been in the graph before it is mirrored (not tool nodes)
+MIN_AGE = 2.0  # seconds a node must have been in the graph before it is mirrored (not tool nodes)
 
 Entry = tuple[ParameterValue, ParameterDescriptor]
 CAS_REFUSED = (
@@ -428,7 +428,8 @@ class Mirror:
     def _old_enough(self, fqn: str, now: float) -> bool:
         """Whether a node not mirrored yet has been in the graph for :data:`MIN_AGE` seconds, so
         that a tool's node (``ros2 param`` lives well under a second) is never mirrored. The
-        nodes of the bridge's first second of looking were there before it: mirrored at once."""
+        nodes of the bridge's first MIN_AGE seconds of looking were there before it: mirrored
+        at once."""
         assert self._looking_since is not None
         seen = self._first_seen.setdefault(fqn, now)
         if seen - self._looking_since < MIN_AGE or now - seen >= MIN_AGE:
