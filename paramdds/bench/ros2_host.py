@@ -11,7 +11,8 @@ makes a node without parameter services (until ``serve``).
 Prints ``ready /ns/a /ns/b ...`` once its nodes exist, then reads commands on stdin:
 ``set FQN NAME YAML`` sets a parameter from inside the node (as its own code would),
 ``get FQN NAME`` prints its value as JSON, ``serve FQN`` starts a muted node's parameter
-services, ``quit`` (or end of input) shuts down cleanly.
+services, ``blink FQN SECONDS`` makes a node that lives that long (as a tool's node, such as
+``ros2 param``'s, does), ``quit`` (or end of input) shuts down cleanly.
 """
 
 from __future__ import annotations
@@ -159,6 +160,14 @@ def main(argv: list[str] | None = None) -> int:
                 node = nodes[words[1]]
                 node._parameter_service = ParameterService(node)
                 print("served", flush=True)
+            if words[0] == "blink" and len(words) == 3:
+                ns, _, name = words[1].rpartition("/")
+                node = rclpy.create_node(name, namespace=ns or "/")
+                executor.add_node(node)
+                _stopping.wait(float(words[2]))
+                executor.remove_node(node)
+                node.destroy_node()
+                print("blinked", flush=True)
             if words[0] == "get" and len(words) == 3:
                 value = nodes[words[1]].get_parameter(words[2]).value
                 if not isinstance(value, (bool, int, float, str)):

@@ -21,6 +21,7 @@ dropped): Fast DDS knows no tags, and with one Cyclone would not meet ROS 2 at a
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import signal
@@ -64,17 +65,24 @@ class _Proc:
     """A process started in its own session, stopped with SIGTERM (then killed) at the end."""
 
     def __init__(
-        self, cmd: Sequence[str], env: dict[str, str], ready: str = "", timeout: float = 60.0
+        self,
+        cmd: Sequence[str],
+        env: dict[str, str],
+        ready: str = "",
+        timeout: float = 60.0,
+        log: Path | None = None,
     ) -> None:
-        self.proc = subprocess.Popen(
-            list(cmd),
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE if ready else subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-            text=True,
-            env=env,
-            start_new_session=True,
-        )
+        self.log = log  # its stderr, to say why when it did not do its part
+        with open(log, "w") if log is not None else contextlib.nullcontext() as err:
+            self.proc = subprocess.Popen(
+                list(cmd),
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE if ready else subprocess.DEVNULL,
+                stderr=err if err is not None else subprocess.DEVNULL,
+                text=True,
+                env=env,
+                start_new_session=True,
+            )
         self.first = ""
         if ready:
             assert self.proc.stdout is not None
@@ -86,6 +94,12 @@ class _Proc:
                 if line.startswith(ready):
                     self.first = line.strip()
                     break
+
+    def tail(self, chars: int = 3000) -> str:
+        """The end of its stderr (empty without a log)."""
+        if self.log is None or not self.log.exists():
+            return ""
+        return self.log.read_text(errors="replace")[-chars:]
 
     def stop(self) -> None:
         if self.proc.poll() is None:
@@ -135,6 +149,27 @@ def mirrored(monitor: Any, nodes: Sequence[str]) -> int:
     )
 
 
+def diagnosis(monitor: Any, nodes: Sequence[str], bridge: _Proc) -> str:
+    """Why a start is incomplete: what the monitor holds of ``nodes`` and the bridge's state."""
+    snap = monitor.snapshot()
+    held: dict[str, int] = {}
+    for n in nodes:
+        st = snap.get(n.lstrip("/"))
+        key = (
+            "absent"
+            if st is None
+            else f"online={st.online} complete={st.complete} origin={st.origin} status={st.status}"
+        )
+        held[key] = held.get(key, 0) + 1
+    others = sorted(k for k in snap if "/" + k not in nodes and k not in nodes)[:10]
+    code = bridge.proc.poll()
+    return (
+        f"{mirrored(monitor, nodes)} of {len(nodes)} mirrored; the monitor holds {held}; other nodes "
+        f"{others}; the bridge {'is running' if code is None else f'exited with {code}'}; its log ends:\n"
+        f"{bridge.tail()}"
+    )
+
+
 def _wait(check: Any, timeout: float) -> bool:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
@@ -150,7 +185,9 @@ def bridge_start(
     """Start ``paramdds ros2 --mirror GLOB``: seconds until ``monitor`` holds all ``nodes``
     mirrored (None: not within ``timeout``), and the running bridge."""
     t0 = time.monotonic()
-    bridge = _Proc(_python("-m", "paramdds.cli", "ros2", "--mirror", glob, "--resync", "0"), env)
+    log = Path(env["ROS_LOG_DIR"]).parent / f"bridge-{time.time_ns()}.log"
+    cmd = _python("-m", "paramdds.cli", "--log-level", "info", "ros2", "--mirror", glob, "--resync", "0")
+    bridge = _Proc(cmd, env, log=log)
     done = _wait(lambda: mirrored(monitor, nodes) == len(nodes), timeout)
     return (round(time.monotonic() - t0, 2) if done else None), bridge
 

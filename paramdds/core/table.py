@@ -236,6 +236,11 @@ def _callback_error(stage: str, exc: Exception) -> ParamddsError:
 class ParameterTable:
     """The parameters of one node (see the module docstring for the rules)."""
 
+    #: True for a table whose sets wait on another process (a mirrored ROS 2 node): its reads
+    #: never wait for its writes (a server answers them from the table while a set is out), and
+    #: a set that outlasts the liveliness lease marks the node ``stale``, not offline.
+    forwards_writes = False
+
     def __init__(
         self,
         node_id: str,

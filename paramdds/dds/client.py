@@ -58,7 +58,7 @@ from ..errors import (
 )
 from .discovery import MIN_QUIET, DiscoveryState, DiscoveryWatch, Presence
 from .dispatch import Dispatcher
-from .filters import NativeFilter, filtered_topic, origin_of, request_filter_of
+from .filters import NativeFilter, filtered_topic, origin_of, request_filter_of, status_of
 from .participant import peer_mismatches
 from .qos import QosProfiles
 from .transport import Writers, transport_of
@@ -101,6 +101,7 @@ class NodeInfo(_At):
     request_filter: str | None = None  # how the server filters requests: "native", "handler", or unsaid
     incarnation: int = 0  # the server's for this node (new on every start); 0 from one without
     origin: str | None = None  # where the node comes from (presence tag "origin", "ros2" for a mirror)
+    status: str | None = None  # presence tag "status": "unreachable", "stale" (a mirror), else None
 
 
 @dataclass(frozen=True)
@@ -734,6 +735,7 @@ def _node_info(sample: Any) -> NodeInfo | None:
         request_filter_of(tags),
         sample.incarnation,
         origin_of(tags),
+        status_of(tags),
     )
 
 

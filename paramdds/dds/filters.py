@@ -104,13 +104,17 @@ def origin_of(tags: Iterable[object]) -> str | None:
     return _tag_value(tags, ORIGIN_TAG)
 
 
+STALE = "stale"  # the status of a node whose set has waited on another process for over the lease
+
+
 def status_tag(status: str) -> str:
-    """The presence tag of a node that is there but cannot be read (``status=unreachable``)."""
+    """The presence tag of a node that is there but not all well: ``status=unreachable`` (it
+    cannot be read), ``status=stale`` (its values are the last known: a set waits on it)."""
     return STATUS_TAG + status
 
 
 def status_of(tags: Iterable[object]) -> str | None:
-    """The presence tag ``status`` (``"unreachable"``); None for a node that is what it says."""
+    """The presence tag ``status`` (``"unreachable"``, ``"stale"``); None for a node that is what it says."""
     return _tag_value(tags, STATUS_TAG)
 
 

@@ -15,7 +15,10 @@ Events report changes, so a watcher sees the same story whatever it missed:
 * after a stall, an offline/online or a restart the node's table arrives again; a
   sample whose value and descriptor equal what the monitor holds is no event;
 * a sample of a new incarnation (the node's server started again) is one
-  ``restarted`` event, then only what differs from before;
+  ``restarted`` event, then only what differs from before; a node online until then
+  and hosted again by the same process (a bridge's mirror of a restarted ROS 2 node)
+  goes ``offline`` first (its old incarnation is gone, even when its going came too
+  fast to be seen), so such a restart always shows offline, restarted, online;
 * within one incarnation an event never carries a revision lower than one emitted
   before for that node (a re-delivered sample keeps the revision it was written at;
   it is reported at the highest revision shown, the state it is part of);
@@ -246,7 +249,7 @@ class ParameterMonitor:
                 if self._callbacks:  # emitted with the revision of the presence that follows
                     state.deleting.append((s.name, value, descriptor))
             return  # "no writers" on a parameter: the node is offline, keep its value
-        self._check_incarnation(state, s, events)
+        self._check_incarnation(state, s, info, events)
         if s.kind == wire.EVENT_PRESENCE and s.name == "":
             self._flush_deleted(state, s.revision, events)
             self._add(events, self._apply_presence(state, s, info))
@@ -286,13 +289,22 @@ class ParameterMonitor:
         state.shown = max(state.shown, revision)
         return state.shown
 
-    def _check_incarnation(self, state: NodeState, s: StateSample, events: list[MonitorEvent]) -> None:
+    def _check_incarnation(
+        self, state: NodeState, s: StateSample, info: Any, events: list[MonitorEvent]
+    ) -> None:
         """A sample of another incarnation than the one held: the node's server started again."""
         if not s.incarnation or s.incarnation == state.incarnation:
             return
         # two processes hosting one node id (a warned misconfiguration, see duplicates) each have
         # an incarnation of their own: their samples alternating is no restart
         restarted = state.incarnation != 0 and not state.duplicates
+        if restarted and state.online and state.writer == int(getattr(info, "publication_handle", 0)):
+            # hosted again by the same writer (process): the old incarnation is gone even when its
+            # going was never seen (a restart faster than this reader's look: keyed state kept
+            # only the new presence), so offline first. From another writer it may be a second
+            # host of the node id (see duplicates), told apart by the presence that follows.
+            self._flush_deleted(state, state.revision, events)
+            self._add(events, self._set_online(state, False))
         state.incarnation, state.shown = s.incarnation, 0
         if restarted and self._callbacks:
             self._flush_deleted(state, state.revision, events)

@@ -24,7 +24,9 @@ How it works:
   node's worker is idle and its table's lock free (never waiting), else queued
   behind the node's sets. A worker busy with one job for longer than the lease is
   reported stalled: logged, and its presence unregistered (monitors show it
-  offline) until the job returns.
+  offline) until the job returns. A table whose sets wait on another process
+  (``forwards_writes``: a mirrored ROS 2 node) has its reads answered at once even
+  while a set is out, and shows ``status=stale`` instead of offline.
 * Parameter state goes to ``ParameterEvents`` keyed by (node_id, name): declare and
   change write, delete disposes, a graceful stop unregisters (the State profile
   turns autodispose off, so readers see "no writers", not "deleted"). Each node
@@ -74,7 +76,7 @@ from ..core.values import Parameter, ParameterType
 from ..errors import ErrorCode, ParamddsError
 from ._binding import take_serialized
 from .dispatch import SERIALIZED, Dispatcher
-from .filters import NativeFilter, filter_tag, filtered_topic, gone_tag
+from .filters import STALE, NativeFilter, filter_tag, filtered_topic, gone_tag, status_tag
 from .node_worker import NodeWorker, Staged
 from .participant import poll_peers
 from .publication import Persistence, StatePublication
@@ -135,6 +137,7 @@ class ParameterServer:
         self.foreign_requests = 0  # requests that reached a handler for a node not hosted here
         self._check: threading.Thread | None = None
         self._last_tick = time.monotonic()
+        self._again_at: float | None = None  # when presence is written once more after a late loop
 
         # secure mode: writers and readers in the partitions of the nodes hosted here
         self._transport = transport_of(participant)
@@ -351,10 +354,28 @@ class ParameterServer:
         # receipt, its check runs on its own clock): write presence again with a margin
         if late > 0.75 * LEASE:
             self._present_again(late)
+            self._again_at = now + LEASE
+        elif self._again_at is not None and now >= self._again_at:
+            # once more, a lease later: a reader whose lease for our writer ran out only after the
+            # first rewrite reached it (a starved reader handles its lease and our samples in
+            # any order) would keep those nodes offline until their next change (seen: 72 of a
+            # bridge's 100 mirrors offline for good after its process starved for 2.4 s)
+            self._again_at = None
+            for worker in list(self._workers.values()):
+                self._presence_again(worker)
         poll_peers(self._dp)
         for worker in list(self._workers.values()):
             if worker.check_stall(now, LEASE):
                 node = worker.table.node_id
+                if worker.table.forwards_writes:  # waiting on the node's own process: values kept
+                    log.warning(
+                        "node %r: a set has waited on its process for over %.1f s; it shows stale "
+                        "(reads answered from the last known values) until the set returns",
+                        node,
+                        LEASE,
+                    )
+                    self.publication.write_presence(worker.table, status_tag(STALE))
+                    continue
                 log.warning(
                     "node %r stalled: one job (a callback or a persistence write) has run for over "
                     "%.1f s; it shows offline until the job returns",
@@ -370,7 +391,8 @@ class ParameterServer:
         lapsed and every monitor marked its nodes offline. Asserting liveliness again
         does not bring an instance back: Cyclone keeps it not-alive until the writer
         writes it, so without this a node that recovered would look offline until its
-        next change. A node whose worker is busy writes its presence when the job ends.
+        next change. A node whose worker is busy writes its presence when the job ends. The
+        tick writes it once more a lease later (see there).
         """
         log.warning("the server did not run for %.1f s (stopped or starved): writing presence again", late)
         for worker in list(self._workers.values()):
@@ -560,7 +582,9 @@ class ParameterServer:
             if worker is None:
                 self.foreign_requests += 1
                 continue
-            if worker.idle():  # nothing of this node's in flight: answer now, skipping a thread hop
+            # nothing of this node's in flight (or its reads never wait for its writes): answer
+            # now, skipping a thread hop
+            if worker.idle() or worker.table.forwards_writes:
                 with worker.table.try_locked() as free:  # never wait on a callback's lock
                     if free:
                         self._fill_and_reply(worker.table, request, reply_topic, fill)

@@ -57,7 +57,7 @@ class BridgeOptions:
     mirror: Sequence[str] = ("*",)  # fqn globs of ROS 2 nodes to mirror
     exclude: Sequence[str] = ()  # fqn globs never mirrored
     expose: Sequence[str] = ()  # paramdds node globs to expose to ROS 2 (none by default)
-    timeout: float = 5.0  # seconds a forwarded call waits for the ROS 2 node
+    timeout: float = 5.0  # seconds a ROS 2 call waits with no caller's deadline (reads, assignments)
     resync: float = 60.0  # seconds between full re-reads of each mirrored node (0: never)
     ros_domain: int | None = None  # ROS_DOMAIN_ID when None
     name: str = "paramdds_bridge"
@@ -90,7 +90,7 @@ class Bridge:
         self.mirror = Mirror(
             self.ros,
             self.server.add_node,
-            self.server.remove_node,
+            self._unhost,
             self.server.forget,
             timeout=options.timeout,
             resync=options.resync,
@@ -104,12 +104,21 @@ class Bridge:
             self.exposer = Exposer(self.ros, participant, self._qos, options.timeout)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        self._seen: tuple[int, int, int] = (-1, -1, -1)  # what step() logged last (see there)
 
     def start(self) -> Bridge:
         self.server.start()
         self._thread = threading.Thread(target=self._run, name="paramdds-ros2-bridge", daemon=True)
         self._thread.start()
         return self
+
+    def _unhost(self, node_id: str) -> None:
+        """Stop hosting a mirror; one that a concurrent resynchronization took down already is
+        no error (it raised KeyError out of the bridge's loop)."""
+        try:
+            self.server.remove_node(node_id)
+        except KeyError:
+            log.debug("%s was not hosted any more", node_id)
 
     def _show_unreachable(self, table: ParameterTable) -> None:
         """Host a node whose services do not answer, with ``status=unreachable`` in its presence."""
@@ -147,20 +156,34 @@ class Bridge:
         """One look at both graphs (the loop's body)."""
         graph = self.ros.graph()
         writers = self.ros.event_publishers()
-        ours = {*self.server.nodes, *self.unreachable}  # the mirrors this bridge hosts
-        on_paramdds = {
-            info.node: info for info in self.client.nodes() if info.online and info.node not in ours
-        }
+        listed = self.client.nodes()
+        # Ours: every node the mirror holds, hosted or not at this instant, taken after the
+        # listing. A mirror being hosted, or hosted again after a restart, is online in the
+        # listing before (or still, while it is being taken down) it is in the server's
+        # nodes; counted as "another process's" it was dropped and added again, over and over
+        # while a start hosted 100 nodes (CI: '0 of 100 mirrored').
+        ours = {*self.mirror.node_ids(), *self.server.nodes, *self.unreachable}
+        on_paramdds = {info.node: info for info in listed if info.online and info.node not in ours}
         wanted: dict[str, frozenset[bytes]] = {}
+        elsewhere = 0  # selected, but already on paramdds from another process
         for fqn, enclave in graph.items():
             if enclave == ENCLAVE or not matches(fqn, self.options.mirror, self.options.exclude):
                 continue
             try:
                 if canonical_node_id(fqn) in on_paramdds:
+                    elsewhere += 1
                     continue
             except ParamddsError:
                 continue
             wanted[fqn] = writers.get(fqn, frozenset())
+        seen = (len(graph), len(wanted), elsewhere)
+        if seen != self._seen:  # what a start that mirrors nothing needs said (--log-level info)
+            self._seen = seen
+            log.info(
+                "the ROS 2 graph has %d nodes: %d to mirror, %d selected but hosted on paramdds by "
+                "another process",
+                *seen,
+            )
         self.mirror.update(wanted, time.monotonic())
         if self.exposer is not None:
             # a name taken in ROS 2 by anyone but this bridge's own exposed nodes (a ROS 2

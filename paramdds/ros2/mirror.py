@@ -43,7 +43,7 @@ from ..core.table import ParameterTable
 from ..core.values import Parameter, ParameterType, ParameterValue
 from ..errors import ErrorCode, OutcomeUnknownError, ParamddsError
 from .messages import descriptor_from_ros, parameter_to_ros, result_from_ros, value_from_ros
-from .rosside import RosSide
+from .rosside import RosSide, Unanswered
 
 log = logging.getLogger(__name__)
 
@@ -53,6 +53,7 @@ UNREACHABLE_AFTER = 3.0  # seconds of failing reads before a node is shown unrea
 RESCUE_AT = 3  # the failure from which the node's clients live in a new participant
 RESCUE_EVERY = 10.0  # seconds: a new rescue participant at most this often
 UNREACHABLE = "unreachable"
+MIN_AGE = 2.0  # seconds a node must have been in the graph before it is mirrored (not tool nodes)
 
 Entry = tuple[ParameterValue, ParameterDescriptor]
 CAS_REFUSED = (
@@ -190,7 +191,12 @@ class UnreachableTable(ParameterTable):
 
 
 class MirrorTable(ParameterTable):
-    """The table of a mirrored ROS 2 node: reads are local, sets go to the node first."""
+    """The table of a mirrored ROS 2 node: reads are local, sets go to the node first.
+
+    Its reads never wait for a forwarded set (``forwards_writes``): while the node is stalled
+    they are answered from what the table holds, and the node shows ``status=stale``."""
+
+    forwards_writes = True
 
     def __init__(self, node_id: str, link: RosLink) -> None:
         super().__init__(node_id)
@@ -229,9 +235,9 @@ class MirrorTable(ParameterTable):
             return SetOutcome(tuple(_all_failed(request, results)), self.revision, None)
         try:
             answers = self.link.set([p for _, p in send], atomic, deadline) if send else []
-        except ParamddsError as exc:
-            if exc.code is ErrorCode.TIMEOUT:  # sent, not answered: the ROS 2 node may apply it later
-                raise unanswered(self.link.fqn, exc) from exc
+        except Unanswered as exc:  # sent, then no answer or a failure: the node may apply it
+            raise unanswered(self.link.fqn, exc) from exc
+        except ParamddsError as exc:  # not sent (its service is not there)
             answers = [SetResult(p.name, False, exc.message, exc.code) for _, p in send]
         entries: dict[str, Entry | None] = {}
         for (i, p), answer in zip(send, answers, strict=True):
@@ -295,15 +301,17 @@ class MirrorTable(ParameterTable):
 
 
 def forward_budget(timeout: float, deadline: int) -> float:
-    """How long a forwarded set waits for the ROS 2 node: the link's timeout, and never past
-    the paramdds caller's deadline (by this host's clock)."""
+    """How long a forwarded set waits for the ROS 2 node: until the paramdds caller's deadline
+    (by this host's clock; the caller's ``--timeout`` is honoured, whatever the link's), or
+    the link's timeout for a set without a deadline (an assignment)."""
     left = deadlines.remaining(deadline)
-    return timeout if left is None else max(0.0, min(timeout, left))
+    return timeout if left is None else max(0.0, left)
 
 
 def unanswered(fqn: str, exc: ParamddsError) -> OutcomeUnknownError:
-    """A forwarded set the ROS 2 node did not answer in time: ROS 2 has no deadline, so the node
-    may still apply it (its /parameter_events then update the mirror)."""
+    """A forwarded set the ROS 2 node did not answer in time (or whose call failed after it was
+    sent): ROS 2 has no deadline, so the node may still apply it (its /parameter_events then
+    update the mirror)."""
     return OutcomeUnknownError(
         f"outcome unknown: {exc.message}; the set was forwarded to {fqn} and ROS 2 has no deadline, "
         "so it may still be applied (`get` shows it once the node has answered)"
@@ -368,6 +376,8 @@ class Mirror:
         self._rescues: list[tuple[RosSide, float]] = []  # new participants, the newest last
         self._rescue_lock = threading.Lock()
         self._departed: dict[str, list[str]] = {}  # node id -> the names it had when it left
+        self._first_seen: dict[str, float] = {}  # fqn -> when a node not mirrored yet was first seen
+        self._looking_since: float | None = None  # the first look at the graph
         self.timeout = timeout
         self.resync_period = resync
         self.nodes: dict[str, Mirrored] = {}  # by fqn
@@ -385,14 +395,20 @@ class Mirror:
             current = dict(self.nodes)
         for fqn in current.keys() - wanted.keys():
             self._remove(fqn)
+        if self._looking_since is None:
+            self._looking_since = now
+        for fqn in self._first_seen.keys() - wanted.keys():
+            del self._first_seen[fqn]
         for fqn, writers in wanted.items():
             m = current.get(fqn)
             if m is None:
+                if not self._old_enough(fqn, now):
+                    continue
                 m = self._add(fqn, writers)
                 if m is None:
                     continue
                 self._submit(m)
-            elif writers - m.writers:  # a writer we did not know: the node restarted
+            elif m.writers and writers - m.writers:  # a writer we did not know: the node restarted
                 log.info("%s restarted: resynchronizing it under a new incarnation", fqn)
                 m.writers = writers
                 with m.lock:
@@ -403,6 +419,23 @@ class Mirror:
                 due = m.failures and now >= m.retry_at
                 if due or (m.hosted and self.resync_period > 0 and now - m.synced_at >= self.resync_period):
                     self._submit(m)
+
+    def node_ids(self) -> set[str]:
+        """The paramdds node ids of every node mirrored, hosted at this instant or not."""
+        with self._lock:
+            return {m.node_id for m in self.nodes.values()}
+
+    def _old_enough(self, fqn: str, now: float) -> bool:
+        """Whether a node not mirrored yet has been in the graph for :data:`MIN_AGE` seconds, so
+        that a tool's node (``ros2 param`` lives well under a second) is never mirrored. The
+        nodes of the bridge's first MIN_AGE seconds of looking were there before it: mirrored
+        at once."""
+        assert self._looking_since is not None
+        seen = self._first_seen.setdefault(fqn, now)
+        if seen - self._looking_since < MIN_AGE or now - seen >= MIN_AGE:
+            self._first_seen.pop(fqn, None)
+            return True
+        return False
 
     def _add(self, fqn: str, writers: frozenset[bytes]) -> Mirrored | None:
         try:
@@ -462,6 +495,8 @@ class Mirror:
             if renew:
                 self._departed[m.node_id] = m.table.names()
                 self._unhost(m.node_id)
+                # a new table: its revisions start again, as a restarted server's node's do
+                m.table = MirrorTable(m.node_id, m.link)
             m.table.resync(entries)
             with self._lock:
                 still = self.nodes.get(m.fqn) is m

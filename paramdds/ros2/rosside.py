@@ -28,6 +28,12 @@ from ..errors import ErrorCode, ParamddsError
 
 log = logging.getLogger(__name__)
 
+
+class Unanswered(ParamddsError):
+    """A service call that was sent and got no answer (TIMEOUT) or failed after it was sent:
+    the node may have acted on it (for a set: OUTCOME_UNKNOWN, see :func:`.mirror.unanswered`)."""
+
+
 ENCLAVE = "/paramdds_bridge"  # the enclave of every node a bridge creates
 TYPES_SERVICE = "/_paramdds_bridge/types"  # hidden (a leading _): the clients that register types
 
@@ -120,7 +126,9 @@ class RosSide:
         return self.node.create_client(srv_type, service, callback_group=self.clients_group)
 
     def call(self, client: Any, request: Any, timeout: float) -> Any:
-        """Call a service and wait at most ``timeout`` seconds: TIMEOUT or UNAVAILABLE otherwise."""
+        """Call a service and wait at most ``timeout`` seconds. UNAVAILABLE when the service is not
+        there (nothing was sent); :class:`Unanswered` once the request went out (TIMEOUT, or the
+        call failed after it was sent)."""
         if not self._ready(client, min(timeout, 2.0)):
             raise ParamddsError(
                 f"the ROS 2 service {client.srv_name} is not available", code=ErrorCode.UNAVAILABLE
@@ -130,14 +138,14 @@ class RosSide:
         future.add_done_callback(lambda _f: done.set())
         if not done.wait(timeout):
             client.remove_pending_request(future)
-            raise ParamddsError(
+            raise Unanswered(
                 f"the ROS 2 node did not answer {client.srv_name} within {timeout:g} s "
                 "(busy in a callback, or gone)",
                 code=ErrorCode.TIMEOUT,
             )
         exc = future.exception()
         if exc is not None:
-            raise ParamddsError(f"{client.srv_name} failed: {exc}", code=ErrorCode.UNAVAILABLE)
+            raise Unanswered(f"{client.srv_name} failed after it was sent: {exc}", code=ErrorCode.UNAVAILABLE)
         return future.result()
 
     @staticmethod

@@ -3,7 +3,7 @@
 Shapes (documented in docs/web.md):
 
 * a node summary: ``{"node", "online", "host", "pid", "revision", "parameters",
-  "request_filter", "incarnation", "origin"}`` (the incarnation in 16 hex digits);
+  "request_filter", "incarnation", "origin", "status"}`` (the incarnation in 16 hex digits);
 * a parameter row: ``{"name", "value", "type", "descriptor"}`` with the value and
   descriptor in the CLI's JSON shapes (:mod:`paramdds.frontend.shapes`: byte arrays as
   lists of ints, non-finite doubles as ``"nan"``/``"inf"``/``"-inf"``);

@@ -90,6 +90,7 @@ class StateView:
             st.request_filter,
             st.incarnation,
             st.origin,
+            st.status,
         )
 
     def page(self, query: str, offset: int, limit: int) -> NodePage:

@@ -17,7 +17,7 @@ from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
-from paramdds.dds.participant import make_participant
+from paramdds.dds.participant import close_participant, make_participant
 from paramdds.dds.qos import TOPIC_PROFILES, QosProfiles, default_path
 from paramdds.dds.wire import types
 from paramdds.errors import ErrorCode, FileFormatError
@@ -190,20 +190,24 @@ def _watch(
 
 def _stop_writer_and_watch(domain_id: int, writer_qos: Qos, reader_qos: Qos) -> dict[str, int]:
     participant = make_participant(domain_id, localhost=True, app_name="test_qos")
-    reader = DataReader(
-        participant, Topic(participant, "ParameterEvents", types.ParameterEvent), qos=reader_qos
-    )
     writer_side = make_participant(domain_id, localhost=True, app_name="test_qos_writer")
-    topic = Topic(writer_side, "ParameterEvents", types.ParameterEvent)
-    writer = DataWriter(writer_side, topic, qos=writer_qos)
-    for name in ("a", "b", "c"):
-        writer.write(types.ParameterEvent(node_id="n1", name=name, revision=1))
-    states: dict[str, int] = {}
-    names: dict[int, str] = {}
-    _watch(participant, reader, states, names, lambda s: len(s) == 3)
-    assert states == dict.fromkeys("abc", InstanceState.Alive)
-    del writer  # a graceful stop: deleting the writer unregisters its instances
-    return _watch(participant, reader, states, names, lambda s: InstanceState.Alive not in s.values())
+    try:  # both closed at the end: a participant left open keeps its domain id configured
+        reader = DataReader(
+            participant, Topic(participant, "ParameterEvents", types.ParameterEvent), qos=reader_qos
+        )
+        topic = Topic(writer_side, "ParameterEvents", types.ParameterEvent)
+        writer = DataWriter(writer_side, topic, qos=writer_qos)
+        for name in ("a", "b", "c"):
+            writer.write(types.ParameterEvent(node_id="n1", name=name, revision=1))
+        states: dict[str, int] = {}
+        names: dict[int, str] = {}
+        _watch(participant, reader, states, names, lambda s: len(s) == 3)
+        assert states == dict.fromkeys("abc", InstanceState.Alive)
+        del writer  # a graceful stop: deleting the writer unregisters its instances
+        return _watch(participant, reader, states, names, lambda s: InstanceState.Alive not in s.values())
+    finally:
+        close_participant(writer_side)
+        close_participant(participant)
 
 
 def test_graceful_stop_leaves_instances_not_alive_no_writers(domain_id: int, profiles: QosProfiles) -> None:

@@ -210,7 +210,7 @@ def test_after_a_restart_the_page_applies_atomically_again(page: Page, console: 
 
 def test_a_node_mirrored_from_ros2_is_marked(page: Page, console: Console, domain: int) -> None:
     """A presence tagged origin=ros2 (the bridge's mirrored nodes) shows a mark in the list and
-    the node's line, and "origin" in the API."""
+    the node's line, and "origin" in the API; so does its status (stale: a set waits on it)."""
     from cyclonedds.pub import DataWriter
     from cyclonedds.topic import Topic
 
@@ -225,7 +225,9 @@ def test_a_node_mirrored_from_ros2_is_marked(page: Page, console: Console, domai
             Topic(dp, "ParameterEvents", wire.ParameterEvent),
             QosProfiles.load().writer("ParameterEvents"),
         )
-        tags = wire.ParameterValue(type=9, string_array_value=["request_filter=handler", "origin=ros2"])
+        tags = wire.ParameterValue(
+            type=9, string_array_value=["request_filter=handler", "origin=ros2", "status=stale"]
+        )
         writer.write(
             wire.ParameterEvent(
                 node_id="talker",
@@ -255,9 +257,9 @@ def test_a_node_mirrored_from_ros2_is_marked(page: Page, console: Console, domai
             for n in httpx.get(console.url + "api/nodes", timeout=5).json()["nodes"]
             if n["node"] == "talker"
         ]
-        assert [n["origin"] for n in listed] == ["ros2"]
+        assert [(n["origin"], n["status"]) for n in listed] == [("ros2", "stale")]
         assert all(
-            n["origin"] is None
+            n["origin"] is None and n["status"] is None
             for n in httpx.get(console.url + "api/nodes", timeout=5).json()["nodes"]
             if n["node"] != "talker"
         )
@@ -266,7 +268,9 @@ def test_a_node_mirrored_from_ros2_is_marked(page: Page, console: Console, domai
         expect(page.locator('#nodes li[data-node="talker"] .n')).to_contain_text("/talker")
         expect(page.locator('#nodes li[data-node="talker"] .origin')).to_have_text("ros2")
         expect(page.locator('#nodes li[data-node="arm"] .origin')).to_have_count(0)
-        expect(page.locator("#node-meta")).to_contain_text("mirrored from ros2")
+        expect(page.locator('#nodes li[data-node="talker"] .status')).to_have_text("stale")
+        expect(page.locator('#nodes li[data-node="arm"] .status')).to_have_count(0)
+        expect(page.locator("#node-meta")).to_contain_text("mirrored from ros2 · stale")
     finally:
         close_participant(dp)
 

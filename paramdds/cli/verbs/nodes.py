@@ -46,7 +46,8 @@ def run(args: argparse.Namespace) -> int:
             "incarnation": incarnation_text(st.incarnation),  # the server's for the node, new on every start
             "at": str(Revision(st.incarnation, st.revision)),  # what `set --if-revision` takes
             "origin": st.origin,  # the presence tag "origin" ("ros2": mirrored by the bridge), or None
-            "status": st.status,  # "unreachable": a ROS 2 node the bridge cannot read; else None
+            "status": st.status,  # "unreachable": a ROS 2 node the bridge cannot read; "stale": one
+            # whose set waits on its stalled process (values are the last known); else None
         }
         for st in sorted(states.values(), key=lambda st: st.node)
         if st.online

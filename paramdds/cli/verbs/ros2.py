@@ -39,7 +39,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         type=float,
         default=5.0,
         metavar="SECONDS",
-        help="how long a forwarded call waits for a ROS 2 node (default %(default)s)",
+        help="how long a call to a ROS 2 node waits when no paramdds caller set a deadline: the "
+        "bridge's reads and retained assignments; a set waits until its caller's --timeout "
+        "(default %(default)s)",
     )
     p.add_argument(
         "--resync",

@@ -248,7 +248,8 @@ function scheduleNodes(delay = 250) { clearTimeout(S.listTimer); S.listTimer = s
 function nodeItem(n) {
   const li = el("li", { "data-node": n.node, class: (n.online ? "" : "offline ") + (n.node === S.selected ? "selected" : ""), title: `${n.host} pid ${n.pid}` },
     el("span", { class: "n" }, el("span", { class: "dot" }), shownNode(n.node, n.origin),
-      n.origin ? el("span", { class: "origin", title: `mirrored from ${n.origin} by the bridge`, text: n.origin }) : null),
+      n.origin ? el("span", { class: "origin", title: `mirrored from ${n.origin} by the bridge`, text: n.origin }) : null,
+      n.status ? el("span", { class: "status", title: STATUS_TITLES[n.status] || n.status, text: n.status }) : null),
     el("span", { class: "m", text: `${n.parameters} params · r${n.revision}` + (n.online ? "" : " · offline") }));
   li.addEventListener("click", () => select(n.node));
   return li;
@@ -277,6 +278,10 @@ function updateNodes(summaries) {
 
 // A ROS 2 node (mirrored by the bridge) is shown with its leading slash, as ROS 2 writes it;
 // the id the API takes and sends is the canonical one, without (both are accepted).
+const STATUS_TITLES = {
+  unreachable: "in the ROS 2 graph, but its parameter services do not answer (the bridge keeps trying)",
+  stale: "a set waits on its stalled process: the values shown are the last known",
+};
 function shownNode(node, origin) { return origin === "ros2" ? "/" + node : node; }
 
 function select(node) {
@@ -316,7 +321,7 @@ function setSummary(s) {
   if (!s) { $("#node-meta").textContent = "unknown to this console: it shows here when it appears"; return; }
   $("#node-view").classList.toggle("offline", !s.online);
   $("#node-meta").textContent = `${s.online ? "online" : "offline"} · host ${s.host} · pid ${s.pid} · revision ${s.revision} · ${s.parameters} parameters`
-    + (s.origin ? ` · mirrored from ${s.origin}` : "");
+    + (s.origin ? ` · mirrored from ${s.origin}` : "") + (s.status ? ` · ${s.status}` : "");
   $("#node-meta").dataset.revision = s.revision;
   $("#node-meta").dataset.incarnation = s.incarnation;
 }
