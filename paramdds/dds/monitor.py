@@ -46,7 +46,7 @@ from cyclonedds.qos import Qos
 from cyclonedds.topic import Topic
 
 from ..core.descriptors import ParameterDescriptor
-from ..core.names import canonical_node_id
+from ..core.names import NodeFilter, canonical_node_id
 from ..core.values import ParameterValue
 from .dispatch import Dispatcher
 from .filters import gone_of, origin_of, process_label, request_filter_of, status_of
@@ -134,7 +134,7 @@ class ParameterMonitor:
         self._callbacks: list[EventCallback] = [on_event] if on_event else []
         self._last_sample = time.monotonic()
         self._synced = False
-        self._only = {canonical_node_id(n) for n in nodes} if nodes else None
+        self._only = NodeFilter(nodes) if nodes else None  # node ids and globs (``fleet/*``)
         qos = qos or QosProfiles.load()
         # no topic filter (it deadlocks against take under load): _apply skips other nodes
         topic = Topic(participant, "ParameterEvents", wire.ParameterEvent)

@@ -35,6 +35,7 @@ from typing import Any
 
 import zenoh
 
+from ..core.names import NodeFilter, is_node_glob
 from ..core.request import ParamsArg, to_parameters
 from ..core.results import ListResult
 from ..core.revision import Revision
@@ -60,6 +61,22 @@ def sites_from_env(environ: Any = None) -> list[str] | None:
     text = (os.environ if environ is None else environ).get("PARAMDDS_ZENOH_SITES", "")
     sites = [s.strip() for s in text.split(",") if s.strip()]
     return sites or None
+
+
+def remote_filter(patterns: Iterable[str]) -> NodeFilter:
+    """``SITE/NODE`` names and globs over them (``s1/*``, ``*/robot1``, ``north*/*``): each
+    names a site (or a glob of sites) and a node (InvalidNameError otherwise)."""
+    checked: list[str] = []
+    for raw in patterns:
+        text = raw[1:] if raw.startswith("/") else raw
+        if is_node_glob(text):
+            site = text.split("/", 1)[0]
+            if not is_node_glob(site):
+                keys.check_site(site)
+            checked.append(text)
+        else:
+            checked.append(keys.remote_name(*keys.split_remote(text)))
+    return NodeFilter(checked)
 
 
 def _is_delete(sample: Any) -> bool:
@@ -102,6 +119,10 @@ def _alive_of(session: Any, pattern: str, timeout: float) -> set[str]:
 class RemoteParameterMonitor(ParameterMonitor):
     """Every node of every site (or of ``sites``, globs) over one Zenoh ``session``.
 
+    ``nodes`` (``SITE/NODE`` names or globs, :func:`remote_filter`) keeps only those; when
+    each names an exact site, only those sites are subscribed to (what an operator granted
+    only some sites needs).
+
     ``snapshot()``, ``wait_until``, ``wait_complete``, ``wait_synced`` and the events
     (``added``, ``modified``, ``deleted``, ``online``, ``offline``, ``synced``) are those
     of :class:`~paramdds.dds.monitor.ParameterMonitor`; node names are ``SITE/NODE``.
@@ -123,8 +144,12 @@ class RemoteParameterMonitor(ParameterMonitor):
         self._last_sample = time.monotonic()
         self._synced = False
         self._closed = False
-        self._only = {keys.remote_name(*keys.split_remote(n)) for n in nodes} if nodes else None
+        self._only = remote_filter(nodes) if nodes else None
         self._sites = list(sites) if sites else None
+        if self._sites is None and self._only is not None:  # nodes of exact sites: only those sites
+            named = {p.split("/", 1)[0] for p in self._only.patterns()}
+            if not any(is_node_glob(site) for site in named):
+                self._sites = sorted(named)
         self._session = session
         self._timeout = timeout
         self._seen: dict[str, tuple[str, int]] = {}  # node -> (gateway, seq) of the state held
