@@ -4,7 +4,8 @@ They have the shapes of :class:`~paramdds.dds.client.ParameterClient` and
 :class:`~paramdds.dds.monitor.ParameterMonitor` (they are subclasses, so the CLI's
 verbs, :class:`~paramdds.dds.client.AsyncParameterClient` and the web console take
 either), with the DDS machinery replaced by Zenoh queries, subscriptions and
-liveliness:
+liveliness, through the protected interfaces of
+:class:`~paramdds.dds.client.ClientBase` and :class:`~paramdds.dds.monitor.MonitorBase`:
 
 * the monitor subscribes to every node's ``state`` first, then asks each site's
   gateway for the current state of all its nodes (one query, answered from the
@@ -24,7 +25,6 @@ from __future__ import annotations
 
 import asyncio
 import fnmatch
-import itertools
 import logging
 import threading
 import time
@@ -39,9 +39,17 @@ from ..core.names import NodeFilter, is_node_glob
 from ..core.request import ParamsArg, to_parameters
 from ..core.results import ListResult
 from ..core.revision import Revision
-from ..dds.client import DEFAULT_TIMEOUT, GetReply, NodeInfo, ParameterClient, SetReply, _Pending
+from ..dds.client import (
+    DEFAULT_TIMEOUT,
+    ClientBase,
+    GetReply,
+    NodeInfo,
+    ParameterClient,
+    PendingCall,
+    SetReply,
+)
 from ..dds.discovery import Presence
-from ..dds.monitor import EventCallback, EventKind, MonitorEvent, NodeState, ParameterMonitor
+from ..dds.monitor import EventCallback, EventKind, MonitorBase, MonitorEvent, NodeState, ParameterMonitor
 from ..errors import OutcomeUnknownError, ParamddsError, TimeoutError_, UnavailableError
 from . import codec, keys
 
@@ -137,14 +145,8 @@ class RemoteParameterMonitor(ParameterMonitor):
         on_event: EventCallback | None = None,
         timeout: float = DEFAULT_TIMEOUT,
     ) -> None:
-        # ParameterMonitor's state and waits, fed from Zenoh instead of a DDS reader
-        self._states: dict[str, NodeState] = {}
-        self._cond = threading.Condition()
-        self._callbacks: list[EventCallback] = [on_event] if on_event else []
-        self._last_sample = time.monotonic()
-        self._synced = False
-        self._closed = False
-        self._only = remote_filter(nodes) if nodes else None
+        # the monitor's state, waits and events (MonitorBase), fed from Zenoh instead of DDS
+        MonitorBase.__init__(self, nodes=remote_filter(nodes) if nodes else None, on_event=on_event)
         self._sites = list(sites) if sites else None
         if self._sites is None and self._only is not None:  # nodes of exact sites: only those sites
             named = {p.split("/", 1)[0] for p in self._only.patterns()}
@@ -177,7 +179,7 @@ class RemoteParameterMonitor(ParameterMonitor):
         self._initial.start()
 
     def _wanted(self, name: str) -> bool:
-        if self._only is not None and name not in self._only:
+        if not super()._wanted(name):
             return False
         if self._sites is not None:
             site = name.split("/", 1)[0]
@@ -196,10 +198,7 @@ class RemoteParameterMonitor(ParameterMonitor):
                 log.debug("the first state query failed: %s", exc)
         for msg in states:
             self._apply_state(msg)
-        with self._cond:
-            self._synced = True
-            self._cond.notify_all()
-        self._emit([MonitorEvent(EventKind.SYNCED, stamp=time.time())])
+        self._mark_synced()
 
     def _on_state(self, sample: Any) -> None:
         try:
@@ -232,7 +231,7 @@ class RemoteParameterMonitor(ParameterMonitor):
                     events.append(event)
             self._cond.notify_all()
         self._emit(events)
-        if not _is_delete(sample) and self._synced:
+        if not _is_delete(sample) and self.synced:
             # back (a gateway took over, an uplink came back): what was published meanwhile is lost
             # (before the first sync is done, its query asks for every node anyway)
             self._refresh(site, node)
@@ -278,7 +277,7 @@ class RemoteParameterMonitor(ParameterMonitor):
             return
         events: list[MonitorEvent] = []
         with self._cond:
-            self._last_sample = time.monotonic()
+            self._touch()
             seen = self._seen.get(name)
             if seen is not None and seen[0] == msg.gateway and msg.seq <= seen[1]:
                 return  # this state or a newer one is held already
@@ -299,7 +298,7 @@ class RemoteParameterMonitor(ParameterMonitor):
                 state = self._states[name] = NodeState(name)
             old = state.parameters
             stamp = time.time()
-            if self._callbacks:
+            if self._has_callbacks:
                 for pname, (value, descriptor) in msg.parameters.items():
                     before = old.get(pname)
                     if before is None:
@@ -339,9 +338,7 @@ class RemoteParameterMonitor(ParameterMonitor):
         self._emit(events)
 
     def close(self) -> None:
-        with self._cond:
-            self._closed = True
-            self._cond.notify_all()
+        MonitorBase.close(self)  # not ParameterMonitor's: no DDS reader here
         for entity in self._entities:
             try:
                 entity.undeclare()
@@ -360,17 +357,12 @@ class RemoteParameterClient(ParameterClient):
     """
 
     def __init__(self, session: Any, *, timeout: float = DEFAULT_TIMEOUT) -> None:
-        # no DDS: only the parts of ParameterClient its sync and async calls use
+        # the calls (ClientBase), carried by Zenoh queries instead of DDS: the hooks below
+        ClientBase.__init__(self, timeout=timeout, client_id=0)
         self._session = session
-        self.timeout = timeout
-        self.client_id = 0
-        self._ids = itertools.count(1)
-        self._ids_lock = threading.Lock()
-        self._pending: dict[int, _Pending] = {}
-        self._closing = threading.Event()
 
     def close(self) -> None:
-        self._closing.set()
+        ClientBase.close(self)  # not ParameterClient's: no DDS entities here
 
     # -- presence --------------------------------------------------------------------------------
 
@@ -418,19 +410,22 @@ class RemoteParameterClient(ParameterClient):
 
     # -- the calls: ParameterClient's list/get/set/delete run these ------------------------------
 
-    def _prepare(self, node: str, verb: str, body: dict[str, Any]) -> tuple[str, int, _Pending]:
+    def _prepare(self, node: str, verb: str, body: dict[str, Any]) -> tuple[str, int, PendingCall]:
         site, nid = keys.split_remote(node)
-        with self._ids_lock:
-            rid = next(self._ids)
-        pending = _Pending(keys.remote_name(site, nid), verb, (keys.node_key(site, nid, verb), body), 0, None)
+        rid = self._next_id()
+        pending = PendingCall(
+            keys.remote_name(site, nid), verb, (keys.node_key(site, nid, verb), body), 0, None
+        )
         return pending.node, rid, pending
 
-    def _send_list(self, node: str, prefixes: Sequence[str], depth: int) -> tuple[str, int, _Pending]:
+    def _send_list(self, node: str, prefixes: Sequence[str], depth: int) -> tuple[str, int, PendingCall]:
         if depth < 0:
             raise ParamddsError(f"depth must be 0 (recursive) or positive, got {depth}")
         return self._prepare(node, "list", {"prefixes": list(prefixes), "depth": depth})
 
-    def _send_get(self, node: str, names: Sequence[str], with_descriptors: bool) -> tuple[str, int, _Pending]:
+    def _send_get(
+        self, node: str, names: Sequence[str], with_descriptors: bool
+    ) -> tuple[str, int, PendingCall]:
         return self._prepare(node, "get", {"names": list(names), "with_descriptors": with_descriptors})
 
     def _send_set(
@@ -440,7 +435,7 @@ class RemoteParameterClient(ParameterClient):
         atomic: bool,
         if_revision: int | Revision | None,
         timeout: float | None = None,  # the gateway's call gets the query's (see _fire)
-    ) -> tuple[str, int, _Pending]:
+    ) -> tuple[str, int, PendingCall]:
         items = to_parameters(params)
         expected: object = None
         if isinstance(if_revision, Revision):
@@ -454,7 +449,7 @@ class RemoteParameterClient(ParameterClient):
         }
         return self._prepare(node, "set", body)
 
-    def _fire(self, pending: _Pending, timeout: float) -> Future[Any]:
+    def _fire(self, pending: PendingCall, timeout: float) -> Future[Any]:
         """Send the query; the future gets the reply's JSON object, or the error to raise."""
         key, body = pending.sample
         future: Future[Any] = pending.future
@@ -514,7 +509,7 @@ class RemoteParameterClient(ParameterClient):
             raise UnavailableError(f"could not send the call to {pending.node!r}: {exc}") from None
         return future
 
-    def _wait(self, node: str, request_id: int, pending: _Pending, timeout: float | None) -> Any:
+    def _wait(self, node: str, request_id: int, pending: PendingCall, timeout: float | None) -> Any:
         limit = self.timeout if timeout is None else timeout
         future = self._fire(pending, limit)
         try:
@@ -522,7 +517,7 @@ class RemoteParameterClient(ParameterClient):
         except FutureTimeout:
             raise TimeoutError_(f"no answer from node {node!r} within {limit:g} s") from None
 
-    async def _await(self, node: str, request_id: int, pending: _Pending, timeout: float | None) -> Any:
+    async def _await(self, node: str, request_id: int, pending: PendingCall, timeout: float | None) -> Any:
         limit = self.timeout if timeout is None else timeout
         future = asyncio.wrap_future(self._fire(pending, limit))
         try:
