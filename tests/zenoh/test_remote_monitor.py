@@ -37,6 +37,7 @@ class FakeGateway:
             "s1", NODE, "gw", 1, True, parameters=_params(a=1.0, b=2.0), announced=2
         )
         self.queries = 0
+        self.garbage = 0  # the first queries answered with bytes that are not a state
         self.lock = threading.Lock()
         self.queryable = session.declare_queryable(
             keys.site_pattern("s1", keys.STATE), self._answer, complete=True
@@ -46,7 +47,7 @@ class FakeGateway:
         with query:
             with self.lock:
                 self.queries += 1
-                payload = self.state.encode()
+                payload = self.state.encode() if self.queries > self.garbage else b'{"v": 1, \xb4'
             query.reply(keys.node_key("s1", NODE, keys.STATE), payload)
 
     def publish(self, msg: codec.NodeStateMsg) -> None:
@@ -105,4 +106,14 @@ def test_deltas_gaps_old_seqs_and_tokens(fleet: Fleet) -> None:
 
     token.undeclare()
     assert monitor.wait_until(lambda s: not s[name].online, 3.0)
+    monitor.close()
+
+
+def test_a_state_reply_that_does_not_decode_is_asked_for_again(fleet: Fleet) -> None:
+    gw = FakeGateway(fleet.remote())
+    gw.garbage = 2  # the first sync's answer and the first ask again: the second one holds
+    monitor = RemoteParameterMonitor(fleet.remote())
+    name = "s1/ns/robot1"
+    assert monitor.wait_until(lambda s: name in s and s[name].complete, 3.0), monitor.snapshot()
+    assert gw.queries == 3
     monitor.close()
