@@ -56,7 +56,7 @@ from . import codec, keys
 log = logging.getLogger(__name__)
 
 REFRESH_BATCH = 0.05  # seconds: nodes to ask for again are gathered this long, then asked per site
-ASK_AGAIN = 3  # times a node whose state reply did not decode is asked for again
+ASK_AGAIN = 3  # times a node whose state did not come, or did not decode, is asked for again
 REPLY_MARGIN = 0.5  # seconds past a call's timeout before the client stops waiting for Zenoh
 _ALL_STATES = keys.site_pattern("*", keys.STATE)
 _ALL_ALIVE = keys.site_pattern("*", keys.ALIVE)
@@ -166,7 +166,7 @@ class RemoteParameterMonitor(ParameterMonitor):
         self._gone: set[str] = set()  # nodes whose token the subscriber saw go (the first sync's get may lag)
         self._refresh_lock = threading.Lock()
         self._to_refresh: set[tuple[str, str]] = set()
-        self._asked_again: dict[str, int] = {}  # node -> undecodable replies (see _ask_again)
+        self._asked_again: dict[str, int] = {}  # node -> times asked again (see _ask_again)
         self._refresher: threading.Thread | None = None
         # an exact list of sites is asked for site by site (an operator whose certificate is granted
         # some sites may not even declare a subscriber on every site's keys); globs filter here
@@ -284,12 +284,20 @@ class RemoteParameterMonitor(ParameterMonitor):
 
     def _ask_again(self, bad: list[str]) -> None:
         """Ask again (up to :data:`ASK_AGAIN` times a node) for the states whose reply did not
-        decode: seen in a 30-site bench, a reply arrived with bytes that were not its JSON."""
+        decode (seen in a 30-site bench: a reply with bytes that were not its JSON), and for
+        the nodes whose token is alive but whose state did not come (the query's timeout ended
+        before every reply of a large fleet had arrived)."""
+        asked: set[tuple[str, str]] = set()
         for key in bad:
             try:
                 site, node, _ = keys.parse_node_key(key)
             except ParamddsError:
                 continue
+            asked.add((site, node))
+        with self._cond:
+            missing = [n for n in self._alive if n not in self._states]
+        asked.update(keys.split_remote(n) for n in missing)
+        for site, node in asked:
             name = keys.remote_name(site, node)
             with self._refresh_lock:
                 tries = self._asked_again[name] = self._asked_again.get(name, 0) + 1
@@ -360,6 +368,8 @@ class RemoteParameterMonitor(ParameterMonitor):
             if event is not None:
                 events.append(event)
             self._cond.notify_all()
+        with self._refresh_lock:
+            self._asked_again.pop(name, None)  # held now: a later loss gets its own tries
         self._emit(events)
 
     def close(self) -> None:

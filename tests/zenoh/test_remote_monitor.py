@@ -38,6 +38,7 @@ class FakeGateway:
         )
         self.queries = 0
         self.garbage = 0  # the first queries answered with bytes that are not a state
+        self.silent = 0  # the first queries not answered at all (a reply lost, a timeout)
         self.lock = threading.Lock()
         self.queryable = session.declare_queryable(
             keys.site_pattern("s1", keys.STATE), self._answer, complete=True
@@ -47,6 +48,8 @@ class FakeGateway:
         with query:
             with self.lock:
                 self.queries += 1
+                if self.queries <= self.silent:
+                    return
                 payload = self.state.encode() if self.queries > self.garbage else b'{"v": 1, \xb4'
             query.reply(keys.node_key("s1", NODE, keys.STATE), payload)
 
@@ -117,3 +120,15 @@ def test_a_state_reply_that_does_not_decode_is_asked_for_again(fleet: Fleet) -> 
     assert monitor.wait_until(lambda s: name in s and s[name].complete, 3.0), monitor.snapshot()
     assert gw.queries == 3
     monitor.close()
+
+
+def test_a_node_whose_token_is_alive_but_whose_state_did_not_come_is_asked_for_again(fleet: Fleet) -> None:
+    gw = FakeGateway(fleet.remote())
+    gw.silent = 1  # the first sync's query gets no answer (as when its timeout ends first)
+    token = gw.session.liveliness().declare_token(keys.node_key("s1", NODE, keys.ALIVE))
+    monitor = RemoteParameterMonitor(fleet.remote(), timeout=1.0)
+    name = "s1/ns/robot1"
+    assert monitor.wait_until(lambda s: name in s and s[name].complete and s[name].online, 4.0)
+    assert gw.queries == 2
+    monitor.close()
+    token.undeclare()
