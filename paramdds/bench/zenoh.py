@@ -283,6 +283,18 @@ def _dds_full_state(domain: int, names: list[str], timeout: float) -> float:
     return took
 
 
+def _hold(viewers: list[Any], names: list[str], timeout: float) -> None:
+    """Wait until every remote viewer holds every node; RuntimeError naming what one lacks."""
+    for v in viewers:
+        if not v.wait_complete(names, timeout):
+            snap = v.snapshot()
+            lacking = [n for n in names if n not in snap or not snap[n].complete]
+            raise RuntimeError(
+                f"a remote viewer lacked {len(lacking)} of {len(names)} nodes after {timeout:g} s "
+                f"({', '.join(lacking[:3])}…)"
+            )
+
+
 def _latencies(call: Any, count: int) -> tuple[float, float]:
     times = []
     for i in range(count):
@@ -384,14 +396,13 @@ def _measure(
 
                 viewers: list[Any] = []
                 sessions: list[Any] = [open_session(ZenohOptions(connect=[endpoint]))]
-                viewers.append(RemoteParameterMonitor(sessions[0]))
-                viewers[0].wait_complete(everyone, timeout)
+                viewers.append(RemoteParameterMonitor(sessions[0], timeout=timeout))
+                _hold(viewers[:1], everyone, timeout)
                 run["uplink_bytes_per_change_1"] = _bytes_per_change(relay.sent_up, change, changes)
                 for _ in range(VIEWERS - 1):
                     sessions.append(open_session(ZenohOptions(connect=[endpoint])))
-                    viewers.append(RemoteParameterMonitor(sessions[-1]))
-                for v in viewers:  # their first state queries must not count as changes
-                    v.wait_complete(everyone, timeout)
+                    viewers.append(RemoteParameterMonitor(sessions[-1], timeout=timeout))
+                _hold(viewers, everyone, timeout)  # their first state queries must not count as changes
                 run["uplink_bytes_per_change_10"] = _bytes_per_change(relay.sent_up, change, changes)
                 for v in viewers:
                     v.close()
