@@ -257,14 +257,13 @@ def _remote_full_state(endpoint: str, names: list[str], timeout: float) -> float
     session = open_session(ZenohOptions(connect=[endpoint]))
     try:
         monitor = RemoteParameterMonitor(session, timeout=timeout)
-        ok = monitor.wait_complete(names, timeout)
-        took = time.perf_counter() - t0
-        monitor.close()
+        try:
+            _hold([monitor], names, timeout)
+            return time.perf_counter() - t0
+        finally:
+            monitor.close()
     finally:
         session.close()
-    if not ok:
-        raise RuntimeError(f"a fresh remote monitor did not hold all {len(names)} nodes within {timeout} s")
-    return took
 
 
 def _dds_full_state(domain: int, names: list[str], timeout: float) -> float:
@@ -289,9 +288,15 @@ def _hold(viewers: list[Any], names: list[str], timeout: float) -> None:
         if not v.wait_complete(names, timeout):
             snap = v.snapshot()
             lacking = [n for n in names if n not in snap or not snap[n].complete]
+            shown = ", ".join(
+                f"{n} ({len(snap[n].parameters)} of {snap[n].announced} parameters, "
+                f"{'online' if snap[n].online else 'offline'})"
+                if n in snap
+                else f"{n} (never seen)"
+                for n in lacking[:3]
+            )
             raise RuntimeError(
-                f"a remote viewer lacked {len(lacking)} of {len(names)} nodes after {timeout:g} s "
-                f"({', '.join(lacking[:3])}…)"
+                f"a remote viewer lacked {len(lacking)} of {len(names)} nodes after {timeout:g} s: {shown}"
             )
 
 
