@@ -12,7 +12,9 @@ uplink. Measured:
 * **remote get / set p50, p99** of a node of site 0 (``--requests``, default 300) and the
   same calls made directly on site 0's DDS domain (a ParameterClient there);
 * **uplink bytes per change** with 1 and with 10 remote viewers: changes made on site 0
-  by a DDS client there, bytes the gateway sent up, divided by the changes;
+  by a DDS client there, one every :data:`PACE` s, bytes the gateway sent up, divided by
+  the changes (the least of three windows), and the uplink's bytes per second with no
+  change (10 viewers; part of each window);
 * the **baseline**: the same S x N nodes on *one* DDS domain (what a fleet without
   Zenoh would stretch over its sites), a fresh DDS monitor until every node is
   complete (median of the rounds); and, run as root, its **bytes on site 0's uplink per
@@ -209,6 +211,7 @@ def _dds_uplink(
         for v in viewers[1:]:
             v.read("RESULT", timeout)
         out["dds_uplink_bytes_per_change_10"] = _bytes_per_change(link.payload_up, change, changes)
+        out["dds_uplink_idle_bytes_per_s_10"] = _idle_rate(link.payload_up)
     return out
 
 
@@ -312,6 +315,17 @@ def _latencies(call: Any, count: int) -> tuple[float, float]:
 PACE = 0.05  # seconds between two changes: more than the gateway's BATCH, so each is published alone
 
 
+IDLE = 2.0  # seconds the idle uplink is counted
+
+
+def _idle_rate(count: Callable[[], int]) -> float:
+    """Bytes per second on an uplink with no change (keepalives; for DDS also discovery,
+    heartbeats and acknowledgements): part of every window :func:`_bytes_per_change` counts."""
+    before = count()
+    time.sleep(IDLE)
+    return (count() - before) / IDLE
+
+
 def _bytes_per_change(count: Callable[[], int], change: Callable[[int], object], changes: int) -> float:
     """Bytes counted per change, the least of three windows (other traffic on the machine only adds)."""
     best = float("inf")
@@ -409,6 +423,7 @@ def _measure(
                     viewers.append(RemoteParameterMonitor(sessions[-1], timeout=timeout))
                 _hold(viewers, everyone, timeout)  # their first state queries must not count as changes
                 run["uplink_bytes_per_change_10"] = _bytes_per_change(relay.sent_up, change, changes)
+                run["uplink_idle_bytes_per_s_10"] = _idle_rate(relay.sent_up)
                 for v in viewers:
                     v.close()
                 for z in sessions:
@@ -432,6 +447,7 @@ def _measure(
             )
         # its bytes on site 0's uplink, with site 0 in a network namespace (root only)
         run["dds_uplink_bytes_per_change_1"] = run["dds_uplink_bytes_per_change_10"] = None
+        run["dds_uplink_idle_bytes_per_s_10"] = None
         run["dds_uplink_not_measured"] = uplink_skip
         if uplink_skip is None:
             changed_at = (run["changed"][0], run["changed"][1])
