@@ -58,8 +58,8 @@ log = logging.getLogger(__name__)
 REFRESH_BATCH = 0.05  # seconds: nodes to ask for again are gathered this long, then asked per site
 ASK_AGAIN = 3  # times a node whose state did not come, or did not decode, is asked for again
 REPLY_MARGIN = 0.5  # seconds past a call's timeout before the client stops waiting for Zenoh
-_ALL_STATES = keys.site_pattern("*", keys.STATE)
 _ALL_ALIVE = keys.site_pattern("*", keys.ALIVE)
+_ALL_GATEWAYS = f"{keys.PREFIX}/*/gateway/*"  # the gateways' tokens (not the active ones': one chunk more)
 
 
 def sites_from_env(environ: Any = None) -> list[str] | None:
@@ -114,6 +114,36 @@ def _states_of(
             log.warning("ignoring a state from %s: %s", sample.key_expr, exc)
             if bad is not None:
                 bad.append(str(sample.key_expr))
+    return out
+
+
+def _sites_of(session: Any, timeout: float) -> list[str]:
+    """The sites whose gateway is up now (a gateway's liveliness token names its site)."""
+    sites: set[str] = set()
+    for reply in session.liveliness().get(_ALL_GATEWAYS, timeout=timeout):
+        if reply.ok is not None:
+            try:
+                sites.add(keys.check_site(str(reply.ok.key_expr).split("/")[1]))
+            except (ParamddsError, IndexError):
+                continue
+    return sorted(sites)
+
+
+def _states_by_site(
+    session: Any, sites: Iterable[str], timeout: float, bad: list[str] | None = None
+) -> list[codec.NodeStateMsg]:
+    """Every node state of ``sites``, one query per site, one after the other, all within
+    ``timeout``. One query for every site at once was measured to fail: 30 sites x 100
+    nodes (20 MB of replies) gave 605 of 3,000 states in 10 s and lost the session, on a
+    Python router; site by site took 1.4-1.7 s."""
+    deadline = time.monotonic() + timeout
+    out: list[codec.NodeStateMsg] = []
+    for site in sites:
+        remaining = deadline - time.monotonic()
+        if remaining <= 0:
+            log.warning("no time left to ask site %s for its states", site)
+            continue
+        out += _states_of(session, keys.site_pattern(site, keys.STATE), remaining, bad)
     return out
 
 
@@ -186,12 +216,10 @@ class RemoteParameterMonitor(ParameterMonitor):
         self._initial.start()
 
     def _wanted(self, name: str) -> bool:
-        if not super()._wanted(name):
-            return False
-        if self._sites is not None:
-            site = name.split("/", 1)[0]
-            return any(fnmatch.fnmatchcase(site, g) for g in self._sites)
-        return True
+        return super()._wanted(name) and self._wanted_site(name.split("/", 1)[0])
+
+    def _wanted_site(self, site: str) -> bool:
+        return self._sites is None or any(fnmatch.fnmatchcase(site, g) for g in self._sites)
 
     def _first_sync(self) -> None:
         states: list[codec.NodeStateMsg] = []
@@ -201,7 +229,14 @@ class RemoteParameterMonitor(ParameterMonitor):
                 alive = _alive_of(self._session, keys.site_pattern(scope, keys.ALIVE), self._timeout)
                 with self._cond:
                     self._alive.update(n for n in alive if self._wanted(n) and n not in self._gone)
-                states += _states_of(self._session, keys.site_pattern(scope, keys.STATE), self._timeout, bad)
+                if scope == "*":  # site by site (see _states_by_site), the sites wanted of those up
+                    known = {n.split("/", 1)[0] for n in alive} | set(_sites_of(self._session, self._timeout))
+                    up = sorted(site for site in known if self._wanted_site(site))
+                    states += _states_by_site(self._session, up, self._timeout, bad)
+                else:
+                    states += _states_of(
+                        self._session, keys.site_pattern(scope, keys.STATE), self._timeout, bad
+                    )
             except Exception as exc:  # the session closed under us
                 log.debug("the first state query failed: %s", exc)
         for msg in states:
@@ -408,7 +443,7 @@ class RemoteParameterClient(ParameterClient):
         says (a liveliness get was not reliable enough in a one-shot call).
         """
         latest: dict[str, codec.NodeStateMsg] = {}
-        for msg in _states_of(self._session, _ALL_STATES, self.timeout):
+        for msg in _states_by_site(self._session, _sites_of(self._session, self.timeout), self.timeout):
             name = keys.remote_name(msg.site, msg.node)
             if name not in latest or latest[name].seq < msg.seq:
                 latest[name] = msg

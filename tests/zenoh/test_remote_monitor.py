@@ -43,6 +43,8 @@ class FakeGateway:
         self.queryable = session.declare_queryable(
             keys.site_pattern("s1", keys.STATE), self._answer, complete=True
         )
+        # the contract's gateway token: how a remote monitor learns that site s1 is up
+        self.token = session.liveliness().declare_token(keys.gateway_key("s1", "1_fake"))
 
     def _answer(self, query: Any) -> None:
         with query:
