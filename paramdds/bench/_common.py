@@ -85,9 +85,20 @@ def worker_env(localhost: bool) -> dict[str, str]:
 class Worker:
     """One worker process; see the module docstring for its protocol."""
 
-    def __init__(self, role: str, args: Sequence[str], *, localhost: bool, domain: int) -> None:
+    def __init__(
+        self,
+        role: str,
+        args: Sequence[str],
+        *,
+        localhost: bool,
+        domain: int,
+        wrap: Sequence[str] = (),
+        env: dict[str, str] | None = None,
+    ) -> None:
+        """``wrap``: a command prefix (``ip netns exec NS``); ``env``: the environment (default
+        :func:`worker_env`)."""
         self.role = role
-        cmd = [sys.executable, "-m", "paramdds.bench.worker", role, "-d", str(domain), *args]
+        cmd = [*wrap, sys.executable, "-m", "paramdds.bench.worker", role, "-d", str(domain), *args]
         if localhost:
             cmd.append("--localhost")
         self.started_ns = time.perf_counter_ns()
@@ -99,7 +110,7 @@ class Worker:
             text=True,
             bufsize=1,
             start_new_session=True,
-            env=worker_env(localhost),
+            env=worker_env(localhost) if env is None else env,
         )
         self._stderr_tail: list[str] = []
 
@@ -186,9 +197,21 @@ class Workers:
         self.domain = domain
         self._all: list[Worker] = []
 
-    def start(self, role: str, *args: str, domain: int | None = None) -> Worker:
+    def start(
+        self,
+        role: str,
+        *args: str,
+        domain: int | None = None,
+        wrap: Sequence[str] = (),
+        env: dict[str, str] | None = None,
+    ) -> Worker:
         worker = Worker(
-            role, list(args), localhost=self.localhost, domain=self.domain if domain is None else domain
+            role,
+            list(args),
+            localhost=self.localhost,
+            domain=self.domain if domain is None else domain,
+            wrap=wrap,
+            env=env,
         )
         self._all.append(worker)
         return worker

@@ -169,15 +169,30 @@ def role_server(args: argparse.Namespace) -> None:
         from ..dds.server import ParameterServer
 
         server = ParameterServer(dp, qos)
-    for node in names:
-        server.add_node(make_table(node, args.params))
+    tables = {node: make_table(node, args.params) for node in names}
+    for table in tables.values():
+        server.add_node(table)
     server.start()
     t_ready = time.perf_counter_ns()
     _say("READY", pid=os.getpid(), import_ms=_ms(T_EXEC, t_import), setup_ms=_ms(t_import, t_ready))
     try:
-        _wait_for_stdin_eof()
+        if args.changes:
+            _change_on_stdin(tables)
+        else:
+            _wait_for_stdin_eof()
     finally:
         server.close()
+
+
+def _change_on_stdin(tables: dict[str, Any]) -> None:
+    """``server --changes``: each stdin line ``NODE NAME VALUE`` sets a double parameter in
+    this process (a change made on the site, as a node's own code makes it), then ``CHANGED``."""
+    from ..core.values import Parameter, ParameterType, ParameterValue
+
+    for line in sys.stdin:
+        node, name, value = line.split()
+        outcome = tables[node].set([Parameter(name, ParameterValue.of(ParameterType.DOUBLE, float(value)))])
+        _say("CHANGED", ok=all(r.successful for r in outcome.results))
 
 
 def role_partition(args: argparse.Namespace) -> None:
@@ -267,6 +282,8 @@ def role_monitor(args: argparse.Namespace) -> None:
         endpoints=endpoints,
     )
     if args.layout != "ros":
+        if args.stay:  # a viewer: it keeps the state (and receives every change) until stdin closes
+            _wait_for_stdin_eof()
         pm.close()
 
 
@@ -407,6 +424,8 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--offset", type=int, default=0)
     p.add_argument("--params", type=int, default=50)
     p.add_argument("--topic-discovery", action="store_true")
+    p.add_argument("--changes", action="store_true", help="server: set parameters as stdin says")
+    p.add_argument("--stay", action="store_true", help="monitor: stay, holding the state, until stdin closes")
     p.add_argument("--no-native-filter", action="store_true", help="server: filter in the handlers only")
     p.add_argument("--wildcard", action="store_true", help="partition: every node's partition")
     p.add_argument("--reply-size", type=int, default=100)

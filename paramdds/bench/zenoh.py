@@ -12,11 +12,17 @@ uplink. Measured:
 * **remote get / set p50, p99** of a node of site 0 (``--requests``, default 300) and the
   same calls made directly on site 0's DDS domain (a ParameterClient there);
 * **uplink bytes per change** with 1 and with 10 remote viewers: changes made on site 0
-  by a DDS client there, bytes the gateway sent up, divided by the changes;
+  by a DDS client there, one every :data:`PACE` s, bytes the gateway sent up, divided by
+  the changes (the least of three windows), and the uplink's bytes per second with no
+  change (10 viewers; part of each window);
 * the **baseline**: the same S x N nodes on *one* DDS domain (what a fleet without
   Zenoh would stretch over its sites), a fresh DDS monitor until every node is
-  complete (median of the rounds). (Its bytes per change are not measured: Cyclone's
-  UDP traffic on a shared machine's loopback has no per-process counter.)
+  complete (median of the rounds); and, run as root, its **bytes on site 0's uplink per
+  change** with 1 and 10 viewers: site 0's server in a network namespace of its own,
+  linked by a veth pair to the rest (the other sites' servers, the viewers: ``monitor``
+  worker processes), Cyclone unicast only with the two ends as peers (what a WAN
+  needs), the changes made in site 0's server process; counted as UDP payload (the
+  veth's bytes less 42 B of headers per packet) as the relay counts TCP payload.
 
 Everything runs on one machine: there is no WAN round trip in these figures.
 """
@@ -97,6 +103,118 @@ class Relay:
         self._sock.close()
 
 
+HEADERS = 42  # bytes of Ethernet (14), IPv4 (20) and UDP (8) headers in each packet on the veth
+
+
+def why_no_uplink() -> str | None:
+    """Why the stretched domain's uplink cannot be counted here (None: it can)."""
+    import os
+    import shutil
+
+    if os.geteuid() != 0:
+        return "needs root: site 0 runs in a network namespace of its own"
+    if shutil.which("ip") is None:
+        return "needs iproute2 (ip)"
+    return None
+
+
+class SiteNamespace:
+    """Site 0 of the stretched DDS domain in a network namespace of its own, linked to this
+    one (the rest of the fleet, the viewers) by a veth pair: its uplink, whose bytes are
+    counted on this side. Cyclone runs unicast only on it, with the two ends as peers."""
+
+    def __init__(self) -> None:
+        import os
+
+        tag = os.getpid() % 100_000
+        self.ns, self.here, self.there = f"pzb{tag}", f"pzbh{tag}", f"pzbt{tag}"
+        net = f"10.77.{10 + os.getpid() % 200}"
+        self.here_ip, self.there_ip = f"{net}.1", f"{net}.2"
+
+    @staticmethod
+    def _ip(*argv: str, check: bool = True) -> None:
+        import subprocess
+
+        subprocess.run(["ip", *argv], check=check, capture_output=True, text=True, timeout=30)
+
+    def __enter__(self) -> SiteNamespace:
+        self._ip("netns", "del", self.ns, check=False)  # a killed earlier run's
+        self._ip("netns", "add", self.ns)
+        self._ip("-n", self.ns, "link", "set", "lo", "up")
+        self._ip("link", "add", self.here, "type", "veth", "peer", "name", self.there)
+        self._ip("link", "set", self.there, "netns", self.ns)
+        self._ip("addr", "add", f"{self.here_ip}/24", "dev", self.here)
+        self._ip("-n", self.ns, "addr", "add", f"{self.there_ip}/24", "dev", self.there)
+        self._ip("link", "set", self.here, "up")
+        self._ip("-n", self.ns, "link", "set", self.there, "up")
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._ip("link", "del", self.here, check=False)
+        self._ip("netns", "del", self.ns, check=False)
+
+    def wrap(self) -> list[str]:
+        return ["ip", "netns", "exec", self.ns]
+
+    def env(self, *, inside: bool, participants: int) -> dict[str, str]:
+        """A worker's environment: Cyclone on this end of the link, unicast, both ends as peers."""
+        import os
+
+        device = self.there if inside else self.here
+        peers = "".join(f'<Peer address="{a}"/>' for a in (self.here_ip, self.there_ip))
+        uri = (
+            f'<CycloneDDS><Domain id="any"><General><Interfaces><NetworkInterface name="{device}"/>'
+            "</Interfaces><AllowMulticast>false</AllowMulticast></General><Discovery>"
+            f"<Peers>{peers}</Peers><ParticipantIndex>auto</ParticipantIndex>"
+            f"<MaxAutoParticipantIndex>{participants}</MaxAutoParticipantIndex></Discovery></Domain></CycloneDDS>"
+        )
+        env = {k: v for k, v in os.environ.items() if k != "PARAMDDS_LOCALHOST"}
+        return {**env, "CYCLONEDDS_URI": uri, "PYTHONUNBUFFERED": "1"}
+
+    def payload_up(self) -> int:
+        """UDP payload bytes site 0 has sent up the link (received on this end)."""
+        stats = f"/sys/class/net/{self.here}/statistics/"
+        with open(stats + "rx_bytes") as b, open(stats + "rx_packets") as p:
+            return int(b.read()) - HEADERS * int(p.read())
+
+
+def _dds_uplink(
+    s: int, nodes: int, params: int, changes: int, domain: int, changed: tuple[str, str], timeout: float
+) -> dict[str, float]:
+    """The stretched domain's bytes on site 0's uplink per change, with 1 and 10 DDS viewers."""
+    node, pname = changed
+    out: dict[str, float] = {}
+    participants = s + VIEWERS + 8
+    with SiteNamespace() as link, Workers(localhost=False, domain=domain) as workers:
+        inside, outside = (
+            link.env(inside=True, participants=participants),
+            link.env(inside=False, participants=participants),
+        )
+        size = ["--nodes", str(nodes), "--params", str(params)]
+        site0 = workers.start("server", *size, "--changes", wrap=link.wrap(), env=inside)
+        others = [
+            workers.start("server", *size, "--offset", str(k * nodes), env=outside) for k in range(1, s)
+        ]
+        for w in [site0, *others]:
+            w.read("READY", timeout)
+
+        def change(i: int) -> None:
+            site0.send(f"{node} {pname} {float(i) + 0.5}")
+            if not site0.read("CHANGED", 10.0)["ok"]:
+                raise RuntimeError(f"the bench's change of {node} {pname} was refused")
+
+        viewer = ["--nodes", str(s * nodes), "--timeout", str(timeout), "--stay"]
+        viewers = [workers.start("monitor", *viewer, env=outside)]
+        viewers[0].read("RESULT", timeout)
+        out["dds_uplink_bytes_per_change_1"] = _bytes_per_change(link.payload_up, change, changes)
+        viewers += [workers.start("monitor", *viewer, env=outside) for _ in range(VIEWERS - 1)]
+        for v in viewers[1:]:
+            v.read("RESULT", timeout)
+        out["dds_uplink_bytes_per_change_10"] = _bytes_per_change(link.payload_up, change, changes)
+        out["dds_uplink_idle_bytes_per_s_10"] = _idle_rate(link.payload_up)
+    return out
+
+
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -142,14 +260,13 @@ def _remote_full_state(endpoint: str, names: list[str], timeout: float) -> float
     session = open_session(ZenohOptions(connect=[endpoint]))
     try:
         monitor = RemoteParameterMonitor(session, timeout=timeout)
-        ok = monitor.wait_complete(names, timeout)
-        took = time.perf_counter() - t0
-        monitor.close()
+        try:
+            _hold([monitor], names, timeout)
+            return time.perf_counter() - t0
+        finally:
+            monitor.close()
     finally:
         session.close()
-    if not ok:
-        raise RuntimeError(f"a fresh remote monitor did not hold all {len(names)} nodes within {timeout} s")
-    return took
 
 
 def _dds_full_state(domain: int, names: list[str], timeout: float) -> float:
@@ -168,6 +285,24 @@ def _dds_full_state(domain: int, names: list[str], timeout: float) -> float:
     return took
 
 
+def _hold(viewers: list[Any], names: list[str], timeout: float) -> None:
+    """Wait until every remote viewer holds every node; RuntimeError naming what one lacks."""
+    for v in viewers:
+        if not v.wait_complete(names, timeout):
+            snap = v.snapshot()
+            lacking = [n for n in names if n not in snap or not snap[n].complete]
+            shown = ", ".join(
+                f"{n} ({len(snap[n].parameters)} of {snap[n].announced} parameters, "
+                f"{'online' if snap[n].online else 'offline'})"
+                if n in snap
+                else f"{n} (never seen)"
+                for n in lacking[:3]
+            )
+            raise RuntimeError(
+                f"a remote viewer lacked {len(lacking)} of {len(names)} nodes after {timeout:g} s: {shown}"
+            )
+
+
 def _latencies(call: Any, count: int) -> tuple[float, float]:
     times = []
     for i in range(count):
@@ -175,6 +310,20 @@ def _latencies(call: Any, count: int) -> tuple[float, float]:
         call(i)
         times.append((time.perf_counter() - t0) * 1000)
     return percentile(times, 50), percentile(times, 99)
+
+
+PACE = 0.05  # seconds between two changes: more than the gateway's BATCH, so each is published alone
+
+
+IDLE = 2.0  # seconds the idle uplink is counted
+
+
+def _idle_rate(count: Callable[[], int]) -> float:
+    """Bytes per second on an uplink with no change (keepalives; for DDS also discovery,
+    heartbeats and acknowledgements): part of every window :func:`_bytes_per_change` counts."""
+    before = count()
+    time.sleep(IDLE)
+    return (count() - before) / IDLE
 
 
 def _bytes_per_change(count: Callable[[], int], change: Callable[[int], object], changes: int) -> float:
@@ -186,7 +335,7 @@ def _bytes_per_change(count: Callable[[], int], change: Callable[[int], object],
         before = count()
         for i in range(step):
             change(w * step + i)
-            time.sleep(0.01)
+            time.sleep(PACE)
         time.sleep(0.5)
         best = min(best, (count() - before) / step)
     return best
@@ -227,6 +376,7 @@ def _measure(
     relay = Relay(("127.0.0.1", port))
     endpoint = f"tcp/127.0.0.1:{port}"
     run: dict[str, Any] = {"sites": s}
+    uplink_skip = why_no_uplink()
     try:
         with Workers(localhost=True, domain=domains[0]) as workers:
             servers = [
@@ -257,22 +407,26 @@ def _measure(
                 run["dds_set_ms"] = _latencies(lambda _i: direct.set(target, {pname: value}), requests)
                 changed = names[-1]
                 cname = _double_param(direct, changed)
+                run["changed"] = [changed, cname]
 
                 def change(i: int) -> None:
                     if not direct.set(changed, {cname: float(i) + 0.5}).successful:
                         raise RuntimeError(f"the bench's change of {changed} {cname} was refused")
 
+                # viewers of site 0 (what its uplink carries to): each of the whole fleet, in this
+                # process with the router, took 27 s for 10 x 1,000 nodes and starved the routing
                 viewers: list[Any] = []
+                site0 = [f"site0/{n}" for n in names]
                 sessions: list[Any] = [open_session(ZenohOptions(connect=[endpoint]))]
-                viewers.append(RemoteParameterMonitor(sessions[0]))
-                viewers[0].wait_complete(everyone, timeout)
+                viewers.append(RemoteParameterMonitor(sessions[0], sites=["site0"], timeout=timeout))
+                _hold(viewers[:1], site0, timeout)
                 run["uplink_bytes_per_change_1"] = _bytes_per_change(relay.sent_up, change, changes)
                 for _ in range(VIEWERS - 1):
                     sessions.append(open_session(ZenohOptions(connect=[endpoint])))
-                    viewers.append(RemoteParameterMonitor(sessions[-1]))
-                for v in viewers:  # their first state queries must not count as changes
-                    v.wait_complete(everyone, timeout)
+                    viewers.append(RemoteParameterMonitor(sessions[-1], sites=["site0"], timeout=timeout))
+                _hold(viewers, site0, timeout)  # their first state queries must not count as changes
                 run["uplink_bytes_per_change_10"] = _bytes_per_change(relay.sent_up, change, changes)
+                run["uplink_idle_bytes_per_s_10"] = _idle_rate(relay.sent_up)
                 for v in viewers:
                     v.close()
                 for z in sessions:
@@ -294,6 +448,13 @@ def _measure(
             run["dds_full_state_s"] = median(
                 [_dds_full_state(domains[0], all_names, timeout) for _ in range(rounds)]
             )
+        # its bytes on site 0's uplink, with site 0 in a network namespace (root only)
+        run["dds_uplink_bytes_per_change_1"] = run["dds_uplink_bytes_per_change_10"] = None
+        run["dds_uplink_idle_bytes_per_s_10"] = None
+        run["dds_uplink_not_measured"] = uplink_skip
+        if uplink_skip is None:
+            changed_at = (run["changed"][0], run["changed"][1])
+            run.update(_dds_uplink(s, nodes, params, changes, domains[0], changed_at, timeout))
     finally:
         relay.close()
         router.close()
@@ -327,6 +488,7 @@ def run(args: argparse.Namespace) -> int:
                 f"{st[0]:.2f} / {st[1]:.2f}",
                 f"{ds[0]:.2f} / {ds[1]:.2f}",
                 f"{run['uplink_bytes_per_change_1']:.0f} / {run['uplink_bytes_per_change_10']:.0f}",
+                _pair(run["dds_uplink_bytes_per_change_1"], run["dds_uplink_bytes_per_change_10"]),
             ]
         )
     headers = [
@@ -339,6 +501,15 @@ def run(args: argparse.Namespace) -> int:
         "remote set p50/p99 ms",
         "DDS set",
         "uplink B/change, 1/10 viewers",
+        "one DDS domain: uplink B/change, 1/10",
     ]
-    emit(args, data, render(headers, rows))
+    skipped = {r["dds_uplink_not_measured"] for r in data["runs"]} - {None}
+    text = render(headers, rows) + "".join(
+        f"\n(one DDS domain's uplink not measured: {why})" for why in skipped
+    )
+    emit(args, data, text)
     return 0
+
+
+def _pair(one: float | None, ten: float | None) -> str:
+    return "-" if one is None or ten is None else f"{one:.0f} / {ten:.0f}"

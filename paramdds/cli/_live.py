@@ -8,10 +8,12 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from ..dds.monitor import ParameterMonitor
+    from ..dds.monitor import NodeState, ParameterMonitor
+    from ..frontend.session import Session
 
 SETTLE = 0.5  # seconds a fresh watcher gives discovery before it calls the state complete
 QUIET = 0.1  # seconds without events before the state counts as received
+CURRENT_SETTLE = 2.0  # seconds current_states waits at most for the monitor to hold every node
 
 
 def wait_until_interrupted(broken: threading.Event | None = None) -> None:
@@ -45,3 +47,18 @@ def settle(monitor: ParameterMonitor, started: float, limit: float, quiet: Calla
         if wait <= 0 or remaining <= 0:
             return done and remaining > 0
         time.sleep(wait)
+
+
+def current_states(session: Session, nodes: list[str] | None = None) -> dict[str, NodeState]:
+    """Every node (of ``nodes``: ids and globs) a fresh monitor holds once discovery has settled,
+    or after at most :data:`CURRENT_SETTLE` s (``--timeout`` if shorter), with a warning."""
+    import logging
+
+    last = [time.monotonic()]
+    started = time.monotonic()
+    monitor = session.monitor(nodes or None, on_event=lambda _e: last.__setitem__(0, time.monotonic()))
+    if not settle(monitor, started, min(session.args.timeout, CURRENT_SETTLE), lambda: last[0]):
+        logging.getLogger(__name__).warning(
+            "the node list may be incomplete: discovery did not settle in time"
+        )
+    return monitor.snapshot()

@@ -45,6 +45,19 @@ def node_arg(text: str) -> str:
         raise UsageError(f"invalid node name {text!r}: {exc.message}") from exc
 
 
+def node_glob_arg(text: str) -> str:
+    """A node id or a node glob (``fleet/*``, ``s1/*`` over Zenoh) from the command line
+    (UsageError when invalid)."""
+    from ..core.names import canonical_node_glob, is_node_glob
+
+    if not is_node_glob(text):
+        return node_arg(text)
+    try:
+        return canonical_node_glob(text)
+    except ParamddsError as exc:
+        raise UsageError(exc.message) from exc
+
+
 def names_arg(names: Sequence[str]) -> list[str]:
     """Parameter names from the command line, checked (UsageError, exit 2, as for a bad node name)."""
     from ..core.names import validate_name

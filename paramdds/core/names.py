@@ -17,6 +17,13 @@ Node ids
     same node; the canonical form (the DDS key) has no leading slash. At most
     :data:`~paramdds.core.limits.MAX_NODE_ID_BYTES` (255) bytes.
 
+Node globs
+    Where a command or a monitor takes several nodes, each may be a glob
+    (:class:`NodeFilter`): ``*`` and ``?`` match any characters (``/`` included, so
+    ``s1/*`` is every node of site ``s1`` over Zenoh, ``fleet/*`` every node under
+    ``fleet``) and ``[...]`` one of a set, as :func:`fnmatch.fnmatchcase`. A glob is
+    checked as a node id with its wildcards read as letters.
+
 Both checks raise :class:`~paramdds.errors.InvalidNameError` with a message that
 says which rule the name broke.
 """
@@ -24,16 +31,19 @@ says which rule the name broke.
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable
+from fnmatch import fnmatchcase
 
 from ..errors import InvalidNameError
 from .limits import MAX_NAME_BYTES, MAX_NODE_ID_BYTES
 
-__all__ = ["canonical_node_id", "is_valid_name", "validate_name"]
+__all__ = ["NodeFilter", "canonical_node_id", "is_node_glob", "is_valid_name", "validate_name"]
 
 _SEGMENT = re.compile(r"[A-Za-z0-9_\-/]+")
 _NAME = re.compile(r"[A-Za-z0-9_\-/]+(?:\.[A-Za-z0-9_\-/]+)*")
 _NODE_SEGMENT = re.compile(r"[A-Za-z0-9_]+")
 _NODE_ID = re.compile(r"[A-Za-z0-9_]+(?:/[A-Za-z0-9_]+)*")
+_WILDCARDS = re.compile(r"\[[^\]]*\]|[*?]")
 
 
 def _shown(raw: str) -> str:
@@ -97,3 +107,39 @@ def canonical_node_id(raw: object) -> str:
                 "and '/' between segments"
             )
     raise InvalidNameError(f"invalid node id {_shown(raw)}")  # pragma: no cover
+
+
+def is_node_glob(text: str) -> bool:
+    """True when ``text`` holds a wildcard (``*``, ``?`` or ``[``): a pattern, not a node id."""
+    return any(c in text for c in "*?[")
+
+
+def canonical_node_glob(raw: str) -> str:
+    """A node id (:func:`canonical_node_id`) or a node glob, without a leading ``/``."""
+    if not is_node_glob(raw):
+        return canonical_node_id(raw)
+    glob = raw[1:] if raw.startswith("/") else raw
+    letters = _WILDCARDS.sub("x", glob)
+    try:
+        canonical_node_id(letters)
+    except InvalidNameError as exc:  # said of the glob, not of its wildcards read as letters
+        why = exc.message.replace(f"node id {_shown(letters)} ", "")
+        raise InvalidNameError(f"invalid node glob {_shown(raw)}: {why}") from None
+    return glob
+
+
+class NodeFilter:
+    """Node ids and node globs: ``node in NodeFilter(["robot1", "s1/*"])``."""
+
+    def __init__(self, patterns: Iterable[str]) -> None:
+        self.exact: set[str] = set()
+        self.globs: list[str] = []
+        for raw in patterns:
+            text = canonical_node_glob(raw)
+            (self.globs.append if is_node_glob(text) else self.exact.add)(text)
+
+    def __contains__(self, node: object) -> bool:
+        return node in self.exact or (isinstance(node, str) and any(fnmatchcase(node, g) for g in self.globs))
+
+    def patterns(self) -> list[str]:
+        return sorted(self.exact) + self.globs

@@ -131,7 +131,10 @@ class SetReply(_At):
         return all(r.successful for r in self.results)
 
 
-class _Pending:
+class PendingCall:
+    """One call in flight: its node, its topic (or verb), what was sent, and the future its
+    reply (or the error to raise) is set on."""
+
     __slots__ = ("future", "matched", "node", "reached", "sample", "topic", "write", "writer")
 
     def __init__(self, node: str, topic: str, sample: Any, matched: int, writer: Any) -> None:
@@ -145,7 +148,121 @@ class _Pending:
         self.future: Future[Any] = Future()
 
 
-class ParameterClient:
+class ClientBase:
+    """The calls of a client (:meth:`list`, :meth:`get`, :meth:`get_value`, :meth:`set`,
+    :meth:`delete`), whatever carries them.
+
+    :class:`ParameterClient` carries them on DDS. A client on another transport (the remote
+    client of :mod:`paramdds.zenoh.remote`) subclasses ParameterClient, so that it is one
+    wherever a client is taken (:class:`AsyncParameterClient` included), calls
+    ``ClientBase.__init__`` instead of the DDS one, and implements these protected hooks,
+    kept for them:
+
+    * ``_send_list(node, prefixes, depth)``, ``_send_get(node, names, with_descriptors)``,
+      ``_send_set(node, params, atomic, if_revision, timeout)``: make the call (sent now, or
+      by the wait); return ``(node, request_id, PendingCall)``;
+    * ``_wait(node, request_id, call, timeout)`` and ``async _await(...)``: the call's raw
+      reply (``timeout`` None: :attr:`timeout`), or raise the error of the failure;
+    * ``_finish_list(reply)``, ``_finish_get(reply)``, ``_finish_set(reply)``: the result;
+
+    with ``_next_id()`` (request ids from 1) and ``_closing`` (an Event, set by :meth:`close`).
+    """
+
+    def __init__(self, *, timeout: float = DEFAULT_TIMEOUT, client_id: int = 0) -> None:
+        self.timeout = timeout
+        self.client_id = client_id
+        self._ids = itertools.count(1)
+        self._ids_lock = threading.Lock()
+        self._closing = threading.Event()
+
+    def close(self) -> None:
+        self._closing.set()
+
+    # -- the calls ------------------------------------------------------------------------
+
+    def list(
+        self, node: str, prefixes: Sequence[str] = (), depth: int = 0, *, timeout: float | None = None
+    ) -> ListResult:
+        return self._finish_list(self._wait(*self._send_list(node, prefixes, depth), timeout))
+
+    def get(
+        self, node: str, names: Sequence[str], *, with_descriptors: bool = False, timeout: float | None = None
+    ) -> GetReply:
+        """Values (and descriptors if asked) with a status per name; never an empty answer."""
+        return self._finish_get(self._wait(*self._send_get(node, names, with_descriptors), timeout))
+
+    def get_value(self, node: str, name: str, *, timeout: float | None = None) -> ParameterValue:
+        (result,) = self.get(node, [name], timeout=timeout).results
+        if result.value is None:
+            raise NotFoundError(result.reason or f"parameter {name!r} not found on {node!r}")
+        return result.value
+
+    def set(
+        self,
+        node: str,
+        params: ParamsArg,
+        *,
+        atomic: bool = False,
+        if_revision: int | Revision | None = None,
+        timeout: float | None = None,
+    ) -> SetReply:
+        """Set parameters: each on its own, or all-or-nothing with ``atomic``.
+
+        ``if_revision`` applies the set only while the node is still at that state
+        (compare-and-set); otherwise every result fails with CONFLICT and the reply
+        carries the node's current :attr:`SetReply.at`. A :class:`Revision` (from
+        ``NodeInfo.at``, ``GetReply.at``, ``SetReply.at``) compares the incarnation and
+        the revision, so a restarted node never matches; a plain ``int`` compares the
+        revision alone, which a restart can repeat.
+        """
+        return self._finish_set(
+            self._wait(*self._send_set(node, params, atomic, if_revision, timeout), timeout)
+        )
+
+    def delete(self, node: str, names: Sequence[str], *, timeout: float | None = None) -> SetReply:
+        return self.set(node, [Parameter(n, NOT_SET) for n in names], timeout=timeout)
+
+    # -- the hooks of a transport (see the class doc) --------------------------------------
+
+    def _next_id(self) -> int:
+        with self._ids_lock:
+            return next(self._ids)
+
+    def _send_list(self, node: str, prefixes: Sequence[str], depth: int) -> tuple[str, int, PendingCall]:
+        raise NotImplementedError
+
+    def _send_get(
+        self, node: str, names: Sequence[str], with_descriptors: bool
+    ) -> tuple[str, int, PendingCall]:
+        raise NotImplementedError
+
+    def _send_set(
+        self,
+        node: str,
+        params: ParamsArg,
+        atomic: bool,
+        if_revision: int | Revision | None,
+        timeout: float | None = None,
+    ) -> tuple[str, int, PendingCall]:
+        raise NotImplementedError
+
+    def _wait(self, node: str, request_id: int, pending: PendingCall, timeout: float | None) -> Any:
+        raise NotImplementedError
+
+    async def _await(self, node: str, request_id: int, pending: PendingCall, timeout: float | None) -> Any:
+        raise NotImplementedError
+
+    def _finish_list(self, reply: Any) -> ListResult:
+        raise NotImplementedError
+
+    def _finish_get(self, reply: Any) -> GetReply:
+        raise NotImplementedError
+
+    def _finish_set(self, reply: Any) -> SetReply:
+        raise NotImplementedError
+
+
+class ParameterClient(ClientBase):
     """A synchronous client. Thread-safe; use one per process (or several: they never mix).
 
     ``presence_grace`` is the least time discovery must stay quiet before a node never
@@ -164,15 +281,11 @@ class ParameterClient:
         client_id: int | None = None,
         lazy_presence: bool = False,
     ) -> None:
+        # os.urandom, not secrets: the same random bits without importing hmac, hashlib and random
+        super().__init__(timeout=timeout, client_id=client_id or int.from_bytes(os.urandom(8), "little") or 1)
         self._dp = participant
         self._qos = qos or QosProfiles.load()
-        self.timeout = timeout
-        # os.urandom, not secrets: the same random bits without importing hmac, hashlib and random
-        self.client_id = client_id or int.from_bytes(os.urandom(8), "little") or 1
-        self._ids = itertools.count(1)
-        self._ids_lock = threading.Lock()
-        self._pending: dict[int, _Pending] = {}
-        self._closing = threading.Event()
+        self._pending: dict[int, PendingCall] = {}
         # secure mode (.transport): a writer per target node, each in that node's partition,
         # and a topic's endpoints made on its first call (a viewer may never set)
         self._transport = transport_of(participant)
@@ -341,59 +454,11 @@ class ParameterClient:
             if self._closing.is_set():
                 raise UnavailableError("the client was closed")
 
-    # -- the calls ------------------------------------------------------------------------
-
-    def list(
-        self, node: str, prefixes: Sequence[str] = (), depth: int = 0, *, timeout: float | None = None
-    ) -> ListResult:
-        return self._finish_list(self._wait(*self._send_list(node, prefixes, depth), timeout))
-
-    def get(
-        self, node: str, names: Sequence[str], *, with_descriptors: bool = False, timeout: float | None = None
-    ) -> GetReply:
-        """Values (and descriptors if asked) with a status per name; never an empty answer."""
-        return self._finish_get(self._wait(*self._send_get(node, names, with_descriptors), timeout))
-
-    def get_value(self, node: str, name: str, *, timeout: float | None = None) -> ParameterValue:
-        (result,) = self.get(node, [name], timeout=timeout).results
-        if result.value is None:
-            raise NotFoundError(result.reason or f"parameter {name!r} not found on {node!r}")
-        return result.value
-
-    def set(
-        self,
-        node: str,
-        params: ParamsArg,
-        *,
-        atomic: bool = False,
-        if_revision: int | Revision | None = None,
-        timeout: float | None = None,
-    ) -> SetReply:
-        """Set parameters: each on its own, or all-or-nothing with ``atomic``.
-
-        ``if_revision`` applies the set only while the node is still at that state
-        (compare-and-set); otherwise every result fails with CONFLICT and the reply
-        carries the node's current :attr:`SetReply.at`. A :class:`Revision` (from
-        ``NodeInfo.at``, ``GetReply.at``, ``SetReply.at``) compares the incarnation and
-        the revision, so a restarted node never matches; a plain ``int`` compares the
-        revision alone, which a restart can repeat.
-        """
-        return self._finish_set(
-            self._wait(*self._send_set(node, params, atomic, if_revision, timeout), timeout)
-        )
-
-    def delete(self, node: str, names: Sequence[str], *, timeout: float | None = None) -> SetReply:
-        return self.set(node, [Parameter(n, NOT_SET) for n in names], timeout=timeout)
-
     # -- plumbing shared by the sync and async forms ---------------------------------------
 
-    def _next_id(self) -> int:
-        with self._ids_lock:
-            return next(self._ids)
-
-    def _send(self, topic: str, node: str, sample: Any) -> tuple[str, int, _Pending]:
+    def _send(self, topic: str, node: str, sample: Any) -> tuple[str, int, PendingCall]:
         writer = self._writer_for(topic, node)
-        pending = _Pending(node, topic, sample, self._match_counts.get(id(writer), 0), writer)
+        pending = PendingCall(node, topic, sample, self._match_counts.get(id(writer), 0), writer)
         self._pending[sample.request_id] = pending
         try:
             _write(pending)
@@ -402,7 +467,7 @@ class ParameterClient:
             raise ParamddsError(f"could not send the request to {node!r}: {exc}") from exc
         return node, sample.request_id, pending
 
-    def _send_list(self, node: str, prefixes: Sequence[str], depth: int) -> tuple[str, int, _Pending]:
+    def _send_list(self, node: str, prefixes: Sequence[str], depth: int) -> tuple[str, int, PendingCall]:
         node = canonical_node_id(node)
         if depth < 0:
             raise ParamddsError(f"depth must be 0 (recursive) or positive, got {depth}")
@@ -415,7 +480,9 @@ class ParameterClient:
         )
         return self._send("ListParametersRequest", node, sample)
 
-    def _send_get(self, node: str, names: Sequence[str], with_descriptors: bool) -> tuple[str, int, _Pending]:
+    def _send_get(
+        self, node: str, names: Sequence[str], with_descriptors: bool
+    ) -> tuple[str, int, PendingCall]:
         node = canonical_node_id(node)
         check_request_size(len(names), "get")
         sample = wire.GetParametersRequest(
@@ -434,7 +501,7 @@ class ParameterClient:
         atomic: bool,
         if_revision: int | Revision | None,
         timeout: float | None = None,
-    ) -> tuple[str, int, _Pending]:
+    ) -> tuple[str, int, PendingCall]:
         node = canonical_node_id(node)
         expected = _expected(if_revision)
         parameters = [parameter_to_wire(p) for p in to_parameters(params)]
@@ -491,7 +558,7 @@ class ParameterClient:
             return UnavailableError(f"node {node!r} is not present ({why}; waited {waited:.2g} s){also}")
         return TimeoutError_(f"node {node!r} not seen within {waited:.2g} s: {why}{also}")
 
-    def _slices(self, pending: _Pending, timeout: float | None) -> Iterator[float]:
+    def _slices(self, pending: PendingCall, timeout: float | None) -> Iterator[float]:
         """How long to wait for the reply next; raises once the call cannot succeed.
 
         A request is sent again (the first copy can be lost while a just-started
@@ -570,7 +637,7 @@ class ParameterClient:
         n = len(found)
         return f" ({n} DDS peer endpoint(s) do not match ours and are ignored, e.g. {found[0].message()})"
 
-    def _newly_matched(self, pending: _Pending) -> bool:
+    def _newly_matched(self, pending: PendingCall) -> bool:
         """Whether the topic of ``pending`` has matched a new peer since the count was last taken."""
         topic = pending.topic
         writer: Any = pending.writer  # the binding's status getters are untyped
@@ -584,7 +651,7 @@ class ParameterClient:
         pending.matched = count
         return True
 
-    def _wait(self, node: str, request_id: int, pending: _Pending, timeout: float | None) -> Any:
+    def _wait(self, node: str, request_id: int, pending: PendingCall, timeout: float | None) -> Any:
         try:
             for step in self._slices(pending, timeout):
                 try:
@@ -595,7 +662,7 @@ class ParameterClient:
         finally:
             self._pending.pop(request_id, None)
 
-    async def _await(self, node: str, request_id: int, pending: _Pending, timeout: float | None) -> Any:
+    async def _await(self, node: str, request_id: int, pending: PendingCall, timeout: float | None) -> Any:
         future = asyncio.wrap_future(pending.future)
         try:
             for step in self._slices(pending, timeout):
@@ -689,7 +756,7 @@ def _news(seen: DiscoveryState | None, state: DiscoveryState) -> bool:
     return (state.settled and not seen.settled) or state.liveliness != seen.liveliness
 
 
-def _write(pending: _Pending) -> None:
+def _write(pending: PendingCall) -> None:
     """Send (or send again) ``pending``'s request, noting whether a copy can have reached a node:
     a VOLATILE writer with no matched reader delivers to no one, then or later (a reader that
     matches later gets a resend, see ``_slices``), so a write that never met a reader was never
@@ -703,12 +770,12 @@ def _write(pending: _Pending) -> None:
     pending.reached = bool(before or writer.get_publication_matched_status().current_count)
 
 
-def _may_apply(pending: _Pending) -> bool:
+def _may_apply(pending: PendingCall) -> bool:
     """A write that can have reached its node: without an answer, its outcome is unknown."""
     return pending.write and pending.reached
 
 
-def _closed_error(pending: _Pending) -> ParamddsError:
+def _closed_error(pending: PendingCall) -> ParamddsError:
     """The error of a call still waiting when its client is closed."""
     if _may_apply(pending):
         return OutcomeUnknownError(

@@ -49,7 +49,7 @@ from cyclonedds.qos import Qos
 from cyclonedds.topic import Topic
 
 from ..core.descriptors import ParameterDescriptor
-from ..core.names import canonical_node_id
+from ..core.names import NodeFilter, canonical_node_id
 from ..core.values import ParameterValue
 from .dispatch import Dispatcher
 from .filters import gone_of, origin_of, process_label, request_filter_of, status_of
@@ -123,49 +123,48 @@ class NodeState:
 EventCallback = Callable[[MonitorEvent], None]
 
 
-class ParameterMonitor:
+class MonitorBase:
+    """What every monitor holds and offers, whatever feeds it: each node's state, the
+    queries and waits on it (:meth:`snapshot`, :meth:`wait_until`, :meth:`wait_complete`,
+    :meth:`wait_synced`) and the events.
+
+    :class:`ParameterMonitor` feeds it from DDS. A monitor on another transport (the
+    remote monitor of :mod:`paramdds.zenoh.remote`) subclasses ParameterMonitor, so that
+    it is one wherever a monitor is taken, calls ``MonitorBase.__init__`` instead of the
+    DDS one, and feeds the state through this protected interface, kept for them:
+
+    * ``_cond``: the condition that guards ``_states`` (node -> :class:`NodeState`): change
+      states while holding it, then ``notify_all``; ``_closed`` is True once closed;
+    * ``_only``: the ``nodes`` filter (a :class:`~paramdds.core.names.NodeFilter`) or None,
+      and ``_wanted(node)``: whether this monitor keeps ``node`` (a subclass may narrow it);
+    * ``_has_callbacks``: whether events are worth making (none is delivered otherwise);
+    * ``_touch()``: a sample arrived now (under ``_cond``);
+    * ``_set_online(state, online)``: apply a change of presence; its event, or None;
+    * ``_emit(events)``: deliver events to the callbacks (outside ``_cond``);
+    * ``_mark_synced()``: the initial state is here (``synced``, once; waits wake up).
+    """
+
     def __init__(
-        self,
-        participant: DomainParticipant,
-        qos: QosProfiles | None = None,
-        *,
-        nodes: Iterable[str] | None = None,
-        on_event: EventCallback | None = None,
+        self, *, nodes: NodeFilter | Iterable[str] | None = None, on_event: EventCallback | None = None
     ) -> None:
         self._states: dict[str, NodeState] = {}
         self._cond = threading.Condition()
         self._callbacks: list[EventCallback] = [on_event] if on_event else []
         self._last_sample = time.monotonic()
         self._synced = False
-        self._only = {canonical_node_id(n) for n in nodes} if nodes else None
-        qos = qos or QosProfiles.load()
-        # no topic filter (it deadlocks against take under load): _apply skips other nodes
-        topic = Topic(participant, "ParameterEvents", wire.ParameterEvent)
-        # its tick looks into peers whose type or QoS does not match (see .peers)
-        self._dispatcher = Dispatcher(
-            participant, "paramdds-monitor", tick=partial(poll_peers, participant), period=1.0
-        )
-        # depth 4, not 1: a late joiner must see the presence samples of every writer of one
-        # node (two processes hosting one node id), not only the last one delivered
-        reader_qos = qos.reader("ParameterEvents") + Qos(Policy.History.KeepLast(4))
-        transport = transport_of(participant)  # secure: the identity's node partitions, checked per sample
-        reader = transport.reader(topic, reader_qos)
-        self._dispatcher.add_raw(reader, _decode, transport.guard_raw(reader, self._on_samples))
-        self._dispatcher.start()
         self._closed = False
-        self._sync_thread = threading.Thread(target=self._watch_sync, name="paramdds-sync", daemon=True)
-        self._sync_thread.start()
+        only = (nodes if isinstance(nodes, NodeFilter) else NodeFilter(nodes)) if nodes else None
+        self._only: NodeFilter | None = only  # node ids and globs (``fleet/*``); None: every node
 
     def add_callback(self, fn: EventCallback) -> None:
         self._callbacks.append(fn)
 
     def close(self) -> None:
-        self._closed = True
         with self._cond:
+            self._closed = True
             self._cond.notify_all()
-        self._dispatcher.close()
 
-    def __enter__(self) -> ParameterMonitor:
+    def __enter__(self) -> MonitorBase:
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -222,6 +221,92 @@ class ParameterMonitor:
 
     def wait_synced(self, timeout: float) -> bool:
         return self.wait_until(lambda _s: self._synced, timeout)
+
+    # -- the protected interface of the feeders (see the class doc) ------------------------
+
+    def _wanted(self, node: str) -> bool:
+        return self._only is None or node in self._only
+
+    @property
+    def _has_callbacks(self) -> bool:
+        return bool(self._callbacks)
+
+    def _touch(self) -> None:
+        self._last_sample = time.monotonic()
+
+    def _mark_synced(self) -> None:
+        with self._cond:
+            self._synced = True
+            self._cond.notify_all()
+        self._emit([MonitorEvent(EventKind.SYNCED, stamp=time.time())])
+
+    @staticmethod
+    def _shown(state: NodeState, revision: int) -> int:
+        """The revision an event shows: never lower than one shown before in this incarnation."""
+        state.shown = max(state.shown, revision)
+        return state.shown
+
+    def _set_online(self, state: NodeState, online: bool) -> MonitorEvent | None:
+        if state.online == online:
+            return None
+        state.online = online
+        if not online:
+            state.writer, state.duplicates = 0, []
+        kind = EventKind.ONLINE if online else EventKind.OFFLINE
+        return MonitorEvent(
+            kind,
+            state.node,
+            revision=self._shown(state, state.revision),
+            stamp=time.time(),
+            incarnation=state.incarnation,
+            origin=state.origin,
+        )
+
+    def _emit(self, events: list[MonitorEvent]) -> None:
+        for event in events:
+            for fn in self._callbacks:
+                try:  # one failing callback must not cost the others (or the rest of the batch)
+                    fn(event)
+                except Exception:
+                    log.exception("monitor callback %r failed on %s", fn, event.event.value)
+
+
+class ParameterMonitor(MonitorBase):
+    """Every node's state and events, from one DDS reader of ``ParameterEvents`` (``nodes``:
+    ids and globs to keep; default all)."""
+
+    def __init__(
+        self,
+        participant: DomainParticipant,
+        qos: QosProfiles | None = None,
+        *,
+        nodes: Iterable[str] | None = None,
+        on_event: EventCallback | None = None,
+    ) -> None:
+        super().__init__(nodes=nodes, on_event=on_event)
+        qos = qos or QosProfiles.load()
+        # no topic filter (it deadlocks against take under load): _apply skips other nodes
+        topic = Topic(participant, "ParameterEvents", wire.ParameterEvent)
+        # its tick looks into peers whose type or QoS does not match (see .peers)
+        self._dispatcher = Dispatcher(
+            participant, "paramdds-monitor", tick=partial(poll_peers, participant), period=1.0
+        )
+        # depth 4, not 1: a late joiner must see the presence samples of every writer of one
+        # node (two processes hosting one node id), not only the last one delivered
+        reader_qos = qos.reader("ParameterEvents") + Qos(Policy.History.KeepLast(4))
+        transport = transport_of(participant)  # secure: the identity's node partitions, checked per sample
+        reader = transport.reader(topic, reader_qos)
+        self._dispatcher.add_raw(reader, _decode, transport.guard_raw(reader, self._on_samples))
+        self._dispatcher.start()
+        self._sync_thread = threading.Thread(target=self._watch_sync, name="paramdds-sync", daemon=True)
+        self._sync_thread.start()
+
+    def close(self) -> None:
+        super().close()
+        self._dispatcher.close()
+
+    def __enter__(self) -> ParameterMonitor:
+        return self
 
     # -- samples → state and events -------------------------------------------------------
 
@@ -282,12 +367,6 @@ class ParameterMonitor:
     def _add(events: list[MonitorEvent], event: MonitorEvent | None) -> None:
         if event is not None:
             events.append(event)
-
-    @staticmethod
-    def _shown(state: NodeState, revision: int) -> int:
-        """The revision an event shows: never lower than one shown before in this incarnation."""
-        state.shown = max(state.shown, revision)
-        return state.shown
 
     def _check_incarnation(
         self, state: NodeState, s: StateSample, info: Any, events: list[MonitorEvent]
@@ -370,30 +449,6 @@ class ParameterMonitor:
         state.origin = origin_of(tags)
         state.status = status_of(tags)
         return self._set_online(state, info.instance_state == InstanceState.Alive)
-
-    def _set_online(self, state: NodeState, online: bool) -> MonitorEvent | None:
-        if state.online == online:
-            return None
-        state.online = online
-        if not online:
-            state.writer, state.duplicates = 0, []
-        kind = EventKind.ONLINE if online else EventKind.OFFLINE
-        return MonitorEvent(
-            kind,
-            state.node,
-            revision=self._shown(state, state.revision),
-            stamp=time.time(),
-            incarnation=state.incarnation,
-            origin=state.origin,
-        )
-
-    def _emit(self, events: list[MonitorEvent]) -> None:
-        for event in events:
-            for fn in self._callbacks:
-                try:  # one failing callback must not cost the others (or the rest of the batch)
-                    fn(event)
-                except Exception:
-                    log.exception("monitor callback %r failed on %s", fn, event.event.value)
 
     def _watch_sync(self) -> None:
         with self._cond:

@@ -20,10 +20,15 @@ On the DDS side it is an ordinary paramdds participant: a
 
 Standby: several gateways may serve one site. Each holds a token
 ``paramdds/<site>/gateway/<start>_<zid>`` (its start time in ns since the epoch and
-its Zenoh id); the one started first among those it sees is active (a newcomer never
-preempts it), the others keep their DDS state warm and declare nothing else. When
-the active one's token goes (it died, or its uplink did), the next one takes over at
-once: it declares the node tokens and queryables and publishes every node.
+its Zenoh id), and the active one also ``.../gateway/<start>_<zid>/active/<since>``
+(when it took the role). A gateway that sees an active one stands by: it keeps its DDS
+state warm and declares nothing else. When no active one is left (it died, or its
+uplink did), the standby started first takes over at once: it declares the node tokens
+and queryables and publishes every node. A gateway whose uplink was cut stays active
+on its side of the cut (it sees no other gateway); when the link returns it sees the
+one that took over meanwhile, active since later than itself, and steps aside: the
+role stays where the remote viewers were served, and the site's nodes are not handed
+back (two active gateways keep the one active since latest).
 """
 
 from __future__ import annotations
@@ -76,7 +81,9 @@ class Gateway:
         self._published: dict[str, dict[str, tuple[Any, Any]]] = {}  # node -> parameters last published
         self._tokens: dict[str, Any] = {}
         self._gateways: set[str] = set()
+        self._actives: dict[str, int] = {}  # the other active gateways: token id -> active since (ns)
         self._active = False
+        self._since = 0  # when this gateway took the active role (ns since the epoch)
         self._closed = False
         self._declared: list[Any] = []
         self.on_role = on_role
@@ -89,11 +96,11 @@ class Gateway:
         self.monitor.wait_synced(SYNC_WAIT)
         live = session.liveliness()
         self._gateway_token = live.declare_token(keys.gateway_key(self.site, self.token_id))
-        pattern = keys.gateway_key(self.site, "*")
+        pattern = keys.gateway_key(self.site, "**")  # the gateways' tokens and the active one's
         # who else serves this site: asked once (bounded), then followed
         for reply in live.get(pattern, timeout=ELECTION_WAIT):
             if reply.ok is not None:
-                self._gateways.add(str(reply.ok.key_expr).rsplit("/", 1)[-1])
+                self._note_gateway(str(reply.ok.key_expr), alive=True)
         self._gateway_sub = live.declare_subscriber(pattern, self._on_gateway, history=True)
         with self._lock:
             self._gateways.add(self.token_id)
@@ -102,14 +109,38 @@ class Gateway:
     # -- the election -------------------------------------------------------------------------
 
     def _on_gateway(self, sample: Any) -> None:
-        zid = str(sample.key_expr).rsplit("/", 1)[-1]
-        with self._lock:
-            if sample.kind == zenoh.SampleKind.DELETE:
-                self._gateways.discard(zid)
-            else:
-                self._gateways.add(zid)
-            self._gateways.add(self.token_id)
+        self._note_gateway(str(sample.key_expr), alive=sample.kind != zenoh.SampleKind.DELETE)
         self._submit(self._elect)
+
+    def _note_gateway(self, key: str, *, alive: bool) -> None:
+        try:
+            gateway, since = keys.parse_gateway_key(key)
+        except InvalidNameError:
+            log.warning("ignoring a token on %s", key)
+            return
+        with self._lock:
+            if since is not None:
+                if gateway == self.token_id:
+                    return  # this gateway's own
+                if alive:
+                    self._actives[gateway] = since
+                else:
+                    self._actives.pop(gateway, None)
+            elif alive:
+                self._gateways.add(gateway)
+            else:
+                self._gateways.discard(gateway)
+                self._actives.pop(gateway, None)
+            self._gateways.add(self.token_id)
+
+    def _wants_active(self) -> bool:
+        """The rule (under ``_lock``): an active gateway keeps the role unless another one is
+        active since later (it took over while this one was cut off); a standby takes it when
+        no other is active and it is the first started of those it sees."""
+        if self._active:
+            mine = (self._since, self.token_id)
+            return all((since, g) < mine for g, since in self._actives.items())
+        return not self._actives and min(self._gateways, key=_election_key) == self.token_id
 
     @property
     def active(self) -> bool:
@@ -120,7 +151,7 @@ class Gateway:
             with self._lock:
                 if self._closed:
                     return
-                want = min(self._gateways, key=_election_key) == self.token_id
+                want = self._wants_active()
                 if want == self._active:
                     return
                 self._active = want
@@ -134,7 +165,9 @@ class Gateway:
 
     def _activate(self) -> None:
         s, site = self._session, self.site
+        self._since = time.time_ns()
         declared = [
+            s.liveliness().declare_token(keys.active_key(site, self.token_id, self._since)),
             s.declare_queryable(keys.site_pattern(site, keys.STATE), self._on_state_query, complete=True),
             *(
                 s.declare_queryable(keys.site_pattern(site, verb), self._on_call, complete=True)

@@ -10,7 +10,8 @@ node id)::
     paramdds/<site>/node/<node>/list      query: names and prefixes
     paramdds/<site>/node/<node>/set       query: set / atomic set / delete / compare-and-set
     paramdds/<site>/node/<node>/alive     liveliness token, held while the node is online
-    paramdds/<site>/gateway/<zid>         liveliness token of each gateway of the site
+    paramdds/<site>/gateway/<id>          liveliness token of each gateway of the site
+    paramdds/<site>/gateway/<id>/active/<since>   liveliness token of the active one
 
 A site name is one key chunk and one node-id segment: ASCII letters, digits and ``_``.
 A remote node is named ``<site>/<node>``: ``warehouse1/robot1``, ``warehouse1/ns/robot1``.
@@ -64,6 +65,22 @@ def site_pattern(site: str, leaf: str) -> str:
 
 def gateway_key(site: str, zid: str) -> str:
     return f"{PREFIX}/{check_site(site)}/gateway/{zid}"
+
+
+def active_key(site: str, gateway: str, since: int) -> str:
+    """The token of the active gateway ``gateway`` of ``site``, active since ``since`` (ns)."""
+    return f"{gateway_key(site, gateway)}/active/{since}"
+
+
+def parse_gateway_key(key: str) -> tuple[str, int | None]:
+    """(gateway id, None) of a gateway's token, (gateway id, since) of an active one's;
+    InvalidNameError for anything else."""
+    parts = key.split("/")
+    if len(parts) == 4 and parts[0] == PREFIX and parts[2] == "gateway":
+        return parts[3], None
+    if len(parts) == 6 and parts[:5:2] == [PREFIX, "gateway", "active"] and parts[5].isdigit():
+        return parts[3], int(parts[5])
+    raise InvalidNameError(f"not a paramdds gateway key: {key!r}")
 
 
 def parse_node_key(key: str) -> tuple[str, str, str]:

@@ -222,6 +222,18 @@ def test_nodes_json_lists_every_live_node(c: Cluster) -> None:
     assert by_name["robot1"]["pid"] == by_name["robot2"]["pid"] == c.procs[0].popen.pid
 
 
+def test_nodes_and_dump_take_several_nodes_and_globs(c: Cluster) -> None:
+    assert [r["node"] for r in c.json("nodes", "robot?", "frozen")] == ["frozen", "robot1", "robot2"]
+    dump = c.cli("dump", "robot*", "strict")
+    assert dump.returncode == 0, dump.stderr
+    sections = [line[:-1] for line in dump.stdout.splitlines() if line and not line[0].isspace()]
+    assert sections == ["strict", "robot1", "robot2"]  # the exact names, then each glob's nodes
+    none = c.cli("dump", "nobody*")
+    assert none.returncode == 3 and "no online node matches nobody*" in none.stderr, none
+    bad = c.cli("nodes", "robot-*")
+    assert bad.returncode == 2 and "invalid node glob" in bad.stderr, bad
+
+
 def test_dump_then_load_round_trips(c: Cluster, tmp_path: Path) -> None:
     dump = c.cli("dump", "robot1")
     assert dump.returncode == 0, dump.stderr

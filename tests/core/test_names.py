@@ -3,7 +3,14 @@
 import pytest
 
 from paramdds.core.limits import MAX_NAME_BYTES, MAX_NODE_ID_BYTES
-from paramdds.core.names import canonical_node_id, is_valid_name, validate_name
+from paramdds.core.names import (
+    NodeFilter,
+    canonical_node_glob,
+    canonical_node_id,
+    is_node_glob,
+    is_valid_name,
+    validate_name,
+)
 from paramdds.errors import ErrorCode, InvalidNameError
 
 
@@ -79,3 +86,16 @@ def test_invalid_node_ids_are_refused_clearly(raw: object, words: str) -> None:
     with pytest.raises(InvalidNameError) as info:
         canonical_node_id(raw)
     assert words in info.value.message
+
+
+def test_node_globs_match_ids_and_are_checked_as_node_ids() -> None:
+    only = NodeFilter(["/robot1", "fleet/*", "s?/arm[12]"])
+    assert only.patterns() == ["robot1", "fleet/*", "s?/arm[12]"]
+    for node in ("robot1", "fleet/a", "fleet/ns/b", "s1/arm2"):
+        assert node in only, node
+    for node in ("robot2", "fleet", "s1/arm3", "s10/arm1", None):
+        assert node not in only, node
+    assert canonical_node_glob("/fleet/*") == "fleet/*" and not is_node_glob("fleet/a")
+    for bad in ("fleet/-*", "fleet//*", "*/"):
+        with pytest.raises(InvalidNameError, match="invalid node glob"):
+            NodeFilter([bad])

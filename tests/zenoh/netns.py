@@ -97,6 +97,26 @@ class Topology:
     def set_uplink(self, site: str, up: bool) -> None:
         sh("ip", "-n", self.sites[site], "link", "set", self.links[site][1], "up" if up else "down")
 
+    def second_uplink(self, site: str) -> str:
+        """Another address of the router on ``site``'s link (``.3``): a gateway dialling it can be
+        cut alone (:meth:`cut_address`) while another gateway of the site keeps the uplink."""
+        cdev, _sdev, cloud_ip, _site_ip = self.links[site]
+        extra = cloud_ip.rsplit(".", 1)[0] + ".3"
+        sh("ip", "-n", self.cloud, "addr", "add", f"{extra}/24", "dev", cdev)
+        return f"tcp/{extra}:{PORT}"
+
+    def cut_address(self, site: str, endpoint: str, cut: bool) -> None:
+        """Drop (or stop dropping) every packet between ``site`` and the address of ``endpoint``."""
+        ns, addr = self.sites[site], endpoint.split("/", 1)[1].rsplit(":", 1)[0]
+        nft = ["ip", "netns", "exec", ns, "nft"]
+        if not cut:
+            sh(*nft, "delete", "table", "inet", "cut")
+            return
+        sh(*nft, "add", "table", "inet", "cut")
+        for chain, hook, match in (("in", "input", "saddr"), ("out", "output", "daddr")):
+            sh(*nft, "add", "chain", "inet", "cut", chain, f"{{ type filter hook {hook} priority 0; }}")
+            sh(*nft, "add", "rule", "inet", "cut", chain, "ip", match, addr, "drop")
+
     def lossy_uplink(self, site: str, percent: int) -> None:
         ns, dev = self.sites[site], self.links[site][1]
         nft = ["ip", "netns", "exec", ns, "nft"]

@@ -1,7 +1,8 @@
 """``paramdds bench zenoh --quick``: runs end to end, and one site's uplink carries a change once.
 
 No time is asserted (a shared machine proves nothing about speed); the bytes a site's
-gateway sends up per change must not grow with the number of remote viewers.
+gateway sends up per change must not grow with the number of remote viewers, and those of
+the same fleet as one stretched DDS domain do (measured as root, in a network namespace).
 """
 
 from __future__ import annotations
@@ -37,3 +38,11 @@ def test_bench_zenoh_quick(domain_id: int) -> None:
     one, ten = run["uplink_bytes_per_change_1"], run["uplink_bytes_per_change_10"]
     assert 100 < one < 5000, run  # a delta of one parameter, not the node's whole state
     assert ten < 1.5 * one, f"the uplink carried more per change with 10 viewers: {one:.0f} -> {ten:.0f} B"
+    # the stretched DDS domain's uplink (site 0 in a network namespace: root only): a copy per viewer
+    why = run["dds_uplink_not_measured"]
+    if why is None:
+        one, ten = run["dds_uplink_bytes_per_change_1"], run["dds_uplink_bytes_per_change_10"]
+        assert one > 100 and ten > 3 * one, f"one DDS domain: {one:.0f} B per change, then {ten:.0f} B"
+    else:
+        assert os.geteuid() != 0 or "ip" in why, why
+        assert run["dds_uplink_bytes_per_change_1"] is None

@@ -39,6 +39,15 @@ def test_a_key_that_is_not_a_node_key_is_refused() -> None:
             keys.parse_node_key(key)
 
 
+def test_gateway_tokens_name_the_gateway_and_when_the_active_one_took_the_role() -> None:
+    assert keys.parse_gateway_key(keys.gateway_key("s1", "17_ab")) == ("17_ab", None)
+    assert keys.active_key("s1", "17_ab", 42) == "paramdds/s1/gateway/17_ab/active/42"
+    assert keys.parse_gateway_key(keys.active_key("s1", "17_ab", 42)) == ("17_ab", 42)
+    for key in ("paramdds/s1/gateway/17_ab/active/x", "paramdds/s1/gateway/a/b", "paramdds/s1/node/n/alive"):
+        with pytest.raises(InvalidNameError):
+            keys.parse_gateway_key(key)
+
+
 def test_every_value_type_round_trips_through_json_exactly() -> None:
     values = [
         ParameterValue.of(ParameterType.BOOL, True),

@@ -5,6 +5,7 @@ Each site is a DDS domain of its own; the only way between them is the Zenoh rou
 
 from __future__ import annotations
 
+import json
 import subprocess
 import time
 from pathlib import Path
@@ -132,8 +133,10 @@ def test_a_killed_gateway_takes_its_sites_nodes_offline_and_a_standby_takes_over
 
 
 def test_the_cli_reaches_remote_nodes_with_zenoh(fleet: Fleet) -> None:
-    fleet.server("s1", "robot1")
+    fleet.server("s1", "robot1", "robot2")
+    fleet.server("s2", "robot1")
     fleet.gateway("s1")
+    fleet.gateway("s2")
     env = make_dds_env(
         fleet.domain("s1") + 1, PARAMDDS_ZENOH=fleet.endpoint
     )  # another domain: DDS reaches nothing
@@ -151,15 +154,31 @@ def test_the_cli_reaches_remote_nodes_with_zenoh(fleet: Fleet) -> None:
     assert '"node": "s1/robot1"' in nodes.stdout
     dumped = run("dump", "s1/robot1")
     assert dumped.returncode == 0 and "max_velocity: 1.5" in dumped.stdout, dumped
+    # site globs where a verb takes several nodes
+    site = run("nodes", "s1/*", "-o", "json")
+    assert [r["node"] for r in json.loads(site.stdout)] == ["s1/robot1", "s1/robot2"], site.stderr
+    every = run("nodes", "*/robot1", "-o", "json")
+    assert [r["node"] for r in json.loads(every.stdout)] == ["s1/robot1", "s2/robot1"], every.stderr
+    both = run("dump", "s*/robot1")
+    assert both.returncode == 0, both.stderr
+    assert [line for line in both.stdout.splitlines() if not line[:1].isspace()] == [
+        "/s1/robot1:",
+        "/s2/robot1:",
+    ]
+    bad = run("nodes", "bad-site/*")
+    assert bad.returncode == 2 and "invalid node glob 'bad-site/*': contains '-'" in bad.stderr, bad
 
     from ..reliability.conftest import Proc
 
-    watch = Proc([PARAMDDS, "watch", "s1/robot1"], env)
+    watch = Proc([PARAMDDS, "watch", "s1/*"], env)
     fleet.procs.append(watch)
     watch.wait_for("added    s1/robot1 robot.max_velocity = double 1.5", 10)
     watch.wait_for("synced", 10)
+    assert run("set", "s2/robot1", "robot.max_velocity=3.5").returncode == 0  # not watched
     assert run("set", "s1/robot1", "robot.max_velocity=2.5").returncode == 0
     watch.wait_for("modified s1/robot1 robot.max_velocity = double 2.5", 5)
+    shown = {line.split()[1] for _, line in watch.lines if line.startswith(("added", "modified"))}
+    assert shown == {"s1/robot1", "s1/robot2"}, shown
 
 
 def test_bad_input_is_a_clear_error_never_a_hang(tmp_path: Path) -> None:

@@ -9,6 +9,7 @@ under ``CI=true``.
 
 from __future__ import annotations
 
+import json
 import subprocess
 import threading
 import time
@@ -16,6 +17,7 @@ from collections.abc import Iterator
 
 import pytest
 
+from paramdds.dds.monitor import EventKind, MonitorEvent
 from paramdds.errors import ErrorCode, TransportError
 from paramdds.zenoh.remote import RemoteParameterClient, RemoteParameterMonitor
 
@@ -35,17 +37,32 @@ class Sites:
     def __init__(self, topo: Topology) -> None:
         self.topo = topo
         self.procs: list[Proc] = []
-        self.domains = {s: next_domain_id() for s in SITES}
+        self.domains = {s: next_domain_id() for s in topo.sites}
         self.sessions: list[object] = []
 
     def start(self) -> None:
+        self.start_sites()
+        for site in self.topo.sites:
+            self.gateway(site, self.topo.uplink_endpoint(site))
+
+    def gateway(self, site: str, endpoint: str) -> Proc:
+        gw = Proc(
+            self.topo.exec_in(site, PARAMDDS, "zenoh", "--site", site, "--connect", endpoint),
+            make_dds_env(self.domains[site]),
+        )
+        self.procs.append(gw)
+        gw.wait_for("[ZENOH] Gateway for site", 30)
+        return gw
+
+    def start_sites(self) -> None:
+        """The router, and the servers of every site (no gateway yet)."""
         router = Proc(
             self.topo.exec_in(None, PARAMDDS, "zenoh", "--router", "--listen", f"tcp/0.0.0.0:{PORT}"),
             make_dds_env(1),
         )
         self.procs.append(router)
         router.wait_for("[ZENOH] Router", 20)
-        for site in SITES:
+        for site in self.topo.sites:
             env = make_dds_env(self.domains[site])
             argv = [PARAMDDS, "server", "-p", PARAMS, "--spec", SPEC]
             for n in NODES:
@@ -54,15 +71,6 @@ class Sites:
             self.procs.append(server)
             for _ in NODES:
                 server.wait_for("[SERVER] Serving node", 20)
-        for site in SITES:
-            gw = Proc(
-                self.topo.exec_in(
-                    site, PARAMDDS, "zenoh", "--site", site, "--connect", self.topo.uplink_endpoint(site)
-                ),
-                make_dds_env(self.domains[site]),
-            )
-            self.procs.append(gw)
-            gw.wait_for("[ZENOH] Gateway for site", 30)
 
     def local(self, site: str, *args: str) -> subprocess.CompletedProcess[str]:
         """A paramdds verb run inside the site, on its DDS domain."""
@@ -86,12 +94,11 @@ class Sites:
             proc.stop()
 
 
-@pytest.fixture
-def sites() -> Iterator[Sites]:
+def _sites(names: list[str]) -> Iterator[Sites]:
     reason = why_not()
     if reason:
         skip_or_fail(reason)
-    topo = Topology(SITES)
+    topo = Topology(names)
     topo.destroy()  # leftovers of a killed earlier run with this pid
     try:
         try:
@@ -105,6 +112,16 @@ def sites() -> Iterator[Sites]:
             s.close()
     finally:
         topo.destroy()
+
+
+@pytest.fixture
+def sites() -> Iterator[Sites]:
+    yield from _sites(SITES)
+
+
+@pytest.fixture
+def one_site() -> Iterator[Sites]:
+    yield from _sites(SITES[:1])
 
 
 def _value(monitor: RemoteParameterMonitor, node: str, name: str) -> object:
@@ -200,4 +217,62 @@ def test_thirty_percent_loss_on_every_uplink(sites: Sites) -> None:
     dropped = sum(sites.topo.dropped(s) for s in SITES)
     assert dropped > 10, "the loss rules dropped (almost) nothing: the test proved nothing"
     print(f"30 % loss: late joiner {took:.2f} s, {dropped} packets dropped")
+    monitor.close()
+
+
+def test_a_standby_takes_over_when_the_active_gateways_uplink_is_cut_and_keeps_the_role(
+    one_site: Sites,
+) -> None:
+    """Two gateways of one site, the active one dialling the router at an address of its own:
+    cutting that address makes the standby take over; when the cut ends the old gateway stays
+    standby (it does not take the role back), and no node is duplicated, lost or shown offline."""
+    site, topo = SITES[0], one_site.topo
+    one_site.start_sites()
+    own = topo.second_uplink(site)
+    first = one_site.gateway(site, own)
+    assert "active" in first.lines[-1][1], first.lines
+    second = one_site.gateway(site, topo.uplink_endpoint(site))
+    assert "standby" in second.lines[-1][1], second.lines
+    session = one_site.remote()
+    names = [f"{site}/{n}" for n in NODES]
+    events: list[MonitorEvent] = []
+    monitor = RemoteParameterMonitor(session, on_event=events.append)
+    assert holds_online(monitor, names, 5.0), sorted(monitor.snapshot())
+    client = RemoteParameterClient(session, timeout=3.0)
+
+    topo.cut_address(site, own, True)
+    cut = time.monotonic()
+    second.wait_for("is active", 10.0)
+    took_over = time.monotonic() - cut
+    assert client.set(f"{site}/robot1", {"robot.max_velocity": 2.5}, timeout=5.0).successful
+    assert monitor.wait_until(
+        lambda s: (
+            all(s[n].online for n in names)
+            and s[f"{site}/robot1"].parameters["robot.max_velocity"][0].value == 2.5
+        ),
+        5.0,
+    ), monitor.snapshot()
+
+    topo.cut_address(site, own, False)
+    restored, restored_at = time.monotonic(), time.time()
+    first.wait_for("is standby", 15.0)  # it sees the active standby again and steps aside
+    settled = time.monotonic() - restored
+    time.sleep(2.0)  # anything that would still flap does so now
+    assert not any("is standby" in line for _, line in second.lines), second.lines
+    gone = [e for e in events if e.event is EventKind.OFFLINE and e.stamp >= restored_at]
+    assert not gone, gone  # the return of the old gateway took no node offline
+    states = [
+        json.loads(r.ok.payload.to_bytes())
+        for r in session.get(f"paramdds/{site}/node/*/state", timeout=3.0)  # type: ignore[attr-defined]
+        if r.ok is not None
+    ]
+    assert sorted(s["node"] for s in states) == sorted(NODES), states  # one gateway answers: no duplicate
+    snap = monitor.snapshot()
+    assert sorted(snap) == sorted(names) and all(snap[n].online for n in names), snap
+    assert snap[f"{site}/robot1"].parameters["robot.max_velocity"][0].value == 2.5
+    assert client.set(f"{site}/robot2", {"robot.max_velocity": 3.0}).successful
+    assert monitor.wait_until(
+        lambda s: s[f"{site}/robot2"].parameters["robot.max_velocity"][0].value == 3.0, 3.0
+    )
+    print(f"uplink cut: standby active {took_over:.2f} s after the cut, roles settled {settled:.2f} s after")
     monitor.close()

@@ -37,16 +37,22 @@ class FakeGateway:
             "s1", NODE, "gw", 1, True, parameters=_params(a=1.0, b=2.0), announced=2
         )
         self.queries = 0
+        self.garbage = 0  # the first queries answered with bytes that are not a state
+        self.silent = 0  # the first queries not answered at all (a reply lost, a timeout)
         self.lock = threading.Lock()
         self.queryable = session.declare_queryable(
             keys.site_pattern("s1", keys.STATE), self._answer, complete=True
         )
+        # the contract's gateway token: how a remote monitor learns that site s1 is up
+        self.token = session.liveliness().declare_token(keys.gateway_key("s1", "1_fake"))
 
     def _answer(self, query: Any) -> None:
         with query:
             with self.lock:
                 self.queries += 1
-                payload = self.state.encode()
+                if self.queries <= self.silent:
+                    return
+                payload = self.state.encode() if self.queries > self.garbage else b'{"v": 1, \xb4'
             query.reply(keys.node_key("s1", NODE, keys.STATE), payload)
 
     def publish(self, msg: codec.NodeStateMsg) -> None:
@@ -106,3 +112,25 @@ def test_deltas_gaps_old_seqs_and_tokens(fleet: Fleet) -> None:
     token.undeclare()
     assert monitor.wait_until(lambda s: not s[name].online, 3.0)
     monitor.close()
+
+
+def test_a_state_reply_that_does_not_decode_is_asked_for_again(fleet: Fleet) -> None:
+    gw = FakeGateway(fleet.remote())
+    gw.garbage = 2  # the first sync's answer and the first ask again: the second one holds
+    monitor = RemoteParameterMonitor(fleet.remote())
+    name = "s1/ns/robot1"
+    assert monitor.wait_until(lambda s: name in s and s[name].complete, 3.0), monitor.snapshot()
+    assert gw.queries == 3
+    monitor.close()
+
+
+def test_a_node_whose_token_is_alive_but_whose_state_did_not_come_is_asked_for_again(fleet: Fleet) -> None:
+    gw = FakeGateway(fleet.remote())
+    gw.silent = 1  # the first sync's query gets no answer (as when its timeout ends first)
+    token = gw.session.liveliness().declare_token(keys.node_key("s1", NODE, keys.ALIVE))
+    monitor = RemoteParameterMonitor(fleet.remote(), timeout=1.0)
+    name = "s1/ns/robot1"
+    assert monitor.wait_until(lambda s: name in s and s[name].complete and s[name].online, 4.0)
+    assert gw.queries == 2
+    monitor.close()
+    token.undeclare()

@@ -1,14 +1,18 @@
-"""``paramdds dump``: a node's parameters as a ROS 2 parameter file on stdout (what ``load`` reads)."""
+"""``paramdds dump``: nodes' parameters as a ROS 2 parameter file on stdout (what ``load`` reads).
+
+Several nodes, and globs (``fleet/*``; ``s1/*`` over Zenoh), give one file with a section
+per node; a glob stands for the nodes online now that match it (none: exit 3).
+"""
 
 from __future__ import annotations
 
 import argparse
 
-HELP = "a node's parameters as a ROS 2 parameter file on stdout"
+HELP = "nodes' parameters as a ROS 2 parameter file on stdout"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("node", metavar="NODE")
+    p.add_argument("nodes", nargs="+", metavar="NODE", help="nodes, globs allowed: 'fleet/*', 's1/*'")
     p.add_argument("--descriptors", action="store_true", help="add the descriptors (a map ROS 2 cannot read)")
     p.add_argument("--no-descriptors", action="store_true", help=argparse.SUPPRESS)  # the default now
 
@@ -16,13 +20,30 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     import sys
 
+    from ...core.names import is_node_glob
     from ...core.yaml.files import dump_text
+    from ...errors import UnavailableError
+    from ...frontend.session import Session
+    from .._live import current_states
     from .._output import report_missing
-    from .._snapshot import node_snapshot
-    from .._values import node_arg
+    from .._snapshot import Snapshot, snapshot_of
+    from .._values import node_glob_arg
 
-    node = node_arg(args.node)
-    snapshot, missing = node_snapshot(args, node)
-    sys.stdout.write(dump_text({node: snapshot}, with_descriptors=args.descriptors))
+    patterns = [node_glob_arg(n) for n in args.nodes]
+    globs = [p for p in patterns if is_node_glob(p)]
+    snapshots: dict[str, Snapshot] = {}
+    code = 0
+    with Session(args) as session:
+        targets = [p for p in patterns if not is_node_glob(p)]
+        if globs:
+            online = sorted(n for n, st in current_states(session, globs).items() if st.online)
+            if not online:
+                raise UnavailableError(f"no online node matches {' '.join(globs)}")
+            targets += online
+        client = session.client()
+        for node in dict.fromkeys(targets):  # each node once, in order
+            snapshots[node], missing = snapshot_of(client, node)
+            code = max(code, report_missing(node, missing))
+    sys.stdout.write(dump_text(snapshots, with_descriptors=args.descriptors))
     sys.stdout.flush()
-    return report_missing(node, missing)
+    return code

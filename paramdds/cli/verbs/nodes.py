@@ -4,35 +4,30 @@ from __future__ import annotations
 
 import argparse
 
-HELP = "every node alive now: online, parameter count, host, pid, revision, origin"
-
-NODES_SETTLE = 2.0  # seconds `nodes` waits at most for the monitor to hold every node's state
+HELP = "every node alive now (or those of NODE globs): online, parameter count, host, pid, revision, origin"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    pass
+    p.add_argument(
+        "nodes",
+        nargs="*",
+        metavar="NODE",
+        help="only these nodes, globs allowed: 'fleet/*', 's1/*' (default: all)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
-    import logging
-    import time
-
     from ...core.revision import Revision, incarnation_text
     from ...frontend.exits import Exit
     from ...frontend.session import Session
     from ...frontend.shapes import shown_node
-    from .._live import settle
+    from .._live import current_states
     from .._output import emit
+    from .._values import node_glob_arg
 
-    last = [time.monotonic()]
+    nodes = [node_glob_arg(n) for n in args.nodes]
     with Session(args) as session:
-        started = time.monotonic()
-        monitor = session.monitor(on_event=lambda _e: last.__setitem__(0, time.monotonic()))
-        if not settle(monitor, started, min(args.timeout, NODES_SETTLE), lambda: last[0]):
-            logging.getLogger(__name__).warning(
-                "the node list may be incomplete: discovery did not settle in time"
-            )
-        states = monitor.snapshot()
+        states = current_states(session, nodes)
     rows: list[dict[str, object]] = [
         {
             "node": shown_node(st.node, st.origin),  # a ROS 2 node with its leading slash

@@ -15,7 +15,12 @@ HELP = "current state, then every change, until Ctrl-C"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("nodes", nargs="*", metavar="NODE", help="only these nodes (default: all)")
+    p.add_argument(
+        "nodes",
+        nargs="*",
+        metavar="NODE",
+        help="only these nodes, globs allowed: 'fleet/*', 's1/*' (default: all)",
+    )
     p.add_argument("--prefix", action="append", dest="prefixes", default=[], metavar="P")
 
 
@@ -26,9 +31,9 @@ def run(args: argparse.Namespace) -> int:
     from ...frontend.session import Session
     from .._events import EventPrinter
     from .._live import settle, wait_until_interrupted
-    from .._values import node_arg
+    from .._values import node_glob_arg
 
-    nodes = [node_arg(n) for n in args.nodes]
+    nodes = [node_glob_arg(n) for n in args.nodes]
     printer = EventPrinter(args.output, args.prefixes)
     with Session(args) as session:
         started = time.monotonic()
