@@ -4,12 +4,14 @@ The same parameter sets (the nodes of the parameter files in ``realworld/``, one
 per node in turn, plus one double ``bench_gain`` for the warm sets) are hosted by
 ``--servers`` host processes (default 4) in each system: ``python -m
 paramdds.bench.ros2_host`` (rclpy nodes, single-threaded executor) and ``paramdds server``.
-For each N of ``--nodes`` (default 10, 100, 300):
+For each N of ``--nodes`` (default 10, 100, 300), both systems' hosts run side by side
+(each on its own domain id) and:
 
 * ``state``: whole-process time of a fresh process that holds every node's parameters
   and descriptors: rclpy waits for the N nodes in its graph (it is told N), then lists,
   gets and describes all of them concurrently; paramdds starts a monitor until all
-  are complete;
+  are complete. Median of ``--rounds`` that alternate between the two systems (the
+  order flipped every round), so both are measured under the same load;
 * ``get``: whole-process time of one fresh get (an rclpy AsyncParameterClient; ``paramdds
   get``), median of ``--rounds``;
 * ``warm get / set``: p50 and p99 over ``--requests`` calls to one node from one process;
@@ -218,13 +220,12 @@ def run(args: argparse.Namespace) -> int:
     counts = args.nodes or ([10] if args.quick else [10, 100, 300])
     hosts = args.servers or 4
     requests = args.requests or (100 if args.quick else 1000)
-    rounds = args.rounds or (1 if args.quick else 3)
+    rounds = args.rounds or (1 if args.quick else 5)
     rows: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory(prefix="paramdds-bench-ros2-") as tmpdir:
         tmp = Path(tmpdir)
         env = ros_env(tmp)
         for i, n in enumerate(counts):
-            note(f"N={n}: ROS 2 hosts")
             row = measure(
                 n, hosts, host_files(tmp, n, hosts, sets), env, args, requests, rounds, args.domain + 1 + i
             )
@@ -244,25 +245,39 @@ def measure(
     rounds: int,
     bridge_domain: int,
 ) -> dict[str, Any]:
+    """One N: both systems' hosts run side by side (ROS 2 on its domain, paramdds on ``-d``),
+    the fresh-process state rounds alternate between them, then each system's other rows."""
     node0 = f"{ROS_NS}/{PREFIX}0000"
+    domain = str(args.domain)
     row: dict[str, Any] = {"nodes": n}
-    # -- real ROS 2 ------------------------------------------------------------------
-    ros = [
-        Host(
-            [sys.executable, "-m", "paramdds.bench.ros2_host", "--params-file", str(f), "--threads", "1"],
-            env,
-            "ready",
-        )
-        for f, _ in files
-    ]
+    ros: list[Host] = []
+    servers: list[Host] = []
     try:
-        dumps = [
-            probe("ros-dump", n, f"/{ROS_NS}/{PREFIX}", ROS_NODE_TIMEOUT, 0, env=env) for _ in range(rounds)
-        ]
-        row["params"] = dumps[0][1]["params"]
-        row["ros_state_ms"] = median([d[0] for d in dumps])
-        row["ros_complete"] = min(d[1]["complete"] for d in dumps)
-        row["ros_graph"] = {k: dumps[0][1][k] for k in ("topics", "services", "endpoints", "participants")}
+        note(f"N={n}: ROS 2 hosts and paramdds servers")
+        ros = [ros_host(f, env) for f, _ in files]
+        servers = [dds_server(f, nodes, domain, env) for f, nodes in files]
+        # the headline rows: alternate rounds (the order flipped every round), so both
+        # systems are measured under the same load, in the same minutes
+        ros_dumps: list[tuple[float, dict[str, Any]]] = []
+        dds_dumps: list[tuple[float, dict[str, Any]]] = []
+        for r in range(rounds):
+            order = ("ros", "dds") if r % 2 == 0 else ("dds", "ros")
+            for system in order:
+                if system == "ros":
+                    ros_dumps.append(
+                        probe("ros-dump", n, f"/{ROS_NS}/{PREFIX}", ROS_NODE_TIMEOUT, 0, env=env)
+                    )
+                else:
+                    dds_dumps.append(probe("dds-dump", n, f"{ROS_NS}/{PREFIX}", 60, domain, env=env))
+        row["params"] = ros_dumps[0][1]["params"]
+        row["ros_state_ms"] = median([d[0] for d in ros_dumps])
+        row["ros_complete"] = min(d[1]["complete"] for d in ros_dumps)
+        row["ros_graph"] = {
+            k: ros_dumps[0][1][k] for k in ("topics", "services", "endpoints", "participants")
+        }
+        row["dds_state_ms"] = median([d[0] for d in dds_dumps])
+        row["dds_complete"] = min(d[1]["complete"] for d in dds_dumps)
+        # -- real ROS 2 ----------------------------------------------------------------
         row["ros_get_ms"] = median(
             [probe("ros-get", "/" + node0, "bench_gain", env=env)[0] for _ in range(rounds)]
         )
@@ -270,69 +285,55 @@ def measure(
         row["ros_warm_get"], row["ros_warm_set"] = stats(warm["get_ms"]), stats(warm["set_ms"])
         note(f"N={n}: the bridge")
         row["bridge_ms"] = bridge_time(n, env, args, bridge_domain)
-        note(f"N={n}: ROS 2 state with a host killed")
+        # -- paramdds ------------------------------------------------------------------
+        get = [sys.executable, "-m", "paramdds.cli", "get", "-d", domain, "--localhost", node0, "bench_gain"]
+        row["dds_get_ms"] = median([run_timed(get, env=env)[0] for _ in range(rounds)])
+        warm = probe("dds-warm", node0, "bench_gain", requests, domain, env=env)[1]
+        row["dds_warm_get"], row["dds_warm_set"] = stats(warm["get_ms"]), stats(warm["set_ms"])
+        row["dds_graph"] = probe("dds-graph", domain, env=env)[1]
+        # -- a host killed: last, each system's own ---------------------------------------
+        note(f"N={n}: state with a host killed")
         ms, out = killed_during(
             "ros-dump", ros[0], n, f"/{ROS_NS}/{PREFIX}", ROS_NODE_TIMEOUT, QUIET, env=env
         )
         row["ros_kill_ms"], row["ros_kill_complete"] = ms, out["complete"]
-    finally:
-        for h in ros:
-            h.stop()
-    # -- paramdds ----------------------------------------------------------------------
-    note(f"N={n}: paramdds servers")
-    domain = str(args.domain)
-    servers = [
-        Host(
-            [
-                sys.executable,
-                "-m",
-                "paramdds.cli",
-                "server",
-                "-d",
-                domain,
-                "--localhost",
-                "-p",
-                str(f),
-                *(a for node in nodes for a in ("-n", node)),
-            ],
-            env,
-            "[SERVER] Serving",
-            len(nodes),
-        )
-        for f, nodes in files
-    ]
-    try:
-        dumps = [probe("dds-dump", n, f"{ROS_NS}/{PREFIX}", 60, domain, env=env) for _ in range(rounds)]
-        row["dds_state_ms"] = median([d[0] for d in dumps])
-        row["dds_complete"] = min(d[1]["complete"] for d in dumps)
-        gets = [
-            run_timed(
-                [
-                    sys.executable,
-                    "-m",
-                    "paramdds.cli",
-                    "get",
-                    "-d",
-                    domain,
-                    "--localhost",
-                    node0,
-                    "bench_gain",
-                ],
-                env=env,
-            )[0]
-            for _ in range(rounds)
-        ]
-        row["dds_get_ms"] = median(gets)
-        warm = probe("dds-warm", node0, "bench_gain", requests, domain, env=env)[1]
-        row["dds_warm_get"], row["dds_warm_set"] = stats(warm["get_ms"]), stats(warm["set_ms"])
-        row["dds_graph"] = probe("dds-graph", domain, env=env)[1]
         ms, out = killed_during("dds-dump", servers[0], n, f"{ROS_NS}/{PREFIX}", 60, domain, env=env)
         row["dds_kill_ms"], row["dds_kill_complete"] = ms, out["complete"]
     finally:
-        for s in servers:
-            s.stop()
+        for h in [*ros, *servers]:
+            h.stop()
     row["state_speedup"] = round(row["ros_state_ms"] / row["dds_state_ms"], 1)
     return row
+
+
+def ros_host(params_file: Path, env: dict[str, str]) -> Host:
+    """An rclpy host process of the nodes of ``params_file`` (one single-threaded executor)."""
+    cmd = [
+        sys.executable,
+        "-m",
+        "paramdds.bench.ros2_host",
+        "--params-file",
+        str(params_file),
+        "--threads",
+        "1",
+    ]
+    return Host(cmd, env, "ready")
+
+
+def dds_server(params_file: Path, nodes: list[str], domain: str, env: dict[str, str]) -> Host:
+    """A ``paramdds server`` of ``nodes``, each with the parameters of ``params_file``."""
+    cmd = [
+        sys.executable,
+        "-m",
+        "paramdds.cli",
+        "server",
+        "-d",
+        domain,
+        "--localhost",
+        "-p",
+        str(params_file),
+    ]
+    return Host([*cmd, *(a for node in nodes for a in ("-n", node))], env, "[SERVER] Serving", len(nodes))
 
 
 def bridge_time(n: int, env: dict[str, str], args: argparse.Namespace, domain: int) -> float:
