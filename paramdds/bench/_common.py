@@ -25,7 +25,7 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
 READY = "READY"
@@ -335,3 +335,25 @@ def note(message: str) -> None:
     """Progress on stderr (stdout is the result)."""
     sys.stderr.write(f"bench: {message}\n")
     sys.stderr.flush()
+
+
+def alternate(systems: dict[str, tuple[Callable[[], None], int]], rounds: int) -> dict[str, list[float]]:
+    """Time every call of each system, in microseconds, the systems taking turns.
+
+    ``systems`` maps a name to ``(call, total)``; each of the ``rounds`` runs every system's
+    share of its total, starting one system further each round, so that none always runs
+    first (after another's warm caches, or during a burst of the machine's other work).
+    """
+    samples: dict[str, list[float]] = {name: [] for name in systems}
+    order = list(systems)
+    clock = time.perf_counter_ns
+    for r in range(rounds):
+        for name in order[r % len(order) :] + order[: r % len(order)]:
+            fn, total = systems[name]
+            count = total // rounds + (1 if r < total % rounds else 0)
+            out = samples[name]
+            for _ in range(count):
+                t0 = clock()
+                fn()
+                out.append((clock() - t0) / 1e3)
+    return samples

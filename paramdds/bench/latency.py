@@ -18,10 +18,9 @@ so that drift and noise from other load hit every system alike:
 from __future__ import annotations
 
 import argparse
-import time
 from collections.abc import Callable
 
-from ._common import Workers, emit, node_names, note, percentile, render
+from ._common import Workers, alternate, emit, node_names, note, percentile, render
 from .worker import param_name, value_for
 
 NODE = node_names(1)[0]
@@ -84,18 +83,7 @@ def run(args: argparse.Namespace) -> int:
             for name, (fn, _) in systems.items():
                 for _ in range(warmup if name != "polling" else 3):
                     fn()
-            samples: dict[str, list[float]] = {name: [] for name in systems}
-            order = list(systems)
-            for r in range(rounds):
-                for name in order[r % len(order) :] + order[: r % len(order)]:
-                    fn, total = systems[name]
-                    count = total // rounds + (1 if r < total % rounds else 0)
-                    out = samples[name]
-                    clock = time.perf_counter_ns
-                    for _ in range(count):
-                        t0 = clock()
-                        fn()
-                        out.append((clock() - t0) / 1e3)
+            samples = alternate(systems, rounds)
         finally:
             client.close()
             raw.close()

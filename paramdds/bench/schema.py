@@ -28,7 +28,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from ._common import emit, note, percentile, render, run_timed, worker_env
+from ._common import alternate, emit, note, percentile, render, run_timed, worker_env
 
 SCHEMA_NODE = "bench_schema_node"
 SPEC_NODE = "bench_spec_node"
@@ -245,18 +245,7 @@ def _measure(
         for fn in systems.values():
             for _ in range(warmup):
                 fn()
-        samples: dict[str, list[float]] = {name: [] for name in systems}
-        order = list(systems)
-        clock = time.perf_counter_ns
-        for r in range(rounds):
-            for name in order[r % len(order) :] + order[: r % len(order)]:
-                fn = systems[name]
-                count = requests // rounds + (1 if r < requests % rounds else 0)
-                out = samples[name]
-                for _ in range(count):
-                    t0 = clock()
-                    fn()
-                    out.append((clock() - t0) / 1e3)
+        samples = alternate({name: (fn, requests) for name, fn in systems.items()}, rounds)
     finally:
         client.close()
     return samples
