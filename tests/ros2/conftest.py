@@ -153,6 +153,18 @@ def ros_hosts(ros_env: dict[str, str]) -> Iterator[Any]:
         host.close()
 
 
+def paramdds_cli(env: dict[str, str], *args: str, timeout: float = 10.0) -> subprocess.CompletedProcess[str]:
+    """``paramdds ARGS --timeout TIMEOUT`` as a process in ``env``, its output captured."""
+    return subprocess.run(
+        [sys.executable, "-m", "paramdds.cli", *args, "--timeout", str(timeout)],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+
+
 def oracle(env: dict[str, str], *args: str, timeout: float = 60.0) -> Any:
     """Run the rclpy client of ros_oracle.py; its JSON output."""
     import json

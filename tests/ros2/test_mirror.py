@@ -20,7 +20,7 @@ from paramdds.dds.participant import close_participant, make_participant
 from paramdds.errors import ErrorCode, OutcomeUnknownError
 from paramdds.ros2.mirror import MIN_AGE
 
-from .conftest import REALWORLD, RosHost, oracle
+from .conftest import REALWORLD, RosHost, oracle, paramdds_cli
 
 pytestmark = pytest.mark.timeout(180)
 
@@ -98,17 +98,6 @@ def test_mirrored_state_equals_the_rclpy_nodes_for_the_realworld_files(
     assert rich["anything"]["descriptor"]["dynamic_typing"] is True
     states = monitor.snapshot()
     assert all(states[n.lstrip("/")].origin == "ros2" for n in host.nodes)
-
-
-def paramdds_cli(env: dict[str, str], *args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "paramdds.cli", *args, "--timeout", "10"],
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=60,
-        check=False,
-    )
 
 
 def test_paramdds_set_changes_the_rclpy_node_with_refusals_per_parameter(

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -34,7 +33,7 @@ from paramdds.dds.monitor import ParameterMonitor
 from paramdds.dds.participant import close_participant, make_participant
 from tests.conftest import next_domain_id
 
-from .conftest import REALWORLD, RosHost, require_ros2
+from .conftest import REALWORLD, RosHost, paramdds_cli, require_ros2
 
 pytestmark = pytest.mark.timeout(240)
 
@@ -132,17 +131,6 @@ def test_every_bridge_start_mirrors_all_of_100_nodes(shared: Any) -> None:
     print(f"\n100 nodes, start to all mirrored: {times} s")
 
 
-def _cli(env: dict[str, str], *args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "paramdds.cli", *args, "--timeout", "5"],
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=60,
-        check=False,
-    )
-
-
 def test_a_node_whose_services_never_answer_shows_unreachable_until_they_do(shared: Any) -> None:
     """A node without parameter services (made so on purpose) is in the graph: the bridge shows
     it `unreachable` (no parameters, requests refused UNAVAILABLE) within seconds, keeps
@@ -165,12 +153,12 @@ def test_a_node_whose_services_never_answer_shows_unreachable_until_they_do(shar
             raise AssertionError("quiet/node was not shown unreachable")
         assert time.monotonic() - started < 12.0
         assert mirrored(monitor, ["/quiet/other"]) == 1  # the other node of its process is mirrored
-        table = _cli(env, "nodes")
+        table = paramdds_cli(env, "nodes", timeout=5)
         assert any(line.split()[:2] == ["/quiet/node", "unreachable"] for line in table.stdout.splitlines())
-        listed = json.loads(_cli(env, "nodes", "-o", "json").stdout)
+        listed = json.loads(paramdds_cli(env, "nodes", "-o", "json", timeout=5).stdout)
         statuses = {n["node"]: n["status"] for n in listed}
         assert statuses == {"/quiet/node": "unreachable", "/quiet/other": None}
-        got = _cli(env, "get", "quiet/node", "use_sim_time")
+        got = paramdds_cli(env, "get", "quiet/node", "use_sim_time", timeout=5)
         assert got.returncode != 0 and "parameter services do not answer" in got.stderr, got.stderr
         assert host.command("serve /quiet/node") == "served"
         served = time.monotonic()
