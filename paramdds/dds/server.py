@@ -361,8 +361,7 @@ class ParameterServer:
             # any order) would keep those nodes offline until their next change (seen: 72 of a
             # bridge's 100 mirrors offline for good after its process starved for 2.4 s)
             self._again_at = None
-            for worker in list(self._workers.values()):
-                self._presence_again(worker)
+            self._present_all()
         poll_peers(self._dp)
         for worker in list(self._workers.values()):
             if worker.check_stall(now, LEASE):
@@ -395,6 +394,9 @@ class ParameterServer:
         tick writes it once more a lease later (see there).
         """
         log.warning("the server did not run for %.1f s (stopped or starved): writing presence again", late)
+        self._present_all()
+
+    def _present_all(self) -> None:
         for worker in list(self._workers.values()):
             self._presence_again(worker)
 
