@@ -26,9 +26,10 @@ from __future__ import annotations
 import asyncio
 import fnmatch
 import logging
+import queue
 import threading
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from concurrent.futures import Future
 from concurrent.futures import TimeoutError as FutureTimeout
 from typing import Any
@@ -57,6 +58,7 @@ log = logging.getLogger(__name__)
 
 REFRESH_BATCH = 0.05  # seconds: nodes to ask for again are gathered this long, then asked per site
 ASK_AGAIN = 3  # times a node whose state did not come, or did not decode, is asked for again
+PARALLEL_QUERIES = 4  # state queries in flight at once (see _ask_states)
 REPLY_MARGIN = 0.5  # seconds past a call's timeout before the client stops waiting for Zenoh
 _ALL_ALIVE = keys.site_pattern("*", keys.ALIVE)
 _ALL_GATEWAYS = f"{keys.PREFIX}/*/gateway/*"  # the gateways' tokens (not the active ones': one chunk more)
@@ -92,29 +94,75 @@ def _is_delete(sample: Any) -> bool:
     return bool(sample.kind == zenoh.SampleKind.DELETE)
 
 
-def _states_of(
-    session: Any, pattern: str, timeout: float, bad: list[str] | None = None
-) -> list[codec.NodeStateMsg]:
-    """Every node state the gateways answer for ``pattern`` (bounded by ``timeout``); the keys
-    of replies that do not decode are added to ``bad``."""
-    out: list[codec.NodeStateMsg] = []
-    replies = session.get(
+def _ask_states(
+    session: Any, patterns: Sequence[str], timeout: float, bad: list[str] | None = None
+) -> Iterator[codec.NodeStateMsg]:
+    """Every node state the gateways answer for ``patterns``, all within ``timeout``, yielded
+    as each query ends; the keys of replies that do not decode are added to ``bad``.
+
+    Up to :data:`PARALLEL_QUERIES` queries are in flight at once, each bounded by what is
+    left of ``timeout``. One query for every site at once was measured to fail: 30 sites x
+    100 nodes (20 MB of replies) gave 605 of 3,000 states in 10 s and lost the session, on a
+    Python router. One site after the other left a site slowed by loss all the time of the
+    sites before it: at 30 % loss a site's nodes were once still missing after 10 s.
+    Replies are only gathered in Zenoh's thread and decoded here, so a large answer never
+    holds up the session."""
+    deadline = time.monotonic() + timeout
+    waiting = list(patterns)
+    ended: queue.SimpleQueue[list[tuple[str, bytes]]] = queue.SimpleQueue()
+    in_flight = 0
+    while waiting or in_flight:
+        while waiting and in_flight < PARALLEL_QUERIES:
+            pattern = waiting.pop(0)
+            left = deadline - time.monotonic()
+            if left <= 0:
+                log.warning("no time left to ask for the states of %s", pattern)
+                continue
+            _send_state_query(session, pattern, left, ended)
+            in_flight += 1
+        if not in_flight:
+            return
+        try:
+            replies = ended.get(timeout=max(0.0, deadline - time.monotonic()) + REPLY_MARGIN)
+        except queue.Empty:
+            log.warning("%d state queries did not end within %g s", in_flight, timeout)
+            return
+        in_flight -= 1
+        for key, payload in replies:
+            try:
+                yield codec.NodeStateMsg.decode(payload)
+            except ParamddsError as exc:
+                log.warning("ignoring a state from %s: %s", key, exc)
+                if bad is not None:
+                    bad.append(key)
+
+
+def _send_state_query(
+    session: Any, pattern: str, timeout: float, ended: queue.SimpleQueue[list[tuple[str, bytes]]]
+) -> None:
+    """Ask every gateway for the states of ``pattern``: (key, payload) of each reply go to
+    ``ended`` once the query ends (all answered, or ``timeout``)."""
+    replies: list[tuple[str, bytes]] = []
+
+    def on_reply(reply: Any) -> None:
+        sample = reply.ok
+        if sample is not None:
+            replies.append((str(sample.key_expr), sample.payload.to_bytes()))
+
+    session.get(
         pattern,
+        zenoh.handlers.Callback(on_reply, lambda: ended.put(replies)),
         timeout=timeout,
         target=zenoh.QueryTarget.ALL,
         consolidation=zenoh.QueryConsolidation(zenoh.ConsolidationMode.NONE),
     )
-    for reply in replies:
-        sample = reply.ok
-        if sample is None:
-            continue
-        try:
-            out.append(codec.NodeStateMsg.decode(sample.payload.to_bytes()))
-        except ParamddsError as exc:
-            log.warning("ignoring a state from %s: %s", sample.key_expr, exc)
-            if bad is not None:
-                bad.append(str(sample.key_expr))
-    return out
+
+
+def _states_of(
+    session: Any, pattern: str, timeout: float, bad: list[str] | None = None
+) -> list[codec.NodeStateMsg]:
+    """Every node state the gateways answer for ``pattern`` (bounded by ``timeout``)."""
+    return list(_ask_states(session, [pattern], timeout, bad))
 
 
 def _sites_of(session: Any, timeout: float) -> list[str]:
@@ -129,22 +177,9 @@ def _sites_of(session: Any, timeout: float) -> list[str]:
     return sorted(sites)
 
 
-def _states_by_site(
-    session: Any, sites: Iterable[str], timeout: float, bad: list[str] | None = None
-) -> list[codec.NodeStateMsg]:
-    """Every node state of ``sites``, one query per site, one after the other, all within
-    ``timeout``. One query for every site at once was measured to fail: 30 sites x 100
-    nodes (20 MB of replies) gave 605 of 3,000 states in 10 s and lost the session, on a
-    Python router; site by site took 1.4-1.7 s."""
-    deadline = time.monotonic() + timeout
-    out: list[codec.NodeStateMsg] = []
-    for site in sites:
-        remaining = deadline - time.monotonic()
-        if remaining <= 0:
-            log.warning("no time left to ask site %s for its states", site)
-            continue
-        out += _states_of(session, keys.site_pattern(site, keys.STATE), remaining, bad)
-    return out
+def _states_by_site(session: Any, sites: Iterable[str], timeout: float) -> list[codec.NodeStateMsg]:
+    """Every node state of ``sites``, a query per site (see :func:`_ask_states`)."""
+    return list(_ask_states(session, [keys.site_pattern(site, keys.STATE) for site in sites], timeout))
 
 
 def _alive_of(session: Any, pattern: str, timeout: float) -> set[str]:
@@ -222,25 +257,23 @@ class RemoteParameterMonitor(ParameterMonitor):
         return self._sites is None or any(fnmatch.fnmatchcase(site, g) for g in self._sites)
 
     def _first_sync(self) -> None:
-        states: list[codec.NodeStateMsg] = []
         bad: list[str] = []
-        for scope in self._scopes:
-            try:  # the tokens first, so that the states below show online exactly
+        try:
+            patterns: list[str] = []
+            for scope in self._scopes:  # the tokens first, so that the states below show online exactly
                 alive = _alive_of(self._session, keys.site_pattern(scope, keys.ALIVE), self._timeout)
                 with self._cond:
                     self._alive.update(n for n in alive if self._wanted(n) and n not in self._gone)
-                if scope == "*":  # site by site (see _states_by_site), the sites wanted of those up
+                if scope == "*":  # a query per site (see _ask_states), the sites wanted of those up
                     known = {n.split("/", 1)[0] for n in alive} | set(_sites_of(self._session, self._timeout))
                     up = sorted(site for site in known if self._wanted_site(site))
-                    states += _states_by_site(self._session, up, self._timeout, bad)
+                    patterns += [keys.site_pattern(site, keys.STATE) for site in up]
                 else:
-                    states += _states_of(
-                        self._session, keys.site_pattern(scope, keys.STATE), self._timeout, bad
-                    )
-            except Exception as exc:  # the session closed under us
-                log.debug("the first state query failed: %s", exc)
-        for msg in states:
-            self._apply_state(msg)
+                    patterns.append(keys.site_pattern(scope, keys.STATE))
+            for msg in _ask_states(self._session, patterns, self._timeout, bad):
+                self._apply_state(msg)
+        except Exception as exc:  # the session closed under us
+            log.debug("the first state query failed: %s", exc)
         self._ask_again(bad)
         self._mark_synced()
 
@@ -261,11 +294,13 @@ class RemoteParameterMonitor(ParameterMonitor):
         if not self._wanted(name):
             return
         events: list[MonitorEvent] = []
+        came_back = False
         with self._cond:
             if _is_delete(sample):
                 self._alive.discard(name)
                 self._gone.add(name)
             else:
+                came_back = name in self._gone
                 self._alive.add(name)
                 self._gone.discard(name)
             state = self._states.get(name)
@@ -275,9 +310,10 @@ class RemoteParameterMonitor(ParameterMonitor):
                     events.append(event)
             self._cond.notify_all()
         self._emit(events)
-        if not _is_delete(sample) and self.synced:
-            # back (a gateway took over, an uplink came back): what was published meanwhile is lost
-            # (before the first sync is done, its query asks for every node anyway)
+        if not _is_delete(sample) and (self.synced or came_back):
+            # back (a gateway took over, an uplink came back, a session dropped by loss): what was
+            # published meanwhile is lost, and so is a first query that was in flight (before the
+            # first sync is done, a token seen for the first time is in its query anyway)
             self._refresh(site, node)
 
     def _refresh(self, site: str, node: str) -> None:
@@ -303,19 +339,19 @@ class RemoteParameterMonitor(ParameterMonitor):
             by_site: dict[str, list[str]] = {}
             for site, node in wanted:
                 by_site.setdefault(site, []).append(node)
-            for site, site_nodes in by_site.items():
-                key = (
-                    keys.node_key(site, site_nodes[0], keys.STATE)
-                    if len(site_nodes) == 1
-                    else keys.site_pattern(site, keys.STATE)
-                )
-                bad: list[str] = []
-                try:
-                    for msg in _states_of(self._session, key, self._timeout, bad):
-                        self._apply_state(msg)
-                except Exception as exc:  # the session closed under us
-                    log.debug("refreshing %s failed: %s", key, exc)
-                self._ask_again(bad)
+            asked = [
+                keys.node_key(site, site_nodes[0], keys.STATE)
+                if len(site_nodes) == 1
+                else keys.site_pattern(site, keys.STATE)
+                for site, site_nodes in by_site.items()
+            ]
+            bad: list[str] = []
+            try:
+                for msg in _ask_states(self._session, asked, self._timeout, bad):
+                    self._apply_state(msg)
+            except Exception as exc:  # the session closed under us
+                log.debug("refreshing %s failed: %s", asked, exc)
+            self._ask_again(bad)
 
     def _ask_again(self, bad: list[str]) -> None:
         """Ask again (up to :data:`ASK_AGAIN` times a node) for the states whose reply did not

@@ -18,7 +18,7 @@ from collections.abc import Iterator
 import pytest
 
 from paramdds.dds.monitor import EventKind, MonitorEvent
-from paramdds.errors import ErrorCode, TransportError
+from paramdds.errors import ErrorCode, OutcomeUnknownError, TransportError
 from paramdds.zenoh.remote import RemoteParameterClient, RemoteParameterMonitor
 
 from ..conftest import next_domain_id
@@ -182,10 +182,9 @@ def test_sites_in_namespaces_late_joiner_calls_and_an_uplink_cut_and_restored(si
     monitor.close()
 
 
-@pytest.mark.skip(
-    reason="failed 1 of 3 fresh-clone CI runs since the first state query goes site by site "
-    "(e31b5bd): one site's nodes missing after 10 s under 30 % loss; issue 32 stays open for it"
-)
+TRIES = 5  # times a set is made under loss (see drive below)
+
+
 def test_thirty_percent_loss_on_every_uplink(sites: Sites) -> None:
     sites.start()
     session = sites.remote()
@@ -198,12 +197,27 @@ def test_thirty_percent_loss_on_every_uplink(sites: Sites) -> None:
     assert sorted(monitor.snapshot()) == sorted(ALL)
     client = RemoteParameterClient(session, timeout=10.0)
     failures: list[str] = []
+    unknown: list[str] = []
 
     def drive(k: int, site: str) -> None:  # 15 sets per site, the sites at once
+        node = f"{site}/robot2"
         for i in range(15):
-            reply = client.set(f"{site}/robot2", {"robot.max_velocity": round(0.1 * i + k, 1)})
-            if not reply.successful:
-                failures.append(f"{site}: {reply.results}")
+            for _ in range(TRIES):
+                try:
+                    reply = client.set(node, {"robot.max_velocity": round(0.1 * i + k, 1)})
+                except OutcomeUnknownError:
+                    # the site's Zenoh session was dropped (a TCP backoff at 30 % loss outlasted the
+                    # 3 s lease) with the call in flight, or before it while the site reconnects: as
+                    # an operator would, wait until the node is back online and set it again
+                    unknown.append(site)
+                    time.sleep(1.0)
+                    monitor.wait_until(lambda s: node in s and s[node].online, 30.0)
+                    continue
+                if not reply.successful:
+                    failures.append(f"{site}: {reply.results}")
+                break
+            else:
+                failures.append(f"{site}: set {i} ended outcome-unknown {TRIES} times")
 
     threads = [threading.Thread(target=drive, args=(k, site)) for k, site in enumerate(SITES)]
     for t in threads:
@@ -220,7 +234,7 @@ def test_thirty_percent_loss_on_every_uplink(sites: Sites) -> None:
     )
     dropped = sum(sites.topo.dropped(s) for s in SITES)
     assert dropped > 10, "the loss rules dropped (almost) nothing: the test proved nothing"
-    print(f"30 % loss: late joiner {took:.2f} s, {dropped} packets dropped")
+    print(f"30 % loss: late joiner {took:.2f} s, {dropped} packets dropped, {len(unknown)} outcome-unknown")
     monitor.close()
 
 
