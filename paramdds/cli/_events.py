@@ -47,7 +47,7 @@ class EventPrinter:
         self.last_event = time.monotonic()
         if event.event is EventKind.SYNCED:
             return  # printed by :meth:`synced`, once the state has settled (see settle())
-        if event.event in (EventKind.ONLINE, EventKind.OFFLINE, EventKind.RESTARTED):
+        if event.event in (EventKind.ONLINE, EventKind.OFFLINE, EventKind.RESTARTED, EventKind.STATUS):
             if self._synced:
                 self._write(self._node_line(event))
             return
@@ -67,20 +67,22 @@ class EventPrinter:
             self._write(f"not synced: the state did not settle within {waited:g} s; it may be incomplete")
 
     def _node_line(self, e: MonitorEvent) -> str:
+        from ..dds.monitor import EventKind
+
+        status = e.event is EventKind.STATUS  # the node's new status: "unreachable", "stale", None
         if self._json:
-            return dumps_json(
-                {
-                    "event": e.event.value,
-                    "node": shown_node(e.node, e.origin),
-                    "name": None,
-                    "type": None,
-                    "value": None,
-                    "revision": e.revision,
-                    "stamp": e.stamp,
-                },
-                pretty=False,
-            )
-        return f"{e.event.value:<8} {shown_node(e.node, e.origin)}"
+            line: dict[str, object] = {
+                "event": e.event.value,
+                "node": shown_node(e.node, e.origin),
+                "name": None,
+                "type": None,
+                "value": None,
+                "revision": e.revision,
+                "stamp": e.stamp,
+            }
+            return dumps_json({**line, "status": e.status} if status else line, pretty=False)
+        text = f"{e.event.value:<8} {shown_node(e.node, e.origin)}"
+        return f"{text} {e.status or 'ok'}" if status else text
 
     def _parameter_line(self, e: MonitorEvent) -> str:
         from ..dds.monitor import EventKind

@@ -71,6 +71,7 @@ class EventKind(str, Enum):
     ONLINE = "online"
     OFFLINE = "offline"
     RESTARTED = "restarted"  # the node's server started again (a new incarnation)
+    STATUS = "status"  # an online node's status changed (NodeState.status; None: back to normal)
     SYNCED = "synced"
 
 
@@ -85,6 +86,7 @@ class MonitorEvent:
     stamp: float = 0.0  # seconds since the epoch, from the writer
     incarnation: int = 0  # the server's for the node (new on every start): see NodeState.incarnation
     origin: str | None = None  # the node's presence tag "origin" ("ros2": mirrored by the bridge), if known
+    status: str | None = None  # the node's status (see NodeState.status) on online and status events
 
 
 @dataclass
@@ -140,6 +142,7 @@ class MonitorBase:
     * ``_has_callbacks``: whether events are worth making (none is delivered otherwise);
     * ``_touch()``: a sample arrived now (under ``_cond``);
     * ``_set_online(state, online)``: apply a change of presence; its event, or None;
+    * ``_status_event(state, status)``: apply a node's status; its event, or None;
     * ``_emit(events)``: deliver events to the callbacks (outside ``_cond``);
     * ``_mark_synced()``: the initial state is here (``synced``, once; waits wake up).
     """
@@ -260,6 +263,23 @@ class MonitorBase:
             stamp=time.time(),
             incarnation=state.incarnation,
             origin=state.origin,
+            status=state.status,
+        )
+
+    def _status_event(self, state: NodeState, status: str | None) -> MonitorEvent | None:
+        """Set ``state``'s status: a STATUS event when it changed on a node that stays online
+        (going online or offline is an event of its own, which carries the status)."""
+        changed, state.status = status != state.status, status
+        if not (changed and state.online):
+            return None
+        return MonitorEvent(
+            EventKind.STATUS,
+            state.node,
+            revision=self._shown(state, state.revision),
+            stamp=time.time(),
+            incarnation=state.incarnation,
+            origin=state.origin,
+            status=status,
         )
 
     def _emit(self, events: list[MonitorEvent]) -> None:
@@ -337,7 +357,7 @@ class ParameterMonitor(MonitorBase):
         self._check_incarnation(state, s, info, events)
         if s.kind == wire.EVENT_PRESENCE and s.name == "":
             self._flush_deleted(state, s.revision, events)
-            self._add(events, self._apply_presence(state, s, info))
+            events += self._apply_presence(state, s, info)
             events += [replace(e, origin=state.origin) for e in state.early]
             state.early.clear()
             return
@@ -415,7 +435,7 @@ class ParameterMonitor(MonitorBase):
             )
         state.deleting.clear()
 
-    def _apply_presence(self, state: NodeState, s: StateSample, info: Any) -> MonitorEvent | None:
+    def _apply_presence(self, state: NodeState, s: StateSample, info: Any) -> list[MonitorEvent]:
         writer = int(getattr(info, "publication_handle", 0))
         tags = s.value.value  # a string array of the server's tags, or NOT_SET
         if not isinstance(tags, tuple):
@@ -447,8 +467,10 @@ class ParameterMonitor(MonitorBase):
         state.incarnation = s.incarnation
         state.request_filter = request_filter_of(tags)
         state.origin = origin_of(tags)
-        state.status = status_of(tags)
-        return self._set_online(state, info.instance_state == InstanceState.Alive)
+        events: list[MonitorEvent] = []
+        self._add(events, self._status_event(state, status_of(tags)))
+        self._add(events, self._set_online(state, info.instance_state == InstanceState.Alive))
+        return events
 
     def _watch_sync(self) -> None:
         with self._cond:

@@ -62,6 +62,7 @@ def log_entry(e: MonitorEvent) -> Row:
         "event": e.event.value,
         "node": e.node,
         "origin": e.origin,  # "ros2": shown with its leading slash
+        "status": e.status,  # a "status" event's new status ("unreachable", "stale"; None: normal)
         "name": e.name,
         "revision": e.revision,
         "value": parameter_row(e.name, e.value, e.descriptor)["value"] if e.value is not None else None,

@@ -179,6 +179,7 @@ class NodeStateMsg:
     kind: str = "state"  # "delta": parameters holds only what changed since seq ``base``
     base: int = 0
     deleted: list[str] = field(default_factory=list)
+    status: str | None = None  # "unreachable", "stale" (a ROS 2 mirror: NodeState.status), else None
 
     def encode(self) -> bytes:
         extra: dict[str, object] = {}
@@ -200,6 +201,7 @@ class NodeStateMsg:
                 "incarnation": incarnation_text(self.incarnation),
                 "announced": self.announced,
                 "origin": self.origin,
+                "status": self.status,
                 "parameters": {
                     n: {"value": value_out(v), "descriptor": descriptor_out(d)}
                     for n, (v, d) in sorted(self.parameters.items())
@@ -227,6 +229,7 @@ class NodeStateMsg:
                 incarnation=int(str(obj.get("incarnation", "0")), 16),
                 announced=int(obj.get("announced", -1)),
                 origin=None if obj.get("origin") is None else str(obj["origin"]),
+                status=None if obj.get("status") is None else str(obj["status"]),
                 parameters=params,
                 kind="delta" if obj.get("kind") == "delta" else "state",
                 base=int(obj.get("base", 0)),

@@ -271,6 +271,7 @@ class Gateway:
                         st.announced,
                         incarnation=st.incarnation,
                         origin=st.origin,
+                        status=st.status,
                         parameters=dict(st.parameters),
                     )
                 )
@@ -295,6 +296,7 @@ class Gateway:
             incarnation=st.incarnation,
             announced=st.announced,
             origin=st.origin,
+            status=st.status,
             parameters=st.parameters,
         )
 

@@ -435,9 +435,12 @@ class RemoteParameterMonitor(ParameterMonitor):
             state.revision, state.announced = msg.revision, msg.announced
             state.incarnation, state.origin = msg.incarnation, msg.origin
             self._reported[name] = msg.online
-            event = self._set_online(state, msg.online and name in self._alive)
-            if event is not None:
-                events.append(event)
+            for event in (
+                self._status_event(state, msg.status),
+                self._set_online(state, msg.online and name in self._alive),
+            ):
+                if event is not None:
+                    events.append(event)
             self._cond.notify_all()
         with self._refresh_lock:
             self._asked_again.pop(name, None)  # held now: a later loss gets its own tries
@@ -657,4 +660,5 @@ def _info(msg: codec.NodeStateMsg) -> NodeInfo:
         None,
         msg.incarnation,
         msg.origin,
+        msg.status,
     )

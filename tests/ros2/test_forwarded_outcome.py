@@ -11,9 +11,11 @@ real bridge, real client; the test's own domain.
 
 from __future__ import annotations
 
+import json
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -21,6 +23,7 @@ from typing import Any
 import pytest
 
 from paramdds.core.values import Parameter, ParameterValue
+from paramdds.dds.monitor import EventKind
 from paramdds.errors import ErrorCode, OutcomeUnknownError, ParamddsError
 from paramdds.ros2.mirror import MirrorTable
 from paramdds.ros2.rosside import Unanswered
@@ -32,7 +35,12 @@ __all__ = ["paramdds_side"]  # the fixture, used by name below
 
 
 def test_a_stalled_ros2_node_stays_readable_as_stale_and_its_forwarded_set_is_outcome_unknown(
-    ros_env: dict[str, str], ros_hosts: Any, bridge: Any, paramdds_side: Any, tmp_path: Path
+    ros_env: dict[str, str],
+    ros_hosts: Any,
+    bridge: Any,
+    paramdds_side: Any,
+    tmp_path: Path,
+    request: pytest.FixtureRequest,
 ) -> None:
     params = tmp_path / "params.yaml"
     params.write_text("/arm/driver:\n  ros__parameters:\n    gain: 1.0\n")
@@ -41,6 +49,17 @@ def test_a_stalled_ros2_node_stays_readable_as_stale_and_its_forwarded_set_is_ou
     client.wait_for_node("arm/driver", timeout=30)
     assert client.get_value("arm/driver", "gain").value == 1.0
     assert bridge.options.timeout == 2.0  # the bridge's own wait: the caller's 4 s must win
+    # the status changes are events, live: the monitor's (the web console's), and watch's lines
+    events: list[tuple[EventKind, str | None]] = []
+    monitor.add_callback(
+        lambda e: (
+            events.append((e.event, e.status))
+            if e.node == "arm/driver" and e.event in (EventKind.STATUS, EventKind.OFFLINE)
+            else None
+        )
+    )
+    watch = _Watch(ros_env, "arm/driver")
+    request.addfinalizer(watch.stop)
     host.proc.send_signal(signal.SIGSTOP)
     try:
         started = time.monotonic()
@@ -81,6 +100,43 @@ def test_a_stalled_ros2_node_stays_readable_as_stale_and_its_forwarded_set_is_ou
     # no longer stale
     wait_for(lambda: client.get_value("arm/driver", "gain").value == 3.0, 20, "the late sets in the mirror")
     wait_for(lambda: monitor.snapshot()["arm/driver"].status is None, 10, "the mirror no longer stale")
+    # stale while each of the two sets waited on the stopped node, never offline
+    assert events == [(EventKind.STATUS, "stale"), (EventKind.STATUS, None)] * 2
+    wait_for(lambda: len(watch.statuses()) >= 4, 10, "watch's status lines")
+    assert watch.statuses() == ["stale", None] * 2, watch.lines
+
+
+class _Watch:
+    """``paramdds watch NODE -o json`` in a process of its own, its lines read as they come."""
+
+    def __init__(self, env: dict[str, str], node: str) -> None:
+        self.lines: list[dict[str, Any]] = []
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "paramdds.cli", "watch", node, "-o", "json"],
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            text=True,
+        )
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+        wait_for(lambda: any(line["event"] == "synced" for line in self.lines), 20, "watch synced")
+
+    def _read(self) -> None:
+        assert self.proc.stdout is not None
+        for line in self.proc.stdout:
+            self.lines.append(json.loads(line))
+
+    def statuses(self) -> list[str | None]:
+        return [line["status"] for line in self.lines if line["event"] == "status"]
+
+    def stop(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            self.proc.wait(10)
+        self._reader.join(5)
+        assert self.proc.stdout is not None
+        self.proc.stdout.close()
 
 
 class _FailsAfterSending:

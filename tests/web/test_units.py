@@ -153,3 +153,31 @@ def test_the_view_follows_a_restart_instead_of_keeping_the_highest_revision() ->
     assert view._summary(new).revision == 10
     view.note_revision("n", 12, 1)  # a late event of the old start does not count for the new one
     assert view._summary(new).revision == 9
+
+
+def test_a_status_change_alone_updates_the_node_list_and_the_log() -> None:
+    """A ROS 2 mirror shown stale (no parameter changed): the console's node list gets the
+    node's new summary and its log a ``status`` line, at once, not at a later refresh."""
+    from typing import cast
+
+    from paramdds.dds.monitor import MonitorBase, NodeState, ParameterMonitor
+
+    monitor = MonitorBase()
+    with monitor._cond:
+        monitor._states["arm/driver"] = NodeState("arm/driver", online=True, origin="ros2", status="stale")
+
+    async def run() -> list[str]:
+        hub = Hub(StateView(cast(ParameterMonitor, monitor)), asyncio.get_running_loop())
+        sub = hub.subscribe("")
+        hub.on_event(MonitorEvent(EventKind.STATUS, "arm/driver", revision=3, origin="ros2", status="stale"))
+        await asyncio.sleep(0.2)
+        messages = []
+        while not sub.queue.empty():
+            item = sub.queue.get_nowait()
+            assert item is not None
+            messages.append(item)
+        return messages
+
+    nodes, log = asyncio.run(run())
+    assert nodes.startswith("event: nodes") and '"node":"arm/driver"' in nodes and '"status":"stale"' in nodes
+    assert log.startswith("event: log") and '"event":"status"' in log and '"status":"stale"' in log

@@ -134,3 +134,35 @@ def test_a_node_whose_token_is_alive_but_whose_state_did_not_come_is_asked_for_a
     assert gw.queries == 2
     monitor.close()
     token.undeclare()
+
+
+def test_a_nodes_status_reaches_remote_viewers_live_as_an_event_and_in_nodes(fleet: Fleet) -> None:
+    """A gateway's state carries the node's status (a ROS 2 mirror shown ``stale`` or
+    ``unreachable``): the remote monitor holds it and reports each change as one ``status``
+    event while the node stays online, and the remote client's ``nodes()`` shows it."""
+    from paramdds.dds.monitor import EventKind, MonitorEvent
+    from paramdds.zenoh.remote import RemoteParameterClient
+
+    gw = FakeGateway(fleet.remote())
+    token = gw.session.liveliness().declare_token(keys.node_key("s1", NODE, keys.ALIVE))
+    events: list[MonitorEvent] = []
+    monitor = RemoteParameterMonitor(fleet.remote(), on_event=events.append)
+    name = "s1/ns/robot1"
+    assert monitor.wait_until(lambda s: name in s and s[name].online and s[name].status is None, 3.0)
+    stale = codec.NodeStateMsg("s1", NODE, "gw", 2, True, status="stale", announced=2, kind="delta", base=1)
+    gw.publish(stale)
+    assert monitor.wait_until(lambda s: s[name].status == "stale", 3.0)
+    with gw.lock:
+        gw.state = codec.NodeStateMsg(
+            "s1", NODE, "gw", 2, True, status="stale", parameters=_params(a=1.0, b=2.0), announced=2
+        )
+    client = RemoteParameterClient(fleet.remote(), timeout=3.0)
+    assert [(n.node, n.status) for n in client.nodes()] == [(name, "stale")]
+    gw.publish(codec.NodeStateMsg("s1", NODE, "gw", 3, True, announced=2, kind="delta", base=2))
+    assert monitor.wait_until(lambda s: s[name].status is None, 3.0)
+    shown = [(e.event, e.status) for e in events if e.event in (EventKind.STATUS, EventKind.OFFLINE)]
+    assert shown == [(EventKind.STATUS, "stale"), (EventKind.STATUS, None)]
+    assert monitor.snapshot()[name].parameters["a"][0].value == 1.0  # the values stay as they were
+    client.close()
+    monitor.close()
+    token.undeclare()

@@ -557,7 +557,8 @@ function log(events, skipped) {
   for (const e of events) {
     const when = new Date(e.stamp * 1000).toLocaleTimeString();
     const who = shownNode(e.node, e.origin);
-    const what = e.name ? `${who} ${e.name}` + (e.value !== null && e.value !== undefined ? ` = ${cellText(e.value, e.type)}` : "") : who;
+    const what = e.name ? `${who} ${e.name}` + (e.value !== null && e.value !== undefined ? ` = ${cellText(e.value, e.type)}` : "")
+      : e.event === "status" ? `${who} ${e.status || "ok"}` : who;
     list.prepend(el("li", { class: "k-" + e.event, text: `${when}  ${e.event.padEnd(8)} r${e.revision}  ${what}` }));
   }
   if (skipped) list.prepend(el("li", { class: "muted", text: `… ${skipped} more events` }));
