@@ -22,7 +22,8 @@ For each N of ``--nodes`` (default 10, 100, 300), both systems' hosts run side b
   dead host's stay there for Fast DDS's 20 s lease) up to its 5 s timeout; paramdds
   sees the dead host's nodes offline within its 1 s lease, or never sees them;
 * ``bridge``: ``paramdds ros2`` started beside the rclpy system: time from its start
-  until a fresh paramdds process holds all N mirrored nodes.
+  until a fresh paramdds process holds all N mirrored nodes; then warm gets and sets of
+  one mirrored node through it (``--requests``), beside rclpy's own warm calls.
 
 ROS 2 runs on ``ROS_DOMAIN_ID`` (a random one when unset), loopback only over UDP.
 """
@@ -284,7 +285,7 @@ def measure(
         warm = probe("ros-warm", "/" + node0, "bench_gain", requests, env=env)[1]
         row["ros_warm_get"], row["ros_warm_set"] = stats(warm["get_ms"]), stats(warm["set_ms"])
         note(f"N={n}: the bridge")
-        row["bridge_ms"] = bridge_time(n, env, args, bridge_domain)
+        row.update(bridge_rows(n, env, args, bridge_domain, node0, requests))
         # -- paramdds ------------------------------------------------------------------
         get = [sys.executable, "-m", "paramdds.cli", "get", "-d", domain, "--localhost", node0, "bench_gain"]
         row["dds_get_ms"] = median([run_timed(get, env=env)[0] for _ in range(rounds)])
@@ -336,8 +337,12 @@ def dds_server(params_file: Path, nodes: list[str], domain: str, env: dict[str, 
     return Host([*cmd, *(a for node in nodes for a in ("-n", node))], env, "[SERVER] Serving", len(nodes))
 
 
-def bridge_time(n: int, env: dict[str, str], args: argparse.Namespace, domain: int) -> float:
-    """From ``paramdds ros2``'s start until a fresh paramdds process holds all N mirrors."""
+def bridge_rows(
+    n: int, env: dict[str, str], args: argparse.Namespace, domain: int, node: str, requests: int
+) -> dict[str, Any]:
+    """``paramdds ros2`` started beside the rclpy system: the time from its start until a fresh
+    paramdds process holds all N mirrors, then warm gets and sets of ``node`` through it (a
+    paramdds client, the bridge, the rclpy node's services, and back)."""
     t0 = time.perf_counter()
     bridge = subprocess.Popen(
         [
@@ -360,7 +365,13 @@ def bridge_time(n: int, env: dict[str, str], args: argparse.Namespace, domain: i
     )
     try:
         probe("dds-dump", n, f"{ROS_NS}/{PREFIX}", 120, domain, env=env)
-        return round((time.perf_counter() - t0) * 1e3, 1)
+        took = round((time.perf_counter() - t0) * 1e3, 1)
+        warm = probe("dds-warm", node, "bench_gain", requests, domain, env=env)[1]
+        return {
+            "bridge_ms": took,
+            "bridge_warm_get": stats(warm["get_ms"]),
+            "bridge_warm_set": stats(warm["set_ms"]),
+        }
     finally:
         bridge.send_signal(signal.SIGINT)
         try:
@@ -399,4 +410,11 @@ def table(rows: list[dict[str, Any]], hosts: int, sets: int) -> str:
             r["dds_kill_ms"],
         )
         body.append([n, p, "bridge: start -> fresh client holds all (ms)", "-", r["bridge_ms"], "-"])
+        for kind in ("get", "set"):  # the ROS 2 column: rclpy's own warm calls to the same node
+            for q in ("p50", "p99"):
+                add(
+                    f"warm {kind} {q} through the bridge",
+                    r[f"ros_warm_{kind}"][q],
+                    r[f"bridge_warm_{kind}"][q],
+                )
     return "\n".join(lines) + "\n" + render(heads, body)
