@@ -53,7 +53,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import faulthandler
     import sys
+
+    # A crash in native code (rclpy, Fast DDS, the cyclonedds binding) of a long-running bridge
+    # leaves every thread's Python stack on stderr (its log), not only an exit status.
+    # SIGUSR1 dumps them too, without stopping it (a bridge that hangs).
+    if not faulthandler.is_enabled():
+        faulthandler.enable(all_threads=True)
+    if hasattr(faulthandler, "register"):  # not on Windows
+        import signal
+
+        faulthandler.register(signal.SIGUSR1, all_threads=True, chain=False)
 
     from ...frontend.exits import Exit, UsageError
     from ...frontend.session import Session
