@@ -245,7 +245,9 @@ def _tool_main(nodes: Sequence[str], timeout: float) -> dict[str, Any]:
     from rclpy.executors import SingleThreadedExecutor
 
     rclpy.init()
-    node = rclpy.create_node("paramdds_shared_domain_tool", enable_rosout=False)
+    # /rosout on (rclpy's default): Fast DDS then knows the type of every node's /rosout writer
+    # and never looks it up (that type lookup can crash the process, see paramdds.ros2.rosside)
+    node = rclpy.create_node("paramdds_shared_domain_tool")
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     t0 = time.monotonic()
