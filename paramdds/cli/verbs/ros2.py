@@ -53,18 +53,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import faulthandler
     import sys
-
-    # A crash in native code (rclpy, Fast DDS, the cyclonedds binding) of a long-running bridge
-    # leaves every thread's Python stack on stderr (its log), not only an exit status.
-    # SIGUSR1 dumps them too, without stopping it (a bridge that hangs).
-    if not faulthandler.is_enabled():
-        faulthandler.enable(all_threads=True)
-    if hasattr(faulthandler, "register"):  # not on Windows
-        import signal
-
-        faulthandler.register(signal.SIGUSR1, all_threads=True, chain=False)
 
     from ...frontend.exits import Exit, UsageError
     from ...frontend.session import Session
@@ -82,6 +71,8 @@ def run(args: argparse.Namespace) -> int:
     if args.ros_domain is not None and not 0 <= args.ros_domain <= 232:
         raise UsageError(f"the ROS 2 domain id must be between 0 and 232, got {args.ros_domain}")
     from ...ros2.bridge import Bridge, BridgeOptions
+
+    _report_crashes()
 
     options = BridgeOptions(
         mirror=() if args.no_mirror else tuple(args.mirror or ["*"]),
@@ -107,3 +98,23 @@ def run(args: argparse.Namespace) -> int:
         bridge.close()
         session.close()
     return Exit.OK
+
+
+def _report_crashes() -> None:
+    """A crash in native code (rclpy, Fast DDS, the cyclonedds binding) of a long-running bridge
+    leaves every thread's Python stack on the process's stderr (its log), not only an exit
+    status; SIGUSR1 dumps them too, without stopping it (a bridge that hangs)."""
+    import faulthandler
+    import signal
+    import sys
+
+    stream = sys.__stderr__  # the process's own: sys.stderr may be replaced by an object without a descriptor
+    if stream is None:  # no stderr at all: nothing to write to
+        return
+    try:
+        if not faulthandler.is_enabled():
+            faulthandler.enable(stream, all_threads=True)
+        if hasattr(faulthandler, "register"):  # not on Windows
+            faulthandler.register(signal.SIGUSR1, stream, all_threads=True, chain=False)
+    except (AttributeError, OSError, ValueError):  # no stderr with a file descriptor: nothing to write to
+        pass
