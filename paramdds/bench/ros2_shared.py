@@ -96,10 +96,12 @@ class _Proc:
                     break
 
     def tail(self, chars: int = 3000) -> str:
-        """The end of its stderr (empty without a log)."""
+        """The end of its stderr (empty without a log); for a process that crashed, faulthandler's
+        report instead: the crashing thread's stack first, then the others (up to CRASH_CHARS)."""
         if self.log is None or not self.log.exists():
             return ""
-        return self.log.read_text(errors="replace")[-chars:]
+        text = self.log.read_text(errors="replace")
+        return crash_report(text) or text[-chars:]
 
     def stop(self) -> None:
         if self.proc.poll() is None:
@@ -115,11 +117,33 @@ class _Proc:
             try:
                 self.proc.wait(timeout=20)
             except subprocess.TimeoutExpired:
+                if self.log is not None:  # a bridge: faulthandler writes every thread's stack to its log
+                    with contextlib.suppress(OSError):
+                        self.proc.send_signal(signal.SIGUSR1)
+                    time.sleep(1.0)
                 os.killpg(self.proc.pid, signal.SIGKILL)
                 self.proc.wait()
         for stream in (self.proc.stdin, self.proc.stdout):
             if stream is not None and not stream.closed:
                 stream.close()
+
+
+CRASH_CHARS = 20000  # how much of a crash report a diagnosis shows (a bridge has ~30 threads)
+
+
+def crash_report(text: str) -> str:
+    """faulthandler's report in a process's stderr (``Fatal Python error: ...`` and every
+    thread's stack), the crashing thread's stack first; empty when there is none."""
+    start = text.find("Fatal Python error")
+    if start < 0:
+        return ""
+    report = text[start:]
+    before, found, rest = report.partition("\nCurrent thread ")
+    if found:  # the crashing thread's block (up to the next blank line) to the front
+        block, _, after = rest.partition("\n\n")
+        first, _, others = before.partition("\n")
+        report = f"{first}\nCurrent thread {block}\n\nThe other threads:{others}\n\n{after}"
+    return report[:CRASH_CHARS]
 
 
 @contextmanager
@@ -225,7 +249,9 @@ def _tool_main(nodes: Sequence[str], timeout: float) -> dict[str, Any]:
     from rclpy.executors import SingleThreadedExecutor
 
     rclpy.init()
-    node = rclpy.create_node("paramdds_shared_domain_tool", enable_rosout=False)
+    # /rosout on (rclpy's default): Fast DDS then knows the type of every node's /rosout writer
+    # and never looks it up (that type lookup can crash the process, see paramdds.ros2.rosside)
+    node = rclpy.create_node("paramdds_shared_domain_tool")
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     t0 = time.monotonic()

@@ -6,10 +6,20 @@ when None), which may differ from the paramdds domain. Its nodes carry the encla
 :data:`ENCLAVE`: a bridge never mirrors a node of that enclave (itself, the nodes it
 exposes, another bridge's), which is what keeps two bridges from looping a node.
 
-Right after its node exists, the side makes a client of each parameter service type (on
-hidden service names): Fast DDS then knows those types before it discovers any remote
-endpoint of them, and matches those endpoints without asking other participants for the
-types (type lookup, which a peer answering requests meant for another can derail).
+Right after its node exists, the side makes a client of each parameter service type and a
+publisher of each message type every ROS 2 node has an endpoint of (``/rosout``'s ``Log``,
+``/clock``'s ``Clock``), on hidden names: Fast DDS then knows those types before it
+discovers any remote endpoint of them, and matches those endpoints without asking other
+participants for the types (XTypes type lookup). Type lookup is to be avoided twice over:
+
+* a peer answering requests meant for another can derail it;
+* Fast DDS 3.2 crashes in it (SIGSEGV, issue 30): while the reply for a type is handled
+  (``TypeLookupManager::notify_callbacks``, on its reply thread, without a lock), discovery
+  of more endpoints of that type appends to the same list of callbacks (under a lock the
+  reply thread does not take), and a reallocation leaves the reply thread calling freed
+  memory. A graph of N nodes makes N ``/rosout`` writers discovered in one burst: with
+  ``Log`` unknown, bridge starts beside 100 nodes crashed there now and then (seen under
+  CPU starvation; the core's pending type was ``rcl_interfaces::msg::dds_::Log_``).
 
 Service calls are made from any thread (a mirrored node's worker, the sync pool) and
 wait on their future with a bounded timeout. The bridge's own node (its service clients
@@ -41,7 +51,17 @@ class Unanswered(ParamddsError):
 
 
 ENCLAVE = "/paramdds_bridge"  # the enclave of every node a bridge creates
-TYPES_SERVICE = "/_paramdds_bridge/types"  # hidden (a leading _): the clients that register types
+TYPES_SERVICE = "/_paramdds_bridge/types"  # hidden (a leading _): the endpoints that register types
+
+
+def _messages() -> list[Any]:
+    """The message types of the endpoints every ROS 2 node has besides its parameter services and
+    ``/parameter_events`` (which the bridge's own node has too): ``/rosout`` (``Log``) and, with
+    ``use_sim_time``, ``/clock`` (``Clock``)."""
+    from rcl_interfaces.msg import Log
+    from rosgraph_msgs.msg import Clock
+
+    return [Log, Clock]
 
 
 def _kinds() -> list[Any]:
@@ -81,6 +101,9 @@ class RosSide:
         )
         self.clients_group = ReentrantCallbackGroup()  # responses are handled concurrently
         self._type_clients = [self.client(k, f"{TYPES_SERVICE}/{k.__name__.lower()}") for k in _kinds()]
+        self._type_publishers = [
+            self.node.create_publisher(m, f"{TYPES_SERVICE}/{m.__name__.lower()}", 1) for m in _messages()
+        ]
         self._pool_threads = threads
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)

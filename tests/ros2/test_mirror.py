@@ -417,3 +417,36 @@ def test_a_dump_piped_into_load_onto_a_mirrored_rclpy_node_is_a_no_op(
     finally:
         watcher.close()
         close_participant(dp)
+
+
+def test_the_bridge_side_knows_the_type_of_every_endpoint_a_plain_node_has(ros_env: dict[str, str]) -> None:
+    """Fast DDS 3.2 can crash (SIGSEGV) in XTypes type lookup when many endpoints of a type it
+    does not know are discovered at once (issue 30: the /rosout writers of 100 nodes, a bridge
+    start in about 1 of 10 under CPU starvation). The bridge's side makes an endpoint of every
+    type a plain rclpy node (use_sim_time on) has an endpoint of, so Fast DDS never looks one up."""
+    import rclpy
+    from rclpy.parameter import Parameter
+
+    from paramdds.ros2.rosside import RosSide
+
+    side = RosSide(None, "paramdds_types_probe")
+    plain = rclpy.create_node(
+        "paramdds_plain_probe",
+        context=side.context,
+        parameter_overrides=[Parameter("use_sim_time", Parameter.Type.BOOL, True)],
+    )
+    try:
+
+        def types(node: Any, *queries: str) -> set[str]:
+            name, ns = node.get_name(), node.get_namespace()
+            return {t for q in queries for _, ts in getattr(node, q)(name, ns) for t in ts}
+
+        endpoints = ("get_publisher_names_and_types_by_node", "get_subscriber_names_and_types_by_node")
+        services = ("get_service_names_and_types_by_node", "get_client_names_and_types_by_node")
+        known = types(side.node, *endpoints, *services)
+        needed = types(plain, *endpoints, *services)
+        assert {"rcl_interfaces/msg/Log", "rosgraph_msgs/msg/Clock"} <= needed  # what the probe covers
+        assert needed <= known, needed - known
+    finally:
+        plain.destroy_node()
+        side.close()

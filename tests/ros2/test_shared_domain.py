@@ -122,11 +122,6 @@ def test_every_bridge_start_mirrors_every_nav2_node_and_rclpy_tools_reach_every_
     print(f"\nnav2 ({len(nodes)} nodes), start to all mirrored: {times} s")
 
 
-@pytest.mark.skip(
-    reason="the bridge process died of SIGSEGV (exit -11) at its second start in 1 of 3 fresh-clone "
-    "CI runs ('0 of 100 mirrored'; a fresh rclpy tool reached 100 of 100): a crash not yet found; "
-    "issue 30 stays open for it"
-)
 def test_every_bridge_start_mirrors_all_of_100_nodes(shared: Any) -> None:
     env, monitor = shared
     host = [a for i in range(100) for a in ("--node", f"/shared/n{i:03d}")]

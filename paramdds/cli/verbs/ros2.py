@@ -72,6 +72,8 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"the ROS 2 domain id must be between 0 and 232, got {args.ros_domain}")
     from ...ros2.bridge import Bridge, BridgeOptions
 
+    _report_crashes()
+
     options = BridgeOptions(
         mirror=() if args.no_mirror else tuple(args.mirror or ["*"]),
         exclude=tuple(args.exclude),
@@ -96,3 +98,23 @@ def run(args: argparse.Namespace) -> int:
         bridge.close()
         session.close()
     return Exit.OK
+
+
+def _report_crashes() -> None:
+    """A crash in native code (rclpy, Fast DDS, the cyclonedds binding) of a long-running bridge
+    leaves every thread's Python stack on the process's stderr (its log), not only an exit
+    status; SIGUSR1 dumps them too, without stopping it (a bridge that hangs)."""
+    import faulthandler
+    import signal
+    import sys
+
+    stream = sys.__stderr__  # the process's own: sys.stderr may be replaced by an object without a descriptor
+    if stream is None:  # no stderr at all: nothing to write to
+        return
+    try:
+        if not faulthandler.is_enabled():
+            faulthandler.enable(stream, all_threads=True)
+        if hasattr(faulthandler, "register"):  # not on Windows
+            faulthandler.register(signal.SIGUSR1, stream, all_threads=True, chain=False)
+    except (AttributeError, OSError, ValueError):  # no stderr with a file descriptor: nothing to write to
+        pass
