@@ -42,7 +42,10 @@ def _ros() -> Any:
     import rclpy
 
     rclpy.init()
-    return rclpy, rclpy.create_node("paramdds_bench_probe", enable_rosout=False)
+    # with its own /rosout (rclpy's default, as `ros2 param` has), Fast DDS knows the Log type
+    # of the graph's N /rosout writers and does not look it up: Fast DDS 3.2's type lookup
+    # can crash on such a burst (see paramdds.ros2.rosside; seen here: a probe at N = 300)
+    return rclpy, rclpy.create_node("paramdds_bench_probe")
 
 
 def ros_dump(n: int, prefix: str, timeout: float, quiet: float) -> dict[str, Any]:

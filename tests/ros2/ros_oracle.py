@@ -59,7 +59,9 @@ class Oracle:
 
         self.rclpy = rclpy
         rclpy.init()
-        self.node = rclpy.create_node("paramdds_test_oracle", enable_rosout=False)
+        # rclpy's default /rosout: Fast DDS then knows the graph's Log type and does not look
+        # it up (a lookup Fast DDS 3.2 can crash or stall in: paramdds.ros2.rosside)
+        self.node = rclpy.create_node("paramdds_test_oracle")
 
     def wait(self, future: Any) -> Any:
         self.rclpy.spin_until_future_complete(self.node, future, timeout_sec=TIMEOUT)
