@@ -100,13 +100,14 @@ def test_the_host_check_holds_on_every_bind(tmp_path: Path) -> None:
     assert not local.token_for_reads and "robot.example" in local.allowed_hosts
 
 
-def test_a_burst_is_coalesced_into_one_message_per_kind() -> None:
+def _streamed(view: StateView, node: str, events: list[MonitorEvent]) -> list[str]:
+    """The messages a console's event stream (subscribed to ``node``) gets for ``events``."""
+
     async def run() -> list[str]:
-        hub = Hub(StateView(), asyncio.get_running_loop())
-        sub = hub.subscribe("arm")
-        for i in range(500):
-            value = ParameterValue(ParameterType.INTEGER, i)
-            hub.on_event(MonitorEvent(EventKind.MODIFIED, "arm", "gain", value, None, i + 1))
+        hub = Hub(view, asyncio.get_running_loop())
+        sub = hub.subscribe(node)
+        for event in events:
+            hub.on_event(event)
         await asyncio.sleep(0.2)
         messages = []
         while not sub.queue.empty():
@@ -115,7 +116,15 @@ def test_a_burst_is_coalesced_into_one_message_per_kind() -> None:
             messages.append(item)
         return messages
 
-    messages = asyncio.run(run())
+    return asyncio.run(run())
+
+
+def test_a_burst_is_coalesced_into_one_message_per_kind() -> None:
+    burst = [
+        MonitorEvent(EventKind.MODIFIED, "arm", "gain", ParameterValue(ParameterType.INTEGER, i), None, i + 1)
+        for i in range(500)
+    ]
+    messages = _streamed(StateView(), "arm", burst)
     kinds = [m.split("\n", 1)[0] for m in messages]
     assert kinds == ["event: params", "event: nodes", "event: log"]
     params = messages[0]
@@ -166,18 +175,7 @@ def test_a_status_change_alone_updates_the_node_list_and_the_log() -> None:
     with monitor._cond:
         monitor._states["arm/driver"] = NodeState("arm/driver", online=True, origin="ros2", status="stale")
 
-    async def run() -> list[str]:
-        hub = Hub(StateView(cast(ParameterMonitor, monitor)), asyncio.get_running_loop())
-        sub = hub.subscribe("")
-        hub.on_event(MonitorEvent(EventKind.STATUS, "arm/driver", revision=3, origin="ros2", status="stale"))
-        await asyncio.sleep(0.2)
-        messages = []
-        while not sub.queue.empty():
-            item = sub.queue.get_nowait()
-            assert item is not None
-            messages.append(item)
-        return messages
-
-    nodes, log = asyncio.run(run())
+    event = MonitorEvent(EventKind.STATUS, "arm/driver", revision=3, origin="ros2", status="stale")
+    nodes, log = _streamed(StateView(cast(ParameterMonitor, monitor)), "", [event])
     assert nodes.startswith("event: nodes") and '"node":"arm/driver"' in nodes and '"status":"stale"' in nodes
     assert log.startswith("event: log") and '"event":"status"' in log and '"status":"stale"' in log
