@@ -420,6 +420,11 @@ class ParameterClient(ClientBase):
         """How far this client's discovery of the system has got (see :mod:`.discovery`)."""
         return self._watch().state()
 
+    def ignore_writer(self, writer: Any) -> None:
+        """Leave a ``ParameterEvents`` writer of this process out of :meth:`discovery`
+        (see :meth:`DiscoveryWatch.ignore`)."""
+        self._watch().ignore(writer)
+
     def presence(self, node: str) -> Presence:
         """ONLINE, OFFLINE, ABSENT (discovery settled without it) or UNKNOWN (it may yet appear).
 

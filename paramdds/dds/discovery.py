@@ -168,6 +168,16 @@ class DiscoveryState:
     dead_writers: int = 0  # writers that delivered nothing and are certainly not alive (see owed())
     liveliness: int = 0  # counts the liveliness changes seen: a waiting call re-checks its node when it moves
 
+    @property
+    def quiet(self) -> bool:
+        """Rules 2 and 3 hold: every writer found has delivered and discovery is quiet.
+
+        Unlike :attr:`settled`, no server need have been found: a process that is about to
+        serve nodes asks this before it takes any (its own writers excluded with
+        :meth:`DiscoveryWatch.ignore`), and "nobody else serves anything" is an answer.
+        """
+        return self.pending_writers == 0 and self.elapsed - self.last_change >= self.quiet_needed
+
     def describe(self) -> str:
         """A short human account, for error messages."""
         if self.settled:
@@ -220,6 +230,7 @@ class DiscoveryWatch:
         self._remote: set[Any] = set()
         self._arrivals = 0  # remote participants and state writers that appeared (leaving is no news)
         self._writers_seen: set[int] = set()
+        self._ignored: set[int] = set()  # writers of this process not to wait for (see ignore())
         self._delivered: set[int] = set()  # publication handles that have delivered a sample
         self._instance_of: dict[int, int] = {}  # a delivering writer -> one instance it delivered
         self._not_alive = 0  # matched writers Cyclone reports not alive
@@ -245,6 +256,16 @@ class DiscoveryWatch:
     def settled(self) -> bool:
         return self.state().settled
 
+    def ignore(self, writer: Any) -> None:
+        """Leave ``writer`` (a ``ParameterEvents`` writer of this participant) out of every rule.
+
+        For a server created beside this watch that hosts nothing yet: it has nothing to
+        deliver, so it would hold rule 2 open for ever.
+        """
+        with self._lock:
+            self._ignored.add(writer.instance_handle & _U64)
+            self._poll(self._clock())
+
     def _poll(self, now: float) -> None:
         self._polled = now
         self._read_participants()
@@ -252,7 +273,7 @@ class DiscoveryWatch:
         self._read_liveliness()
         try:
             # the binding gives these handles signed, sample infos unsigned
-            matched = {h & _U64 for h in matched_publications(self._reader)}
+            matched = {h & _U64 for h in matched_publications(self._reader)} - self._ignored
         except DDSException:
             matched = set()
         self._arrivals += len(matched - self._writers_seen)

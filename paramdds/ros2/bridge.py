@@ -49,6 +49,7 @@ SECURE_REFUSED = (
 log = logging.getLogger(__name__)
 
 POLL = 0.5  # seconds between looks at the ROS 2 graph and the paramdds presence
+START_WAIT = 3.0  # seconds at most a start waits to learn what paramdds already holds
 ORIGIN = "ros2"
 
 
@@ -141,9 +142,13 @@ class Bridge:
             return [] if self._unreachable is None else sorted(self._unreachable.nodes)
 
     def _run(self) -> None:
-        # learn what paramdds already holds before mirroring anything (never host a node twice)
-        deadline = time.monotonic() + 3.0
-        while not self._stop.is_set() and not self.client.discovery().settled and time.monotonic() < deadline:
+        # learn what paramdds already holds before mirroring anything (never host a node
+        # twice): every other server found has delivered its presence and discovery is quiet.
+        # Our own server hosts nothing yet, and "no other server" is an answer (waiting for
+        # one, as a client's `settled` does, cost every start the whole 3 s bound).
+        self.client.ignore_writer(self.server.publication.writer)
+        deadline = time.monotonic() + START_WAIT
+        while not self._stop.is_set() and not self.client.discovery().quiet and time.monotonic() < deadline:
             self._stop.wait(0.05)
         while not self._stop.is_set():
             try:

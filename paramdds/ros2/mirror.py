@@ -54,6 +54,11 @@ RESCUE_AT = 3  # the failure from which the node's clients live in a new partici
 RESCUE_EVERY = 10.0  # seconds: a new rescue participant at most this often
 UNREACHABLE = "unreachable"
 MIN_AGE = 2.0  # seconds a node must have been in the graph before it is mirrored (not tool nodes)
+# seconds from the bridge's first look during which the nodes found were there before it:
+# Fast DDS finds the participants of a running graph 0.2-3.3 s after its start (measured
+# with a bare rclpy node against 4 host processes: a peer that misses the first
+# announcements answers at its next periodic one, every 3 s)
+START_WINDOW = 4.0
 
 Entry = tuple[ParameterValue, ParameterDescriptor]
 CAS_REFUSED = (
@@ -428,11 +433,11 @@ class Mirror:
     def _old_enough(self, fqn: str, now: float) -> bool:
         """Whether a node not mirrored yet has been in the graph for :data:`MIN_AGE` seconds, so
         that a tool's node (``ros2 param`` lives well under a second) is never mirrored. The
-        nodes of the bridge's first MIN_AGE seconds of looking were there before it: mirrored
-        at once."""
+        nodes of the bridge's first :data:`START_WINDOW` seconds of looking were there before
+        it: mirrored at once."""
         assert self._looking_since is not None
         seen = self._first_seen.setdefault(fqn, now)
-        if seen - self._looking_since < MIN_AGE or now - seen >= MIN_AGE:
+        if seen - self._looking_since < START_WINDOW or now - seen >= MIN_AGE:
             self._first_seen.pop(fqn, None)
             return True
         return False

@@ -228,3 +228,29 @@ def test_a_client_that_knows_only_other_clients_asks_again(
         client.wait_for_node("nobody", timeout=PROBE_AFTER + 1.0)
     watch = client._discovery
     assert watch is not None and watch.probes == 1
+
+
+@pytest.mark.parametrize("other", [True, False], ids=["another-server", "no-other-server"])
+def test_a_process_about_to_serve_does_not_wait_for_its_own_empty_server(
+    dds: DDS, domain_id: int, other: bool
+) -> None:
+    """The bridge's question before it mirrors anything: what do the *other* servers hold?
+    Its own server hosts nothing yet and owes nothing: ignored, it no longer holds rule 2
+    open, and "no other server" is an answer (``quiet``), where ``settled`` never is."""
+    from paramdds.dds.server import ParameterServer
+
+    own = dds.own(ParameterServer(dds.participant(domain_id)).start())
+    if other:
+        dds.server(domain_id, ParameterTable("elsewhere"))
+    client = dds.client(domain_id)
+    if other:
+        assert client.wait_for_node("elsewhere", timeout=5.0).online
+    time.sleep(1.0)  # past the quiet period: only our own empty server holds the answer back
+    state = client.discovery()
+    assert (state.state_writers, state.pending_writers, state.quiet) == (1 + other, 1, False), state
+
+    client.ignore_writer(own.publication.writer)
+    state = client.discovery()
+    assert (state.state_writers, state.pending_writers, state.quiet) == (int(other), 0, True), state
+    assert state.settled is other  # a client asking about a node still needs a server found
+    assert client.presence("elsewhere") is (Presence.ONLINE if other else Presence.UNKNOWN)

@@ -18,7 +18,7 @@ from paramdds.dds.client import ParameterClient
 from paramdds.dds.monitor import ParameterMonitor
 from paramdds.dds.participant import close_participant, make_participant
 from paramdds.errors import ErrorCode, OutcomeUnknownError
-from paramdds.ros2.mirror import MIN_AGE
+from paramdds.ros2.mirror import START_WINDOW
 
 from .conftest import REALWORLD, RosHost, oracle, paramdds_cli
 
@@ -246,7 +246,7 @@ def test_a_tool_node_living_under_a_second_is_not_mirrored(
     client, monitor = paramdds_side
     host: RosHost = ros_hosts("--node", "/tools/host")
     client.wait_for_node("tools/host", timeout=30)
-    time.sleep(MIN_AGE)  # past the bridge's first looks, whose nodes are mirrored at once
+    time.sleep(START_WINDOW)  # past the bridge's first looks, whose nodes are mirrored at once
     seen: set[str] = set()
     for i in range(3):  # each its own name, as each `ros2 param` run's node
         # long enough to be read and mirrored (a bridge without the rule does), under MIN_AGE
