@@ -29,7 +29,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import threading
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -61,6 +61,7 @@ MIN_AGE = 2.0  # seconds a node must have been in the graph before it is mirrore
 START_WINDOW = 4.0
 
 Entry = tuple[ParameterValue, ParameterDescriptor]
+READS = ("list_parameters", "get_parameters", "describe_parameters")  # clients made per read (see RosLink)
 CAS_REFUSED = (
     "compare-and-set is not available on a mirrored ROS 2 node: ROS 2 has no revision, so the "
     "check and the set could not be one step; set without an expected revision"
@@ -76,6 +77,25 @@ class RosLink:
         self.timeout = timeout
         self._clients: dict[str, Any] = {}
         self._lock = threading.Lock()
+        self._reading = 0  # reads in progress (see _reads)
+
+    @contextlib.contextmanager
+    def _reads(self) -> Iterator[None]:
+        """Around the reads of the node: its read clients live only while one is in progress.
+
+        rclpy's executor rebuilds its wait set from every client of the bridge's node on each
+        wake-up, in Python: three idle read clients per mirrored node made every forwarded set
+        and every reply slower the more nodes were mirrored (7 ms a set at N = 300), and the
+        bridge's own paramdds answers waited for the interpreter meanwhile."""
+        with self._lock:
+            self._reading += 1
+        try:
+            yield
+        finally:
+            with self._lock:
+                self._reading -= 1
+                idle = [] if self._reading else [self._clients.pop(s) for s in READS if s in self._clients]
+            self._destroy(self.ros, idle)
 
     def _client(self, service: str) -> Any:
         from rcl_interfaces import srv
@@ -100,11 +120,12 @@ class RosLink:
         """Every parameter of the node with its value and descriptor (list, get, describe)."""
         from rcl_interfaces import srv
 
-        for service in ("get_parameters", "describe_parameters"):
-            self._client(service)  # created now, they match the node's services while we list
-        listed = self._call("list_parameters", srv.ListParameters.Request(depth=0))
-        names = sorted(set(listed.result.names))
-        return self.entries(names)
+        with self._reads():
+            for service in ("get_parameters", "describe_parameters"):
+                self._client(service)  # created now, they match the node's services while we list
+            listed = self._call("list_parameters", srv.ListParameters.Request(depth=0))
+            names = sorted(set(listed.result.names))
+            return self.entries(names)
 
     def entries(self, names: Sequence[str]) -> dict[str, Entry]:
         """Value and descriptor of ``names`` (those the node no longer has are left out)."""
@@ -112,8 +133,9 @@ class RosLink:
 
         if not names:
             return {}
-        got = self._call("get_parameters", srv.GetParameters.Request(names=list(names)))
-        described = self._call("describe_parameters", srv.DescribeParameters.Request(names=list(names)))
+        with self._reads():
+            got = self._call("get_parameters", srv.GetParameters.Request(names=list(names)))
+            described = self._call("describe_parameters", srv.DescribeParameters.Request(names=list(names)))
         if len(got.values) != len(names) or len(described.descriptors) != len(names):
             raise ParamddsError(
                 f"{self.fqn} answered {len(got.values)} values and {len(described.descriptors)} "
@@ -152,6 +174,9 @@ class RosLink:
         with self._lock:
             clients, self._clients = list(self._clients.values()), {}
             ros = self.ros
+        self._destroy(ros, clients)
+
+    def _destroy(self, ros: RosSide, clients: Sequence[Any]) -> None:
         for client in clients:
             try:
                 ros.node.destroy_client(client)

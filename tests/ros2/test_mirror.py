@@ -106,6 +106,13 @@ def test_paramdds_set_changes_the_rclpy_node_with_refusals_per_parameter(
     host: RosHost = ros_hosts("--rich", "/robot/rich")
     client, _ = paramdds_side
     client.wait_for_node("robot/rich", timeout=30)
+
+    def clients() -> set[str]:  # the bridge's ROS 2 clients of this node's services
+        return {c.srv_name for c in bridge.ros.node.clients if c.srv_name.startswith("/robot/rich/")}
+
+    # read clients live only while the bridge reads the node: every idle one costs each
+    # wake-up of rclpy's executor (see RosLink._reads)
+    wait_for(lambda: not clients(), 10, "the read clients destroyed once the node is read")
     out = paramdds_cli(
         ros_env,
         "set",
@@ -136,6 +143,7 @@ def test_paramdds_set_changes_the_rclpy_node_with_refusals_per_parameter(
         "ids": None,
     }
     assert host.command("get /robot/rich ids") == "value [4]"
+    assert clients() == {"/robot/rich/set_parameters"}  # kept: sets come again
     assert client.get("robot/rich", ["limits.speed"]).values()["limits.speed"] == ParameterValue.from_python(
         2.0
     )
