@@ -17,8 +17,10 @@ liveliness, through the protected interfaces of
   is asked for again (publications made meanwhile were lost), so nothing stale shows
   online;
 * the client sends each call as one query to the node's key, with an explicit Zenoh
-  timeout; no reply at all means no gateway serves the site (UNAVAILABLE), or the
-  answer did not come back in time (TIMEOUT).
+  timeout, once Zenoh says a gateway of the site serves it (else UNAVAILABLE, and
+  nothing is sent); no reply at all then means the route went meanwhile (UNAVAILABLE;
+  OUTCOME_UNKNOWN for a set, which may have reached the gateway), or the answer did not
+  come back in time (TIMEOUT).
 """
 
 from __future__ import annotations
@@ -60,6 +62,7 @@ REFRESH_BATCH = 0.05  # seconds: nodes to ask for again are gathered this long, 
 ASK_AGAIN = 3  # times a node whose state did not come, or did not decode, is asked for again
 PARALLEL_QUERIES = 4  # state queries in flight at once (see _ask_states)
 REPLY_MARGIN = 0.5  # seconds past a call's timeout before the client stops waiting for Zenoh
+ROUTE_WAIT = 1.0  # seconds the first call of a verb to a site waits to learn a gateway serves it
 _ALL_ALIVE = keys.site_pattern("*", keys.ALIVE)
 _ALL_GATEWAYS = f"{keys.PREFIX}/*/gateway/*"  # the gateways' tokens (not the active ones': one chunk more)
 
@@ -469,9 +472,44 @@ class RemoteParameterClient(ParameterClient):
         # the calls (ClientBase), carried by Zenoh queries instead of DDS: the hooks below
         ClientBase.__init__(self, timeout=timeout, client_id=0)
         self._session = session
+        self._routes: dict[str, tuple[Any, float]] = {}  # a site's verb pattern -> (querier, declared at)
+        self._routes_lock = threading.Lock()
 
     def close(self) -> None:
         ClientBase.close(self)  # not ParameterClient's: no DDS entities here
+        with self._routes_lock:
+            routes, self._routes = list(self._routes.values()), {}
+        for querier, _ in routes:
+            try:
+                querier.undeclare()
+            except Exception:
+                log.debug("undeclaring %r failed", querier, exc_info=True)
+
+    def _check_route(self, pending: PendingCall, limit: float) -> None:
+        """UNAVAILABLE, before anything is sent, when no gateway of the node's site serves the
+        call's verb now: Zenoh's matching status of a querier on the site's pattern (learnt
+        from the router within milliseconds of its declaration, and lost as soon as the
+        gateway's session is). A set that was never sent is a failure, not an unknown outcome.
+        """
+        site, _ = keys.split_remote(pending.node)
+        pattern = keys.site_pattern(site, pending.topic)
+        with self._routes_lock:
+            route = self._routes.get(pattern)
+            if route is None:
+                try:
+                    route = self._routes[pattern] = (self._session.declare_querier(pattern), time.monotonic())
+                except Exception as exc:
+                    raise UnavailableError(f"could not send the call to {pending.node!r}: {exc}") from None
+        querier, declared = route
+        until = declared + min(ROUTE_WAIT, limit)
+        while not querier.matching_status.matching:
+            if time.monotonic() >= until:
+                raise UnavailableError(
+                    f"node {pending.node!r}: no gateway of site {site!r} is reachable (site not "
+                    "connected, or its uplink is down); the call was not sent"
+                )
+            if self._closing.wait(0.005):
+                raise UnavailableError("the client was closed")
 
     # -- presence --------------------------------------------------------------------------------
 
@@ -620,6 +658,7 @@ class RemoteParameterClient(ParameterClient):
 
     def _wait(self, node: str, request_id: int, pending: PendingCall, timeout: float | None) -> Any:
         limit = self.timeout if timeout is None else timeout
+        self._check_route(pending, limit)
         future = self._fire(pending, limit)
         try:
             return future.result(limit + REPLY_MARGIN)
@@ -628,6 +667,7 @@ class RemoteParameterClient(ParameterClient):
 
     async def _await(self, node: str, request_id: int, pending: PendingCall, timeout: float | None) -> Any:
         limit = self.timeout if timeout is None else timeout
+        await asyncio.to_thread(self._check_route, pending, limit)  # may wait for the router
         future = asyncio.wrap_future(self._fire(pending, limit))
         try:
             return await asyncio.wait_for(future, limit + REPLY_MARGIN)

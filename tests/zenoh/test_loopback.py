@@ -15,7 +15,7 @@ import pytest
 from paramdds.core.revision import Revision
 from paramdds.dds.monitor import EventKind, MonitorEvent
 from paramdds.errors import ErrorCode, UnavailableError
-from paramdds.zenoh.remote import RemoteParameterClient, RemoteParameterMonitor
+from paramdds.zenoh.remote import ROUTE_WAIT, RemoteParameterClient, RemoteParameterMonitor
 
 from ..reliability.conftest import PARAMDDS, make_dds_env
 from .conftest import Fleet, free_port, holds_online, wait_for
@@ -88,8 +88,13 @@ def test_a_late_remote_monitor_holds_every_site_exactly_and_calls_reach_every_no
 
     # presence through the client, and a site nobody serves
     assert {n.node for n in client.nodes() if n.online} == set(names)
-    with pytest.raises(UnavailableError, match="no gateway of its site answered"):
+    started = time.monotonic()
+    with pytest.raises(UnavailableError, match="no gateway of site 's9' is reachable"):
         client.get("s9/robot1", ["x"], timeout=2.0)
+    # a set that no gateway could receive was never sent: a failure, never "outcome unknown"
+    with pytest.raises(UnavailableError, match="the call was not sent"):
+        client.set("s9/robot1", {"x": 1}, timeout=5.0)
+    assert time.monotonic() - started < 2 * ROUTE_WAIT + 0.5  # not the calls' timeouts
     monitor.close()
 
 
@@ -128,6 +133,8 @@ def test_a_killed_gateway_takes_its_sites_nodes_offline_and_a_standby_takes_over
     started = time.monotonic()
     with pytest.raises(UnavailableError):
         client.get("s1/robot1", ["robot.max_velocity"], timeout=3.0)
+    with pytest.raises(UnavailableError, match="not sent"):  # known unsent: not outcome-unknown
+        client.set("s1/robot1", {"robot.max_velocity": 9.0}, timeout=3.0)
     assert time.monotonic() - started < 1.0
     monitor.close()
 

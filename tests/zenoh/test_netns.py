@@ -18,7 +18,7 @@ from collections.abc import Iterator
 import pytest
 
 from paramdds.dds.monitor import EventKind, MonitorEvent
-from paramdds.errors import ErrorCode, OutcomeUnknownError, TransportError
+from paramdds.errors import ErrorCode, OutcomeUnknownError, TransportError, UnavailableError
 from paramdds.zenoh.remote import RemoteParameterClient, RemoteParameterMonitor
 
 from ..conftest import next_domain_id
@@ -205,10 +205,11 @@ def test_thirty_percent_loss_on_every_uplink(sites: Sites) -> None:
             for _ in range(TRIES):
                 try:
                     reply = client.set(node, {"robot.max_velocity": round(0.1 * i + k, 1)})
-                except OutcomeUnknownError:
+                except (OutcomeUnknownError, UnavailableError):
                     # the site's Zenoh session was dropped (a TCP backoff at 30 % loss outlasted the
-                    # 3 s lease) with the call in flight, or before it while the site reconnects: as
-                    # an operator would, wait until the node is back online and set it again
+                    # 3 s lease) with the call in flight (outcome unknown), or before it while the
+                    # site reconnects (unavailable: not sent): as an operator would, wait until
+                    # the node is back online and set it again
                     unknown.append(site)
                     time.sleep(1.0)
                     monitor.wait_until(lambda s: node in s and s[node].online, 30.0)
