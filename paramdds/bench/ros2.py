@@ -193,6 +193,11 @@ def stats(samples: list[float]) -> dict[str, float]:
     return {"p50": round(percentile(samples, 50), 3), "p99": round(percentile(samples, 99), 3)}
 
 
+def warm_stats(system: str, warm: dict[str, list[float]]) -> dict[str, dict[str, float]]:
+    """The row's ``{system}_warm_get`` and ``_set`` percentiles from a warm probe's samples."""
+    return {f"{system}_warm_{kind}": stats(warm[f"{kind}_ms"]) for kind in ("get", "set")}
+
+
 def ros_env(tmp: Path) -> dict[str, str]:
     env = dict(os.environ)
     env.setdefault("ROS_DOMAIN_ID", str(random.randint(1, 99)))
@@ -283,14 +288,14 @@ def measure(
             [probe("ros-get", "/" + node0, "bench_gain", env=env)[0] for _ in range(rounds)]
         )
         warm = probe("ros-warm", "/" + node0, "bench_gain", requests, env=env)[1]
-        row["ros_warm_get"], row["ros_warm_set"] = stats(warm["get_ms"]), stats(warm["set_ms"])
+        row.update(warm_stats("ros", warm))
         note(f"N={n}: the bridge")
         row.update(bridge_rows(n, env, args, bridge_domain, node0, requests))
         # -- paramdds ------------------------------------------------------------------
         get = [sys.executable, "-m", "paramdds.cli", "get", "-d", domain, "--localhost", node0, "bench_gain"]
         row["dds_get_ms"] = median([run_timed(get, env=env)[0] for _ in range(rounds)])
         warm = probe("dds-warm", node0, "bench_gain", requests, domain, env=env)[1]
-        row["dds_warm_get"], row["dds_warm_set"] = stats(warm["get_ms"]), stats(warm["set_ms"])
+        row.update(warm_stats("dds", warm))
         row["dds_graph"] = probe("dds-graph", domain, env=env)[1]
         # -- a host killed: last, each system's own ---------------------------------------
         note(f"N={n}: state with a host killed")
@@ -367,11 +372,7 @@ def bridge_rows(
         probe("dds-dump", n, f"{ROS_NS}/{PREFIX}", 120, domain, env=env)
         took = round((time.perf_counter() - t0) * 1e3, 1)
         warm = probe("dds-warm", node, "bench_gain", requests, domain, env=env)[1]
-        return {
-            "bridge_ms": took,
-            "bridge_warm_get": stats(warm["get_ms"]),
-            "bridge_warm_set": stats(warm["set_ms"]),
-        }
+        return {"bridge_ms": took, **warm_stats("bridge", warm)}
     finally:
         bridge.send_signal(signal.SIGINT)
         try:
