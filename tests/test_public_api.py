@@ -71,6 +71,9 @@ def test_a_one_shot_get_imports_nothing_it_does_not_use(domain_id: int) -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert "cyclonedds.domain" in out.stdout, out.stderr  # the verb did reach DDS
     assert _unwanted(out.stdout) == []
+    # the parser is built for the verb named: no other verb's module (build_parser)
+    verbs = [m for m in out.stdout.split() if m.startswith("paramdds.cli.verbs.")]
+    assert verbs == ["paramdds.cli.verbs.get"]
 
 
 def test_a_monitor_import_imports_nothing_it_does_not_use() -> None:

@@ -48,7 +48,7 @@ def _error(message: str) -> None:
 
 
 def _parse(argv: list[str]) -> argparse.Namespace:
-    args = build_parser().parse_args(argv)
+    args = build_parser(argv).parse_args(argv)
     resolve_globals(args)
     return args
 

@@ -39,9 +39,34 @@ T = ParameterType
 
 
 def _args(*argv: str, env: dict[str, str] | None = None) -> object:
-    args = build_parser().parse_args(list(argv))
+    args = build_parser(argv).parse_args(list(argv))  # as main() parses: the named verb built alone
+    assert vars(args) == vars(build_parser().parse_args(list(argv)))  # ... as the whole parser does
     resolve_globals(args, env or {})
     return args
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["-o", "json", "get", "n", "x"],
+        ["--timeout", "2", "--localhost", "list", "n", "--depth", "1"],
+        ["-q", "get", "set", "n", "x=1"],  # a QoS file named like a verb: the verb is `set`
+        ["--zenoh=tcp/127.0.0.1:7447", "nodes"],
+        ["get", "get", "nodes"],  # a node and a parameter named like verbs
+        ["--log-level", "debug", "dump", "a", "b", "-d", "5"],
+    ],
+)
+def test_the_parser_built_for_the_named_verb_parses_as_the_whole_parser(argv: list[str]) -> None:
+    _args(*argv)
+
+
+def test_top_level_help_lists_every_verb_with_its_help(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["-o", "json", "--help", "get"]) == Exit.OK
+    out = " ".join(capsys.readouterr().out.split())  # argparse wraps the lines
+    assert all(verb(name).HELP in out for name in VERBS), out
+    assert main(["-o", "json", "get", "--help"]) == Exit.OK  # the verb's own help, globals included
+    out = capsys.readouterr().out
+    assert "NODE NAME [NAME ...]" in out and "--timeout SECONDS" in out, out
 
 
 def test_global_options_before_or_after_the_verb() -> None:
