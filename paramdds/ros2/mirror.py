@@ -95,7 +95,8 @@ class RosLink:
             with self._lock:
                 self._reading -= 1
                 idle = [] if self._reading else [self._clients.pop(s) for s in READS if s in self._clients]
-            self._destroy(self.ros, idle)
+                ros = self.ros
+            self._destroy(ros, idle)
 
     def _client(self, service: str) -> Any:
         from rcl_interfaces import srv

@@ -485,6 +485,13 @@ class RemoteParameterClient(ParameterClient):
             except Exception:
                 log.debug("undeclaring %r failed", querier, exc_info=True)
 
+    @staticmethod
+    def _matching(querier: Any, pending: PendingCall) -> bool:
+        try:
+            return bool(querier.matching_status.matching)
+        except Exception as exc:  # the session was closed under us
+            raise UnavailableError(f"could not send the call to {pending.node!r}: {exc}") from None
+
     def _check_route(self, pending: PendingCall, limit: float) -> None:
         """UNAVAILABLE, before anything is sent, when no gateway of the node's site serves the
         call's verb now: Zenoh's matching status of a querier on the site's pattern (learnt
@@ -502,7 +509,7 @@ class RemoteParameterClient(ParameterClient):
                     raise UnavailableError(f"could not send the call to {pending.node!r}: {exc}") from None
         querier, declared = route
         until = declared + min(ROUTE_WAIT, limit)
-        while not querier.matching_status.matching:
+        while not self._matching(querier, pending):
             if time.monotonic() >= until:
                 raise UnavailableError(
                     f"node {pending.node!r}: no gateway of site {site!r} is reachable (site not "
