@@ -438,12 +438,8 @@ class RemoteParameterMonitor(ParameterMonitor):
             state.revision, state.announced = msg.revision, msg.announced
             state.incarnation, state.origin = msg.incarnation, msg.origin
             self._reported[name] = msg.online
-            for event in (
-                self._status_event(state, msg.status),
-                self._set_online(state, msg.online and name in self._alive),
-            ):
-                if event is not None:
-                    events.append(event)
+            self._add(events, self._status_event(state, msg.status))
+            self._add(events, self._set_online(state, msg.online and name in self._alive))
             self._cond.notify_all()
         with self._refresh_lock:
             self._asked_again.pop(name, None)  # held now: a later loss gets its own tries
