@@ -481,12 +481,25 @@ class RemoteParameterClient(ParameterClient):
             except Exception:
                 log.debug("undeclaring %r failed", querier, exc_info=True)
 
+    def _route(self, pending: PendingCall) -> tuple[Any, float]:
+        """The querier on the site's pattern for the call's verb (declared on first use), and
+        when it was declared."""
+        pattern = keys.site_pattern(keys.split_remote(pending.node)[0], pending.topic)
+        with self._routes_lock:
+            route = self._routes.get(pattern)
+            if route is None:
+                try:
+                    route = self._routes[pattern] = (self._session.declare_querier(pattern), time.monotonic())
+                except Exception as exc:
+                    raise _unsent(pending, exc) from None
+        return route
+
     @staticmethod
     def _matching(querier: Any, pending: PendingCall) -> bool:
         try:
             return bool(querier.matching_status.matching)
         except Exception as exc:  # the session was closed under us
-            raise UnavailableError(f"could not send the call to {pending.node!r}: {exc}") from None
+            raise _unsent(pending, exc) from None
 
     def _check_route(self, pending: PendingCall, limit: float) -> None:
         """UNAVAILABLE, before anything is sent, when no gateway of the node's site serves the
@@ -494,19 +507,11 @@ class RemoteParameterClient(ParameterClient):
         from the router within milliseconds of its declaration, and lost as soon as the
         gateway's session is). A set that was never sent is a failure, not an unknown outcome.
         """
-        site, _ = keys.split_remote(pending.node)
-        pattern = keys.site_pattern(site, pending.topic)
-        with self._routes_lock:
-            route = self._routes.get(pattern)
-            if route is None:
-                try:
-                    route = self._routes[pattern] = (self._session.declare_querier(pattern), time.monotonic())
-                except Exception as exc:
-                    raise UnavailableError(f"could not send the call to {pending.node!r}: {exc}") from None
-        querier, declared = route
+        querier, declared = self._route(pending)
         until = declared + min(ROUTE_WAIT, limit)
         while not self._matching(querier, pending):
             if time.monotonic() >= until:
+                site = keys.split_remote(pending.node)[0]
                 raise UnavailableError(
                     f"node {pending.node!r}: no gateway of site {site!r} is reachable (site not "
                     "connected, or its uplink is down); the call was not sent"
@@ -656,7 +661,7 @@ class RemoteParameterClient(ParameterClient):
                 consolidation=zenoh.QueryConsolidation(zenoh.ConsolidationMode.NONE),
             )
         except Exception as exc:
-            raise UnavailableError(f"could not send the call to {pending.node!r}: {exc}") from None
+            raise _unsent(pending, exc) from None
         return future
 
     def _wait(self, node: str, request_id: int, pending: PendingCall, timeout: float | None) -> Any:
@@ -670,7 +675,8 @@ class RemoteParameterClient(ParameterClient):
 
     async def _await(self, node: str, request_id: int, pending: PendingCall, timeout: float | None) -> Any:
         limit = self.timeout if timeout is None else timeout
-        await asyncio.to_thread(self._check_route, pending, limit)  # may wait for the router
+        if not self._matching(self._route(pending)[0], pending):  # else no thread hop: the usual case
+            await asyncio.to_thread(self._check_route, pending, limit)  # may wait for the router
         future = asyncio.wrap_future(self._fire(pending, limit))
         try:
             return await asyncio.wait_for(future, limit + REPLY_MARGIN)
@@ -690,6 +696,11 @@ class RemoteParameterClient(ParameterClient):
         obj = codec.check_reply(reply)
         revision, incarnation, results = codec.set_results(obj)
         return SetReply(str(obj["node"]), revision, results, incarnation)
+
+
+def _unsent(pending: PendingCall, exc: Exception) -> UnavailableError:
+    """A call Zenoh would not take (the session closed, a key it refused): nothing was sent."""
+    return UnavailableError(f"could not send the call to {pending.node!r}: {exc}")
 
 
 def _info(msg: codec.NodeStateMsg) -> NodeInfo:

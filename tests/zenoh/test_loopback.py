@@ -5,6 +5,7 @@ Each site is a DDS domain of its own; the only way between them is the Zenoh rou
 
 from __future__ import annotations
 
+import asyncio
 import json
 import subprocess
 import time
@@ -13,6 +14,7 @@ from pathlib import Path
 import pytest
 
 from paramdds.core.revision import Revision
+from paramdds.dds.client import AsyncParameterClient
 from paramdds.dds.monitor import EventKind, MonitorEvent
 from paramdds.errors import ErrorCode, UnavailableError
 from paramdds.zenoh.remote import ROUTE_WAIT, RemoteParameterClient, RemoteParameterMonitor
@@ -95,6 +97,19 @@ def test_a_late_remote_monitor_holds_every_site_exactly_and_calls_reach_every_no
     with pytest.raises(UnavailableError, match="the call was not sent"):
         client.set("s9/robot1", {"x": 1}, timeout=5.0)
     assert time.monotonic() - started < 2 * ROUTE_WAIT + 0.5  # not the calls' timeouts
+
+    # the asyncio form (the web console's): the same route rule, served and not
+    async def both() -> tuple[float, Exception]:
+        remote = AsyncParameterClient(client)
+        served = (await remote.get("s1/robot1", ["robot.max_velocity"])).values()["robot.max_velocity"]
+        try:
+            await remote.set("s8/robot1", {"x": 1}, timeout=5.0)
+        except UnavailableError as exc:
+            return served.value, exc
+        raise AssertionError("a set to a site nobody serves was not refused")
+
+    value, refused = asyncio.run(both())
+    assert value == 3.5 and "the call was not sent" in str(refused)  # 3.5: the compare-and-set above
     monitor.close()
 
 
