@@ -19,14 +19,10 @@ one node concurrently share one flush, and no reply leaves before its change is 
 disk. A plain job (a queued get, a presence write) ends the group: it runs after the
 group's replies, so it never overtakes them.
 
-**Pipelined** when the server persists (``--persist``): the worker hands a committed
-group to the node's *completer* thread (started on first use), which persists, replies
-and publishes, while the worker goes on committing the requests that arrived during the
-flush; the completer takes every group handed to it meanwhile in one persist call. So
-with N clients a flush covers about N requests, not N/2 (without the pipeline, the
-requests whose replies left at the end of one flush arrive during the next). A plain job
-waits until the completer has replied to every group before it (a get never reads a
-value that is not on disk yet). A stall of either thread is reported.
+The group is what queued while the worker ran the group before (its flush, replies and
+publication). A second thread that flushed, replied and published while the worker committed the next
+group (so a flush covered about N) was tried and taken out: its extra hand-off per group
+cost more than the larger groups gained (docs/benchmarks.md, "Target 4").
 
 The server watches :attr:`NodeWorker.busy_since` from its dispatch loop: a job that
 runs for longer than the liveliness lease marks the worker stalled
@@ -66,16 +62,6 @@ class Staged:
 Commit = Callable[[], "Staged | None"]
 
 
-class _Handed:
-    """Committed groups handed to the completer: their reply halves, their changes and the
-    application's own, and how many jobs they were."""
-
-    __slots__ = ("changes", "jobs", "outside", "staged")
-
-    def __init__(self, staged: list[Staged], changes: list[ChangeSet], outside: list[ChangeSet], jobs: int):
-        self.staged, self.changes, self.outside, self.jobs = staged, changes, outside, jobs
-
-
 class _Grouped:
     """A queued :data:`Commit` (one the worker may group with the commits behind it)."""
 
@@ -90,11 +76,6 @@ _EMPTY = object()
 
 class Persists(Protocol):
     """Where a worker persists its node's changes (:class:`.publication.Persistence`)."""
-
-    @property
-    def active(self) -> bool:
-        """Whether anything is persisted (the worker then flushes on its completer)."""
-        ...
 
     def persist(self, table: ParameterTable, changes: Sequence[ChangeSet]) -> str:
         """Persist ``changes``; what failed ("" when nothing did)."""
@@ -124,11 +105,6 @@ class NodeWorker:
         self.busy_since: float | None = None
         self.stalled = False
         self._inflight = 0  # jobs queued or running
-        self._handed: queue.SimpleQueue[_Handed | None] = queue.SimpleQueue()
-        self._completer: threading.Thread | None = None
-        self._completing_since: float | None = None  # the completer's current flush began
-        self._unfinished = 0  # groups handed to the completer and not yet replied to
-        self._finished = threading.Condition(self._lock)
         self._listener = table.add_change_listener(self._on_change)
 
     def submit(self, job: Job) -> None:
@@ -205,14 +181,12 @@ class NodeWorker:
                     after = _EMPTY
             with self._lock:
                 self.busy_since = time.monotonic()
-            handed = False
             try:
                 if isinstance(item, _Grouped):
-                    handed = self._commit_group(batch, jobs)  # type: ignore[arg-type]
+                    self._commit_group(batch)  # type: ignore[arg-type]
                 elif item == self.flush and not self._pending:
                     pass  # a commit took the changes it was queued for
                 else:
-                    self._wait_finished()  # after the replies of every group before it
                     item()
                     self.flush()
             except Exception:  # never let one job end the node's worker
@@ -220,22 +194,17 @@ class NodeWorker:
             finally:
                 with self._lock:
                     self.busy_since = None
-                    if not handed:
-                        self._inflight -= jobs
-                    recovered = self.stalled and self._completing_since is None
-                    if recovered:
-                        self.stalled = False
+                    self._inflight -= jobs
+                    recovered = self.stalled
+                    self.stalled = False
                 if recovered:
                     log.warning("node %r is responsive again", self.table.node_id)
                     self._publication.write_presence(self.table)
             item = self._jobs.get() if after is _EMPTY else after  # type: ignore[assignment]
-        if self._completer is not None:
-            self._handed.put(None)
 
-    def _commit_group(self, batch: list[_Grouped], jobs: int) -> bool:
-        """First halves in order; then one persist call for all their changes, the replies in
-        order and one publication: on the completer when the server persists (True: handed),
-        else here."""
+    def _commit_group(self, batch: list[_Grouped]) -> None:
+        """First halves in order; then one persist call for all their changes (and the
+        application's own, made meanwhile), the replies in order, and one publication."""
         staged: list[Staged] = []
         for grouped in batch:
             try:
@@ -245,96 +214,28 @@ class NodeWorker:
                 continue
             if done is not None:
                 staged.append(done)
-        changes = [c for s in staged for c in s.changes]
-        outside = self.take_pending()  # the application's own, made meanwhile
-        handed = _Handed(staged, changes + outside, outside, jobs)
-        with self._lock:
-            # nothing to flush and nothing before it unreplied (a refusal, say): reply here
-            inline = not self._persistence.active or not (handed.changes or self._unfinished)
-            if not inline:
-                self._unfinished += 1
-                if self._completer is None:
-                    name = f"paramdds-flush-{self.table.node_id}"[:60]
-                    self._completer = threading.Thread(target=self._complete, name=name, daemon=True)
-                    self._completer.start()
-        if inline:
-            self._finish(handed)
-            return False
-        self._handed.put(handed)
-        return True
-
-    def _finish(self, handed: _Handed) -> None:
-        """Persist the changes (one call), then reply to each request in order, then publish."""
-        failure = self._persistence.persist(self.table, handed.changes) if handed.changes else ""
-        if failure and handed.outside:
+        outside = self.take_pending()
+        changes = [c for s in staged for c in s.changes] + outside
+        failure = self._persistence.persist(self.table, changes) if changes else ""
+        if failure and outside:
             log.error(
                 "%s: changes up to revision %d are not persisted: %s",
                 self.table.node_id,
-                handed.outside[-1].revision,
+                outside[-1].revision,
                 failure,
             )
-        for done in handed.staged:
+        for done in staged:
             try:
                 done.reply(failure if done.changes else "")
             except Exception:
                 log.exception("%s: a reply failed", self.table.node_id)
-        if handed.changes:
-            self._publication.publish(self.table, handed.changes)
-
-    def _complete(self) -> None:
-        """The completer: every group handed to it since its last flush shares the next one."""
-        first = self._handed.get()
-        while first is not None:
-            groups = [first]
-            after: object = _EMPTY
-            while True:
-                try:
-                    after = self._handed.get_nowait()
-                except queue.Empty:
-                    after = _EMPTY
-                    break
-                if after is None:
-                    break
-                groups.append(after)  # type: ignore[arg-type]
-            with self._lock:
-                self._completing_since = time.monotonic()
-            try:
-                self._finish(
-                    _Handed(
-                        [d for g in groups for d in g.staged],
-                        [c for g in groups for c in g.changes],
-                        [c for g in groups for c in g.outside],
-                        0,
-                    )
-                )
-            except Exception:
-                log.exception("%s: a flush failed", self.table.node_id)
-            finally:
-                with self._lock:
-                    self._completing_since = None
-                    self._inflight -= sum(g.jobs for g in groups)
-                    self._unfinished -= len(groups)
-                    self._finished.notify_all()
-                    recovered = self.stalled and self.busy_since is None
-                    if recovered:
-                        self.stalled = False
-                if recovered:
-                    log.warning("node %r is responsive again", self.table.node_id)
-                    self._publication.write_presence(self.table)
-            if after is None:
-                return
-            first = self._handed.get()
-
-    def _wait_finished(self) -> None:
-        with self._lock:
-            while self._unfinished:
-                self._finished.wait()
+        if changes:
+            self._publication.publish(self.table, changes)
 
     def check_stall(self, now: float, limit: float) -> bool:
-        """Mark the worker stalled once its current job (or its completer's flush) has run for
-        ``limit`` seconds."""
+        """Mark the worker stalled once its current job has run for ``limit`` seconds."""
         with self._lock:
-            since = min((t for t in (self.busy_since, self._completing_since) if t is not None), default=None)
+            since = self.busy_since
             if since is None or self.stalled or now - since < limit:
                 return False
             self.stalled = True
@@ -346,10 +247,6 @@ class NodeWorker:
             thread = self._thread
         self.table.remove_change_listener(self._listener)
         if thread is not None:
-            self._jobs.put(None)  # the worker then stops its completer, after the groups handed to it
+            self._jobs.put(None)
             if thread is not threading.current_thread():
-                end = time.monotonic() + timeout
                 thread.join(timeout)
-                completer = self._completer
-                if completer is not None and completer is not threading.current_thread():
-                    completer.join(max(0.0, end - time.monotonic()))

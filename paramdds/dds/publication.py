@@ -55,11 +55,6 @@ class Persistence:
     def __init__(self) -> None:
         self.persisters: list[Persister] = []
 
-    @property
-    def active(self) -> bool:
-        """Whether any persister is hooked (a node's worker then flushes on its completer)."""
-        return bool(self.persisters)
-
     def persist(self, table: ParameterTable, changes: Sequence[ChangeSet]) -> str:
         """Run the persisters; what failed ("" when every one succeeded)."""
         for persist in self.persisters if changes else []:
