@@ -386,7 +386,7 @@ def role_setter(args: argparse.Namespace) -> None:
 
     # lazy presence, as the CLI's one-shot verbs: no presence reader, so the node's state
     # samples (one per set) are not sent to this process too
-    client = ParameterClient(_participant(args), timeout=10.0, lazy_presence=True)
+    client = ParameterClient(_participant(args), timeout=10.0, one_shot=True)
     _say("READY", pid=os.getpid())
     try:
         for line in sys.stdin:

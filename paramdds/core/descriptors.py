@@ -37,6 +37,8 @@ VALIDATOR_ARITY: dict[str, int] = {
 
 @dataclass(frozen=True, slots=True)
 class IntegerRange:
+    """An inclusive range of integers, and a step from ``from_value`` (0: any value in range)."""
+
     from_value: int
     to_value: int
     step: int = 0
@@ -44,6 +46,8 @@ class IntegerRange:
 
 @dataclass(frozen=True, slots=True)
 class FloatingPointRange:
+    """An inclusive range of doubles, and a step from ``from_value`` (0.0: any value in range)."""
+
     from_value: float
     to_value: float
     step: float = 0.0
@@ -59,6 +63,8 @@ class Validator:
 
 @dataclass(frozen=True, slots=True)
 class ParameterDescriptor:
+    """What a parameter is and what it accepts (rcl_interfaces' ParameterDescriptor)."""
+
     name: str
     type: ParameterType = ParameterType.NOT_SET
     description: str = ""

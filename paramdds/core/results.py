@@ -22,6 +22,8 @@ class ChangeKind(str, Enum):
 
 @dataclass(frozen=True, slots=True)
 class ParameterChange:
+    """One parameter's final state after a commit (``kind`` says new, changed or deleted)."""
+
     kind: ChangeKind
     name: str
     value: ParameterValue  # NOT_SET for DELETED
@@ -43,6 +45,8 @@ class ChangeSet:
 
 @dataclass(frozen=True, slots=True)
 class SetResult:
+    """What a set did to one parameter: applied, or refused with a code and a reason."""
+
     name: str
     successful: bool
     reason: str = ""  # kept on success too (an on-set callback may say why)
@@ -51,6 +55,8 @@ class SetResult:
 
 @dataclass(frozen=True, slots=True)
 class SetOutcome:
+    """What one set request did: a result per parameter, and what was committed."""
+
     results: tuple[SetResult, ...]
     revision: int  # the node's revision after this request
     change: ChangeSet | None  # None when nothing was committed
@@ -58,6 +64,8 @@ class SetOutcome:
 
 @dataclass(frozen=True, slots=True)
 class GetResult:
+    """One name of a get: its value (and descriptor if asked), or the code saying why not."""
+
     name: str
     value: ParameterValue | None  # None when not found
     descriptor: ParameterDescriptor | None  # only when asked for, and found
@@ -67,6 +75,8 @@ class GetResult:
 
 @dataclass(frozen=True, slots=True)
 class ListResult:
+    """The names a list found, and the prefixes (namespaces) of those names."""
+
     names: tuple[str, ...]
     prefixes: tuple[str, ...]
 

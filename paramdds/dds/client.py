@@ -10,7 +10,8 @@ request id. Many calls may be outstanding at once (pipelining).
 Presence: the state reader is content-filtered on presence instances (name
 ``""``), so the parameters' state samples never reach Python here. They still reach
 the process: a new reader is sent every server's retained state, so a one-shot
-client (``lazy_presence``) creates that reader only when a call needs presence.
+client (``one_shot``) creates that reader only when a call needs presence, and each
+request topic's endpoints on its first call.
 
 No call ever hangs: each has a timeout (default :data:`DEFAULT_TIMEOUT`). A node
 that has no presence instance is reported UNAVAILABLE ("not present") only once
@@ -92,6 +93,8 @@ class _At:
 
 @dataclass(frozen=True)
 class NodeInfo(_At):
+    """A node as its presence reports it: online, where it runs, its revision and size."""
+
     node: str
     online: bool
     host: str
@@ -106,6 +109,8 @@ class NodeInfo(_At):
 
 @dataclass(frozen=True)
 class GetReply(_At):
+    """A node's answer to a get: a result per name asked, at the node's revision."""
+
     node: str
     revision: int
     results: tuple[GetResult, ...]
@@ -121,6 +126,8 @@ class GetReply(_At):
 
 @dataclass(frozen=True)
 class SetReply(_At):
+    """A node's answer to a set: a result per parameter, and the node's revision after it."""
+
     node: str
     revision: int
     results: tuple[SetResult, ...]
@@ -267,8 +274,10 @@ class ParameterClient(ClientBase):
 
     ``presence_grace`` is the least time discovery must stay quiet before a node never
     seen counts as absent (:mod:`.discovery`); it is no longer a fixed deadline.
-    ``lazy_presence`` creates the presence reader only once a call needs it (see
-    :meth:`_watch`): for one-shot processes such as the CLI's verbs.
+    ``one_shot`` is for processes that make a call or a few, such as the CLI's verbs: the
+    presence reader is created only once a call needs it (see :meth:`_watch`), and a
+    request topic's writer and reply reader on its first call (a long-lived client makes
+    them now, so they are matched before its first call).
     """
 
     def __init__(
@@ -279,7 +288,7 @@ class ParameterClient(ClientBase):
         timeout: float = DEFAULT_TIMEOUT,
         presence_grace: float = PRESENCE_GRACE,
         client_id: int | None = None,
-        lazy_presence: bool = False,
+        one_shot: bool = False,
     ) -> None:
         # os.urandom, not secrets: the same random bits without importing hmac, hashlib and random
         super().__init__(timeout=timeout, client_id=client_id or int.from_bytes(os.urandom(8), "little") or 1)
@@ -297,7 +306,7 @@ class ParameterClient(ClientBase):
         self._match_counts: dict[int, int] = {}  # by id() of the request writer (one per node when secure)
         self._endpoints_lock = threading.Lock()
         self._made = Writers(self._transport, opening=self._open_topic)
-        for request in REQUEST_TOPICS:  # plain: one writer per topic, made now
+        for request in () if one_shot else REQUEST_TOPICS:  # plain: one writer per topic, made now
             writer = self._made.early(request, self._qos.writer(request))
             if writer is not None:
                 self._writers[request] = writer
@@ -308,7 +317,7 @@ class ParameterClient(ClientBase):
         self._online_at: dict[str, float] = {}  # node -> when a write last found it online
         self._discovery: DiscoveryWatch | None = None
         self._watch_lock = threading.Lock()
-        if not lazy_presence:
+        if not one_shot:
             self._watch()
         self._dispatcher.start()
 
@@ -332,7 +341,7 @@ class ParameterClient(ClientBase):
 
         A new ``ParameterEvents`` reader is sent every server's retained state (all of
         its parameters: the filter drops them only on arrival), so a one-shot process
-        (``lazy_presence``) creates it only when a call needs presence: a reply late by
+        (``one_shot``) creates it only when a call needs presence: a reply late by
         :data:`RESEND_AFTER`, :meth:`wait_for_node`, :meth:`nodes`, :meth:`presence`.
         """
         with self._watch_lock:
@@ -526,7 +535,7 @@ class ParameterClient(ClientBase):
     def _check_unsent(self, node: str) -> None:
         """A write to a node this client already knows to be offline or absent is not sent:
         UNAVAILABLE is then true (the request never left this process). A client that does not
-        watch presence yet (``lazy_presence``) sends at once, and learns later.
+        watch presence yet (``one_shot``) sends at once, and learns later.
 
         The verdict "online" is trusted for :data:`ONLINE_FRESH` seconds (presence itself lags
         by up to the 1 s lease): a write that is sent is never reported failed, so a stale

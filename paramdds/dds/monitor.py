@@ -77,6 +77,8 @@ class EventKind(str, Enum):
 
 @dataclass(frozen=True)
 class MonitorEvent:
+    """A change a monitor saw: a parameter's new state, or a node going on or offline."""
+
     event: EventKind
     node: str = ""
     name: str = ""
@@ -91,6 +93,8 @@ class MonitorEvent:
 
 @dataclass
 class NodeState:
+    """What a monitor holds of one node: its presence and its parameters."""
+
     node: str
     online: bool = False
     host: str = ""

@@ -68,6 +68,8 @@ def default_path() -> Path:
 
 @dataclass(frozen=True)
 class _Profile:
+    """One profile's writer and reader QoS."""
+
     writer: Qos
     reader: Qos
 

@@ -78,13 +78,14 @@ class Session:
             remote = RemoteParameterClient(self.zenoh, timeout=self.args.timeout)
             self._closers.append(remote)
             return remote
+        participant = self.participant  # first: Cyclone discovers the system while Python imports
         from ..dds.client import ParameterClient
 
         # a node never seen counts as absent (exit 3) only once discovery has settled
         # (paramdds.dds.discovery); until then the call waits, up to --timeout. The presence
         # reader is made when a call needs it: a verb answered at once never receives the
         # system's retained parameter state (every server sends it to each new reader)
-        client = ParameterClient(self.participant, self.qos, timeout=self.args.timeout, lazy_presence=True)
+        client = ParameterClient(participant, self.qos, timeout=self.args.timeout, one_shot=True)
         self._closers.append(client)
         return client
 

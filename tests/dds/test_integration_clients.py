@@ -362,7 +362,7 @@ def test_a_lazy_client_is_sent_no_state_until_a_call_needs_presence(dds: DdsSess
     def state_readers() -> int:
         return len(matched_subscriptions(server.publication.writer))
 
-    lazy = dds.client(timeout=5.0, lazy_presence=True)
+    lazy = dds.client(timeout=5.0, one_shot=True)
     assert lazy.get_value("lazy", "p7").value == 7
     assert state_readers() == 0  # answered without any state sent to this client
     with pytest.raises(UnavailableError, match="not present"):  # a call that needs presence

@@ -29,7 +29,7 @@ def main() -> int:
     sys.stdin.readline()
     started = time.monotonic()
     participant = make_participant(domain, localhost=True, short_lived=cli)
-    client = ParameterClient(participant, timeout=10.0, lazy_presence=cli)
+    client = ParameterClient(participant, timeout=10.0, one_shot=cli)
     try:
         value = client.get_value(node, name).value
         code, message = "OK", json.dumps(value)

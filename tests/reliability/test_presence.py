@@ -190,7 +190,7 @@ def test_a_silent_server_is_waited_for_while_alive_and_not_once_killed(
     silent = Proc([sys.executable, SILENT_WRITER], make_dds_env(domain_id))
     procs.append(silent)
     silent.wait_for("ready", timeout=20)
-    client = dds.client(domain_id, lazy_presence=lazy)
+    client = dds.client(domain_id, one_shot=lazy)
     if not lazy:
         assert client.wait_for_node("present", timeout=5.0).online  # positive control
         assert wait(lambda: client.discovery().state_writers == 2, timeout=5.0), client.discovery()

@@ -32,6 +32,8 @@ EVENT_PRESENCE = 1  # the node itself: host, pid, revision, parameter count; nam
 @dataclass
 @final
 class ParameterValue(IdlStruct, typename="paramdds.ParameterValue"):
+    """A value: ``type`` (rcl_interfaces' ParameterType numbering) and the member of that type."""
+
     type: byte = 0
     bool_value: bool = False
     integer_value: int64 = 0
@@ -48,6 +50,8 @@ class ParameterValue(IdlStruct, typename="paramdds.ParameterValue"):
 @dataclass
 @final
 class IntegerRange(IdlStruct, typename="paramdds.IntegerRange"):
+    """An integer parameter's inclusive range, and its step (0: any value in range)."""
+
     from_value: int64 = 0
     to_value: int64 = 0
     step: uint64 = 0
@@ -57,6 +61,8 @@ class IntegerRange(IdlStruct, typename="paramdds.IntegerRange"):
 @dataclass
 @final
 class FloatingPointRange(IdlStruct, typename="paramdds.FloatingPointRange"):
+    """A double parameter's inclusive range, and its step (0.0: any value in range)."""
+
     from_value: float64 = 0.0
     to_value: float64 = 0.0
     step: float64 = 0.0
@@ -66,6 +72,8 @@ class FloatingPointRange(IdlStruct, typename="paramdds.FloatingPointRange"):
 @dataclass
 @final
 class Validator(IdlStruct, typename="paramdds.Validator"):
+    """A generate_parameter_library validator: its name and its arguments."""
+
     kind: str = ""
     args: sequence[ParameterValue] = field(default_factory=list)
 
@@ -74,6 +82,8 @@ class Validator(IdlStruct, typename="paramdds.Validator"):
 @dataclass
 @final
 class ParameterDescriptor(IdlStruct, typename="paramdds.ParameterDescriptor"):
+    """rcl_interfaces' ParameterDescriptor, with the spec's validators."""
+
     name: str = ""
     type: byte = 0
     description: str = ""
@@ -89,6 +99,8 @@ class ParameterDescriptor(IdlStruct, typename="paramdds.ParameterDescriptor"):
 @dataclass
 @final
 class Parameter(IdlStruct, typename="paramdds.Parameter"):
+    """A parameter of a set request: its name and its new value."""
+
     name: str = ""
     value: ParameterValue = field(default_factory=ParameterValue)
 
@@ -97,6 +109,8 @@ class Parameter(IdlStruct, typename="paramdds.Parameter"):
 @dataclass
 @final
 class Time(IdlStruct, typename="paramdds.Time"):
+    """A writer's clock: seconds and nanoseconds since the Unix epoch."""
+
     sec: int32 = 0
     nanosec: uint32 = 0
 
@@ -129,6 +143,8 @@ class ParameterEvent(IdlStruct, typename="paramdds.ParameterEvent"):
 @dataclass
 @final
 class SetParametersRequest(IdlStruct, typename="paramdds.SetParametersRequest"):
+    """A set of parameters of one node (each on its own, or ``atomic``)."""
+
     node_id: bounded_str[255] = ""
     key("node_id")
     client_id: uint64 = 0
@@ -146,6 +162,8 @@ class SetParametersRequest(IdlStruct, typename="paramdds.SetParametersRequest"):
 @dataclass
 @final
 class SetParameterResult(IdlStruct, typename="paramdds.SetParameterResult"):
+    """What a set did to one parameter."""
+
     name: str = ""
     successful: bool = False
     reason: str = ""
@@ -156,6 +174,8 @@ class SetParameterResult(IdlStruct, typename="paramdds.SetParameterResult"):
 @dataclass
 @final
 class SetParametersResponse(IdlStruct, typename="paramdds.SetParametersResponse"):
+    """A node's answer to one set request, for the client that sent it."""
+
     node_id: bounded_str[255] = ""
     key("node_id")
     client_id: uint64 = 0
@@ -171,6 +191,8 @@ class SetParametersResponse(IdlStruct, typename="paramdds.SetParametersResponse"
 @dataclass
 @final
 class GetParametersRequest(IdlStruct, typename="paramdds.GetParametersRequest"):
+    """A get of named parameters of one node (with their descriptors if asked)."""
+
     node_id: bounded_str[255] = ""
     key("node_id")
     client_id: uint64 = 0
@@ -183,6 +205,8 @@ class GetParametersRequest(IdlStruct, typename="paramdds.GetParametersRequest"):
 @dataclass
 @final
 class GetParameterResult(IdlStruct, typename="paramdds.GetParameterResult"):
+    """One name's value (and descriptor), or why there is none."""
+
     name: str = ""
     code: str = ""  # "" when found, else NOT_FOUND / INVALID_NAME
     reason: str = ""
@@ -194,6 +218,8 @@ class GetParameterResult(IdlStruct, typename="paramdds.GetParameterResult"):
 @dataclass
 @final
 class GetParametersResponse(IdlStruct, typename="paramdds.GetParametersResponse"):
+    """A node's answer to one get request, for the client that sent it."""
+
     node_id: bounded_str[255] = ""
     key("node_id")
     client_id: uint64 = 0
@@ -209,6 +235,8 @@ class GetParametersResponse(IdlStruct, typename="paramdds.GetParametersResponse"
 @dataclass
 @final
 class ListParametersRequest(IdlStruct, typename="paramdds.ListParametersRequest"):
+    """A list of one node's parameter names under ``prefixes``, to ``depth`` (0: any)."""
+
     node_id: bounded_str[255] = ""
     key("node_id")
     client_id: uint64 = 0
@@ -221,6 +249,8 @@ class ListParametersRequest(IdlStruct, typename="paramdds.ListParametersRequest"
 @dataclass
 @final
 class ListParametersResponse(IdlStruct, typename="paramdds.ListParametersResponse"):
+    """A node's answer to one list request, for the client that sent it."""
+
     node_id: bounded_str[255] = ""
     key("node_id")
     client_id: uint64 = 0
