@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import random
 import threading
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -54,6 +55,7 @@ RESCUE_AT = 3  # the failure from which the node's clients live in a new partici
 RESCUE_EVERY = 10.0  # seconds: a new rescue participant at most this often
 UNREACHABLE = "unreachable"
 MIN_AGE = 2.0  # seconds a node must have been in the graph before it is mirrored (not tool nodes)
+RESYNC_SPREAD = 0.25  # a node's next resync is due after 75-100 % of the period, drawn at each sync
 # seconds from the bridge's first look during which the nodes found were there before it:
 # Fast DDS finds the participants of a running graph 0.2-3.3 s after its start (measured
 # with a bare rclpy node against 4 host processes: a peer that misses the first
@@ -377,12 +379,19 @@ class Mirrored:
     syncing: bool = False
     dirty: bool = False  # events came while a sync ran: sync again
     restarted: bool = False  # the ROS 2 node restarted while hosted: host it again once synced
-    synced_at: float = 0.0
+    resync_at: float = 0.0  # when the next periodic resync is due (see next_resync)
     failures: int = 0
     retry_at: float = 0.0
     failing_since: float = 0.0  # when the reads of a never-read node began to fail
     unreachable: bool = False  # shown on paramdds as status=unreachable
     lock: threading.Lock = field(default_factory=threading.Lock)
+
+
+def next_resync(now: float, period: float) -> float:
+    """When a node synced at ``now`` is next resynced: a random share of ``period`` (from
+    1 - :data:`RESYNC_SPREAD` to all of it), so the nodes a bridge read together at its
+    start do not all resync in the same seconds of every period."""
+    return now + period * random.uniform(1.0 - RESYNC_SPREAD, 1.0)
 
 
 class Mirror:
@@ -448,7 +457,7 @@ class Mirror:
             else:
                 m.writers = writers
                 due = m.failures and now >= m.retry_at
-                if due or (m.hosted and self.resync_period > 0 and now - m.synced_at >= self.resync_period):
+                if due or (m.hosted and self.resync_period > 0 and now >= m.resync_at):
                     self._submit(m)
 
     def node_ids(self) -> set[str]:
@@ -537,7 +546,7 @@ class Mirror:
                 m.failures = 0
                 m.failing_since = 0.0
                 shown, m.unreachable = m.unreachable, False
-                m.synced_at = time.monotonic()
+                m.resync_at = next_resync(time.monotonic(), self.resync_period)
             if shown:
                 log.warning("%s answers now: mirrored", m.fqn)
                 if self._hide is not None:

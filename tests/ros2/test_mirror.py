@@ -18,7 +18,7 @@ from paramdds.dds.client import ParameterClient
 from paramdds.dds.monitor import ParameterMonitor
 from paramdds.dds.participant import close_participant, make_participant
 from paramdds.errors import ErrorCode, OutcomeUnknownError
-from paramdds.ros2.mirror import START_WINDOW
+from paramdds.ros2.mirror import RESYNC_SPREAD, START_WINDOW, next_resync
 
 from .conftest import REALWORLD, RosHost, oracle, paramdds_cli
 
@@ -384,6 +384,14 @@ def test_the_periodic_resync_repairs_a_mirror_that_missed_a_change(
     finally:
         bridge.close()
         close_participant(dp)
+
+
+def test_the_nodes_read_at_the_same_instant_resync_at_different_times() -> None:
+    """300 mirrors read together at a bridge's start: their periodic resyncs are due over the
+    last quarter of the period, not all at its end (each sync draws the next one)."""
+    due = [next_resync(100.0, 60.0) for _ in range(300)]
+    assert all(100.0 + 60.0 * (1 - RESYNC_SPREAD) <= d <= 160.0 for d in due)
+    assert max(due) - min(due) > 60.0 * RESYNC_SPREAD * 0.8  # spread over most of the window
 
 
 def test_a_dump_piped_into_load_onto_a_mirrored_rclpy_node_is_a_no_op(

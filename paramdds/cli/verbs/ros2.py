@@ -48,7 +48,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         type=float,
         default=60.0,
         metavar="SECONDS",
-        help="re-read each mirrored node this often, 0 never (default %(default)s)",
+        help="re-read each mirrored node this often (each time after a random 75-100 %% of it), "
+        "0 never (default %(default)s)",
     )
 
 
