@@ -20,9 +20,10 @@ disk. A plain job (a queued get, a presence write) ends the group: it runs after
 group's replies, so it never overtakes them.
 
 The group is what queued while the worker ran the group before (its flush, replies and
-publication). A second thread that flushed, replied and published while the worker committed the next
-group (so a flush covered about N) was tried and taken out: its extra hand-off per group
-cost more than the larger groups gained (docs/benchmarks.md, "Target 4").
+publication). A second thread that flushed, replied and published while the worker
+committed the next group (so a flush covered about N requests) was tried and taken out:
+its extra hand-off per group cost more than the larger groups gained (docs/benchmarks.md,
+round five, "Target 4").
 
 The server watches :attr:`NodeWorker.busy_since` from its dispatch loop: a job that
 runs for longer than the liveliness lease marks the worker stalled
