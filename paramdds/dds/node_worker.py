@@ -146,17 +146,7 @@ class NodeWorker:
 
     def flush(self) -> None:
         """Persist and publish changes made outside a request (the application's own)."""
-        changes = self.take_pending()
-        if changes:
-            failure = self._persistence.persist(self.table, changes)
-            if failure:
-                log.error(
-                    "%s: changes up to revision %d are not persisted: %s",
-                    self.table.node_id,
-                    changes[-1].revision,
-                    failure,
-                )
-            self._publication.publish(self.table, changes)
+        self._commit_group([])
 
     def _run(self) -> None:
         item = self._jobs.get()
@@ -205,7 +195,8 @@ class NodeWorker:
 
     def _commit_group(self, batch: list[_Grouped]) -> None:
         """First halves in order; then one persist call for all their changes (and the
-        application's own, made meanwhile), the replies in order, and one publication."""
+        application's own, made meanwhile), the replies in order, and one publication. With
+        no commits it is :meth:`flush`."""
         staged: list[Staged] = []
         for grouped in batch:
             try:
