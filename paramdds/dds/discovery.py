@@ -109,6 +109,7 @@ __all__ = [
     "DiscoveryState",
     "DiscoveryWatch",
     "Presence",
+    "is_quiet",
     "is_settled",
     "owed",
     "quiet_needed",
@@ -148,9 +149,15 @@ def owed(pending: int, not_alive: int, unsure: int) -> int:
     return pending - max(0, min(pending, not_alive - unsure))
 
 
+def is_quiet(pending: int, burst: float, quiet_for: float, min_quiet: float) -> bool:
+    """Rules 2 and 3: every writer found has delivered, and discovery has been quiet long enough
+    (``burst`` is first to last change, ``quiet_for`` last change to now)."""
+    return pending == 0 and quiet_for >= quiet_needed(burst, min_quiet)
+
+
 def is_settled(writers: int, pending: int, burst: float, quiet_for: float, min_quiet: float) -> bool:
-    """The rule of this module: ``burst`` is first to last change, ``quiet_for`` last change to now."""
-    return writers > 0 and pending == 0 and quiet_for >= quiet_needed(burst, min_quiet)
+    """The rule of this module: a server was found (rule 1), and :func:`is_quiet`."""
+    return writers > 0 and is_quiet(pending, burst, quiet_for, min_quiet)
 
 
 @dataclass(frozen=True)
@@ -165,18 +172,12 @@ class DiscoveryState:
     quiet_needed: float  # the silence rule 3 asks for, from last_change
     elapsed: float
     settled: bool
+    # rules 2 and 3 without rule 1: no server need have been found. A process about to serve
+    # nodes asks this before it takes any (its own writers left out with DiscoveryWatch.ignore):
+    # "nobody else serves anything" is an answer
+    quiet: bool = False
     dead_writers: int = 0  # writers that delivered nothing and are certainly not alive (see owed())
     liveliness: int = 0  # counts the liveliness changes seen: a waiting call re-checks its node when it moves
-
-    @property
-    def quiet(self) -> bool:
-        """Rules 2 and 3 hold: every writer found has delivered and discovery is quiet.
-
-        Unlike :attr:`settled`, no server need have been found: a process that is about to
-        serve nodes asks this before it takes any (its own writers excluded with
-        :meth:`DiscoveryWatch.ignore`), and "nobody else serves anything" is an answer.
-        """
-        return self.pending_writers == 0 and self.elapsed - self.last_change >= self.quiet_needed
 
     def describe(self) -> str:
         """A short human account, for error messages."""
@@ -363,6 +364,7 @@ class DiscoveryWatch:
             quiet_needed=quiet_needed(burst, self._min_quiet),
             elapsed=now - self._started,
             settled=is_settled(writers, pending, burst, now - self._last_change, self._min_quiet),
+            quiet=is_quiet(pending, burst, now - self._last_change, self._min_quiet),
             dead_writers=dead,
             liveliness=self._liveliness_changes,
         )

@@ -20,7 +20,7 @@ from cyclonedds.pub import DataWriter
 from cyclonedds.topic import Topic
 
 from paramdds.core.table import ParameterTable
-from paramdds.dds.discovery import PROBE_AFTER, Presence, is_settled
+from paramdds.dds.discovery import PROBE_AFTER, Presence, is_quiet, is_settled
 from paramdds.dds.qos import QosProfiles
 from paramdds.dds.wire import types as wire
 from paramdds.errors import TimeoutError_, UnavailableError
@@ -29,18 +29,22 @@ from .conftest import DDS, Proc, make_dds_env, wait
 
 
 @pytest.mark.parametrize(
-    ("writers", "pending", "burst", "quiet_for", "settled"),
+    ("writers", "pending", "burst", "quiet_for", "settled", "quiet"),
     [
-        (1, 0, 0.0, 0.5, True),  # healthy loopback: known at once, then 0.5 s of quiet
-        (1, 0, 0.0, 0.49, False),
-        (0, 0, 0.0, 60.0, False),  # no server found: never settled, the call's timeout decides
-        (2, 1, 0.0, 60.0, False),  # a matched server that has delivered nothing
-        (1, 0, 2.0, 1.9, False),  # slow discovery (changes over 2 s) needs 2 s of quiet
-        (1, 0, 2.0, 2.0, True),
+        (1, 0, 0.0, 0.5, True, True),  # healthy loopback: known at once, then 0.5 s of quiet
+        (1, 0, 0.0, 0.49, False, False),
+        # no server found: never settled, the call's timeout decides; but quiet (rules 2, 3)
+        (0, 0, 0.0, 60.0, False, True),
+        (2, 1, 0.0, 60.0, False, False),  # a matched server that has delivered nothing
+        (1, 0, 2.0, 1.9, False, False),  # slow discovery (changes over 2 s) needs 2 s of quiet
+        (1, 0, 2.0, 2.0, True, True),
     ],
 )
-def test_the_rule(writers: int, pending: int, burst: float, quiet_for: float, settled: bool) -> None:
+def test_the_rule(
+    writers: int, pending: int, burst: float, quiet_for: float, settled: bool, quiet: bool
+) -> None:
     assert is_settled(writers, pending, burst, quiet_for, min_quiet=0.5) is settled
+    assert is_quiet(pending, burst, quiet_for, min_quiet=0.5) is quiet
 
 
 def test_a_state_writer_that_has_not_delivered_keeps_a_ghost_unknown(dds: DDS, domain_id: int) -> None:
