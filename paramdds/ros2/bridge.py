@@ -189,10 +189,12 @@ class Bridge:
                 "another process",
                 *seen,
             )
-        self.mirror.update(wanted, time.monotonic())
-        if self.exposer is not None:
+        now = time.monotonic()
+        self.mirror.update(wanted, now)
+        if self.exposer is not None and self.mirror.knows_graph(now):
             # a name taken in ROS 2 by anyone but this bridge's own exposed nodes (a ROS 2
-            # node, or another bridge's exposure of the same paramdds node) is not exposed
+            # node, or another bridge's exposure of the same paramdds node) is not exposed;
+            # nothing is exposed before the graph is known (a name not seen yet may be taken)
             ros_nodes = {f.lstrip("/") for f in graph} - set(self.exposer.nodes)
             exposed = {
                 node: info

@@ -460,6 +460,12 @@ class Mirror:
                 if due or (m.hosted and self.resync_period > 0 and now >= m.resync_at):
                     self._submit(m)
 
+    def knows_graph(self, now: float) -> bool:
+        """Whether the ROS 2 graph seen now holds every node that was there when the bridge
+        started: :data:`START_WINDOW` seconds have passed since its first look (Fast DDS finds
+        a running graph that late). Until then a name missing from the graph may be taken."""
+        return self._looking_since is not None and now - self._looking_since >= START_WINDOW
+
     def node_ids(self) -> set[str]:
         """The paramdds node ids of every node mirrored, hosted at this instant or not."""
         with self._lock:

@@ -179,7 +179,7 @@ def test_two_bridges_never_loop_a_node(
     """Bridge A exposes the paramdds node robot/rich and mirrors /twin/rich; bridge B mirrors
     and exposes everything it may: it mirrors neither A's exposed node (bridge enclave) nor
     what is already on paramdds, and exposes none of A's mirrors (origin ros2)."""
-    from paramdds.ros2.bridge import Bridge, BridgeOptions
+    from paramdds.ros2.bridge import POLL, Bridge, BridgeOptions
 
     ros_hosts("--rich", "/twin/rich")
     wait_for(lambda: "robot/rich" in exposing_bridge.exposer.nodes, 20, "robot/rich exposed by A")
@@ -187,7 +187,10 @@ def test_two_bridges_never_loop_a_node(
     dp = make_participant(domain_id, localhost=True)
     other = Bridge(dp, None, BridgeOptions(expose=("*",), resync=0)).start()
     try:
-        time.sleep(4.0)  # B's discovery wait (up to 3 s) and a few looks at both graphs
+        # B's discovery wait (up to 3 s), then its ROS 2 graph is known (START_WINDOW after its
+        # first look: it exposes nothing before), then a few looks at both graphs
+        wait_for(lambda: other.mirror.knows_graph(time.monotonic()), 15, "B knowing the ROS 2 graph")
+        time.sleep(3 * POLL)
         assert other.server.nodes == {}  # nothing mirrored twice, nothing mirrored back
         assert other.exposer.nodes == {}  # robot/rich is a ROS 2 node already (A's); twin/rich is a mirror
     finally:
