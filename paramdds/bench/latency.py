@@ -13,6 +13,10 @@ so that drift and noise from other load hit every system alike:
 * ``polling`` the seed's client: the same get to the same server, the reply found
               by taking and sleeping 10 ms between attempts (fewer requests: each
               costs ~10 ms).
+
+``--viewers V`` starts V monitor processes that hold the node's state while it is
+measured (as a web console or ``paramdds watch`` would): every set's state samples then
+also go to each of them.
 """
 
 from __future__ import annotations
@@ -45,6 +49,9 @@ def run(args: argparse.Namespace) -> int:
         echo = workers.start("echo", "--reply-size", str(rep_size))
         server.read("READY", 60)
         echo.read("READY", 60)
+        viewers = [workers.start("monitor", "--nodes", "1", "--stay") for _ in range(args.viewers or 0)]
+        for viewer in viewers:
+            viewer.read("RESULT", 60)
         qos = QosProfiles.load()
         dp = make_participant(args.domain, localhost=args.localhost, app_name="bench-latency")
         client = ParameterClient(dp, qos)
@@ -106,6 +113,7 @@ def run(args: argparse.Namespace) -> int:
         "requests": requests,
         "polling_requests": polling,
         "rounds": rounds,
+        "viewers": len(viewers),
         "request_bytes": req_size,
         "reply_bytes": rep_size,
         "get_mean_us": round(sum(samples["get"]) / len(samples["get"]), 1),
@@ -125,7 +133,7 @@ def run(args: argparse.Namespace) -> int:
     table = render(["system", "p50 µs", "p99 µs", "p50 / raw", "requests"], rows)
     table += (
         f"\n\npayload: request {req_size} B, reply {rep_size} B; "
-        f"polling p50 / get p50 = {data['ratio_polling_get']}x"
+        f"polling p50 / get p50 = {data['ratio_polling_get']}x; {len(viewers)} viewer process(es)"
     )
     emit(args, data, table)
     return 0

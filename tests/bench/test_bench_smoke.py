@@ -48,7 +48,8 @@ def positive(data: dict[str, Any], *keys: str) -> None:
 
 
 def test_latency(domain_id: int) -> None:
-    data = bench("latency", domain_id)
+    data = bench("latency", domain_id, "--viewers", "2")
+    assert data["viewers"] == 2
     positive(
         data,
         "get_p50_us",

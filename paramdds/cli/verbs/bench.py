@@ -101,12 +101,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="throughput: client processes (default 2); persist: concurrent clients (default 8)",
     )
     p.add_argument(
+        "--viewers",
+        type=_positive_int,
+        metavar="V",
+        help="latency: monitor processes holding the node's state while it is measured (default 0)",
+    )
+    p.add_argument(
         "--window", type=_positive_int, metavar="W", help="throughput: requests in flight per client"
     )
     p.add_argument(
         "--seconds", type=_positive_float, metavar="S", help="throughput, persist: measured seconds per round"
     )
-
 
 
 def run(args: argparse.Namespace) -> int:
