@@ -26,6 +26,10 @@ measured reason:
 * :func:`assert_liveliness` asserts a MANUAL liveliness writer's liveliness
   (``dds_assert_liveliness``, which the binding does not wrap), so a server's
   dispatch loop, not Cyclone's own threads, keeps its nodes alive;
+* :class:`BatchingWriter` and :func:`flush_writes` give a writer Cyclone's
+  writer-batching QoS (``dds_qset_writer_batching``, set on the C QoS the binding
+  builds) and send its batch (``dds_write_flush``): the state writer sends a set's
+  samples as one datagram per reader, not one per sample;
 * :func:`dispose_serialized` and :func:`unregister_serialized` dispose or
   unregister an instance given as raw key bytes (the fault-injection tests send
   keys no encoder would write);
@@ -57,6 +61,7 @@ import cyclonedds
 __all__ = [
     "QOS_LOCK",
     "SUPPORTED_VERSION",
+    "BatchingWriter",
     "Endianness",
     "assert_liveliness",
     "binding_deserialize",
@@ -64,6 +69,7 @@ __all__ = [
     "cookie_buffer",
     "dispose_serialized",
     "entity_handle",
+    "flush_writes",
     "install_native_filter",
     "install_type_data",
     "installed_version",
@@ -117,6 +123,7 @@ from cyclonedds.builtin_types import participant_constructor  # noqa: E402
 from cyclonedds.core import DDSException  # noqa: E402
 from cyclonedds.idl._support import Endianness  # noqa: E402
 from cyclonedds.internal import DDS  # noqa: E402
+from cyclonedds.pub import DataWriter  # noqa: E402
 from cyclonedds.qos import _CQos  # noqa: E402
 
 # -- QoS conversions: one at a time in the process ---------------------------------------
@@ -272,22 +279,45 @@ def unregister_serialized(writer: Any, data: bytes) -> None:
         raise DDSException(ret, f"Occurred while unregistering with {writer!r}")
 
 
-_lib: ct.CDLL | None = None
+@functools.cache
+def _ddsc() -> ct.CDLL:
+    """Cyclone's C library as the binding loaded it, with the few calls it does not wrap."""
+    from cyclonedds.internal import load_cyclonedds
+
+    lib = load_cyclonedds()
+    lib.dds_assert_liveliness.restype = ct.c_int32
+    lib.dds_assert_liveliness.argtypes = [ct.c_int32]
+    lib.dds_qset_writer_batching.restype = None
+    lib.dds_qset_writer_batching.argtypes = [ct.c_void_p, ct.c_bool]
+    lib.dds_write_flush.restype = ct.c_int32
+    lib.dds_write_flush.argtypes = [ct.c_int32]
+    return lib
 
 
 def assert_liveliness(entity: Any) -> None:
     """Assert the liveliness of a MANUAL_BY_TOPIC writer (or MANUAL_BY_PARTICIPANT participant)."""
-    global _lib
-    if _lib is None:
-        from cyclonedds.internal import load_cyclonedds
-
-        lib = load_cyclonedds()
-        lib.dds_assert_liveliness.restype = ct.c_int32
-        lib.dds_assert_liveliness.argtypes = [ct.c_int32]
-        _lib = lib
-    ret = _lib.dds_assert_liveliness(entity._ref)
+    ret = _ddsc().dds_assert_liveliness(entity._ref)
     if ret < 0:
         raise DDSException(ret, f"Occurred while asserting the liveliness of {entity!r}")
+
+
+class BatchingWriter(DataWriter[Any]):  # type: ignore[misc]  # the binding is untyped
+    """A DataWriter with Cyclone's writer-batching QoS: its samples wait in one message
+    until :func:`flush_writes`, so a burst goes out as one datagram per reader, not one per
+    sample. A sample never flushed is not lost: the writer's next heartbeat has it resent."""
+
+    def _create_writer(self, publisher: Any, topic: Any, qos: Any, listener: Any) -> Any:
+        if not qos:
+            raise ValueError("a batching writer needs a QoS")
+        _ddsc().dds_qset_writer_batching(qos, True)
+        return super()._create_writer(publisher, topic, qos, listener)
+
+
+def flush_writes(writer: Any) -> None:
+    """Send what a :class:`BatchingWriter` holds."""
+    ret = _ddsc().dds_write_flush(writer._ref)
+    if ret < 0:
+        raise DDSException(ret, f"Occurred while flushing {writer!r}")
 
 
 def binding_deserialize(cls: type, data: bytes, has_header: bool, use_version_2: bool | None) -> Any:

@@ -25,7 +25,7 @@ from typing import Any
 
 from ..core.results import ChangeKind, ChangeSet
 from ..core.table import ParameterTable
-from ._binding import assert_liveliness, unregister_serialized, write_serialized
+from ._binding import assert_liveliness, flush_writes, unregister_serialized, write_serialized
 from .wire import types as wire
 from .wire.convert import state_descriptor_to_wire, value_to_wire
 from .wire.state import encode_key, encode_state
@@ -88,24 +88,24 @@ class StatePublication:
         """Start publishing ``table``'s node: a new incarnation, its state and its presence."""
         self._incarnations[table.node_id] = new_incarnation()
         for name, value, descriptor in table.snapshot():
-            self.write_state(table, name, value, descriptor, table.revision)
-        self.write_presence(table)
+            self._state(table, name, value, descriptor, table.revision)
+        self._presence(table)
+        flush_writes(self.writer)
 
     def end(self, node_id: str, names: Sequence[str]) -> None:
         """Stop publishing: unregister the node's instances (readers see "no writers")."""
         for name in [*names, ""]:
             unregister_serialized(self.writer, encode_key(node_id, name))
+        flush_writes(self.writer)
         self._incarnations.pop(node_id, None)
 
     def incarnation(self, node_id: str) -> int:
         """The incarnation of a node published here (0 for one that is not)."""
         return self._incarnations.get(node_id, 0)
 
-    # -- samples --------------------------------------------------------------------
+    # -- samples (each public method flushes the writer's batch: one datagram a reader) --
 
-    def write_state(
-        self, table: ParameterTable, name: str, value: Any, descriptor: Any, revision: int
-    ) -> None:
+    def _state(self, table: ParameterTable, name: str, value: Any, descriptor: Any, revision: int) -> None:
         """Publish one parameter's state; the common shape is encoded without a wire object."""
         sec, nanosec = divmod(time.time_ns(), 1_000_000_000)
         incarnation = self.incarnation(table.node_id)
@@ -128,6 +128,10 @@ class StatePublication:
 
     def write_presence(self, table: ParameterTable, *tags: str) -> None:
         """The node's presence sample; ``tags`` are said once, beside the server's own."""
+        self._presence(table, *tags)
+        flush_writes(self.writer)
+
+    def _presence(self, table: ParameterTable, *tags: str) -> None:
         value = self._tags
         if tags:
             value = wire.ParameterValue(
@@ -157,10 +161,11 @@ class StatePublication:
             for change in changes:
                 for item in change.changes:
                     if item.kind is ChangeKind.DELETED:
-                        self.dispose(change.node_id, item.name)
+                        self._dispose(change.node_id, item.name)
                     else:
-                        self.write_state(table, item.name, item.value, item.descriptor, change.revision)
-            self.write_presence(table)
+                        self._state(table, item.name, item.value, item.descriptor, change.revision)
+            self._presence(table)
+            flush_writes(self.writer)
         except Exception as exc:
             if not self._logged:  # once: a faulty peer or a closing participant cannot flood the log
                 self._logged = True
@@ -170,6 +175,10 @@ class StatePublication:
 
     def dispose(self, node_id: str, name: str) -> None:
         """A deleted parameter: dispose its instance."""
+        self._dispose(node_id, name)
+        flush_writes(self.writer)
+
+    def _dispose(self, node_id: str, name: str) -> None:
         self.writer.dispose(wire.ParameterEvent(node_id=node_id, name=name))
 
     # -- liveliness -----------------------------------------------------------------
@@ -182,3 +191,4 @@ class StatePublication:
         """Unregister a node's presence (its worker is stalled): monitors show it offline
         until its next presence sample."""
         self.writer.unregister_instance(wire.ParameterEvent(node_id=node_id, name=""))
+        flush_writes(self.writer)

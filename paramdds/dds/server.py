@@ -74,7 +74,7 @@ from ..core.revision import incarnation_text
 from ..core.table import ParameterTable
 from ..core.values import Parameter, ParameterType
 from ..errors import ErrorCode, ParamddsError
-from ._binding import take_serialized
+from ._binding import BatchingWriter, take_serialized
 from .dispatch import SERIALIZED, Dispatcher
 from .filters import STALE, NativeFilter, filter_tag, filtered_topic, gone_tag, status_tag
 from .node_worker import NodeWorker, Staged
@@ -148,7 +148,7 @@ class ParameterServer:
         # liveliness is asserted by our dispatch loop, not by Cyclone's threads (see above)
         state_qos += _manual_liveliness()
         with self._transport.refused(f"serving nodes {sorted(self._where.nodes or ())}"):
-            state_writer = DataWriter(
+            state_writer = BatchingWriter(
                 self._pub, Topic(participant, "ParameterEvents", wire.ParameterEvent), state_qos
             )
             self.publication = StatePublication(state_writer, presence_tags, self._tables.__contains__)
