@@ -14,10 +14,11 @@ validate, commit, take its change sets) that returns a :class:`Staged` (its seco
 half: the reply, given what failed to persist). When the worker takes such a job it
 also takes every commit queued right behind it (up to :data:`GROUP_MAX`), runs their
 first halves in order, persists all their changes with one call (one journal append,
-one ``fdatasync``), then replies to each in order and publishes. So N clients setting
-one node concurrently share one flush, and no reply leaves before its change is on
-disk. A plain job (a queued get, a presence write) ends the group: it runs after the
-group's replies, so it never overtakes them.
+one ``fdatasync``), then replies to each in order, calls ``replied`` (the server sends
+the group's replies together: one datagram per client reader) and publishes. So N
+clients setting one node concurrently share one flush, and no reply leaves before its
+change is on disk. A plain job (a queued get, a presence write) ends the group: it runs
+after the group's replies, so it never overtakes them.
 
 The group is what queued while the worker ran the group before (its flush, replies and
 publication). A second thread that flushed, replied and published while the worker
@@ -94,8 +95,16 @@ class Publishes(Protocol):
 class NodeWorker:
     """One hosted node's commit path: a job queue and a thread of its own (started lazily)."""
 
-    def __init__(self, persistence: Persists, publication: Publishes, table: ParameterTable) -> None:
+    def __init__(
+        self,
+        persistence: Persists,
+        publication: Publishes,
+        table: ParameterTable,
+        *,
+        replied: Callable[[], None] = lambda: None,
+    ) -> None:
         self.table = table
+        self._replied = replied  # after a group's replies are written: sends them together
         self._persistence = persistence
         self._publication = publication
         self._jobs: queue.SimpleQueue[Job | _Grouped | None] = queue.SimpleQueue()
@@ -221,6 +230,8 @@ class NodeWorker:
                 done.reply(failure if done.changes else "")
             except Exception:
                 log.exception("%s: a reply failed", self.table.node_id)
+        if staged:
+            self._replied()
         if changes:
             self._publication.publish(self.table, changes)
 

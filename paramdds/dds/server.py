@@ -74,7 +74,7 @@ from ..core.revision import incarnation_text
 from ..core.table import ParameterTable
 from ..core.values import Parameter, ParameterType
 from ..errors import ErrorCode, ParamddsError
-from ._binding import BatchingWriter, take_serialized
+from ._binding import BatchingWriter, flush_writes, take_serialized
 from .dispatch import SERIALIZED, Dispatcher
 from .filters import STALE, NativeFilter, filter_tag, filtered_topic, gone_tag, status_tag
 from .node_worker import NodeWorker, Staged
@@ -154,7 +154,9 @@ class ParameterServer:
             self.publication = StatePublication(state_writer, presence_tags, self._tables.__contains__)
             replies = ("SetParametersResponse", "GetParametersResponse", "ListParametersResponse")
             self._reply_writers = {
-                name: DataWriter(self._pub, Topic(self._dp, name, wire.TOPICS[name]), self._qos.writer(name))
+                name: (BatchingWriter if name == "SetParametersResponse" else DataWriter)(
+                    self._pub, Topic(self._dp, name, wire.TOPICS[name]), self._qos.writer(name)
+                )
                 for name in replies
             }
         self._dispatcher = Dispatcher(participant, "paramdds-server", tick=self._tick, period=LEASE / 4)
@@ -185,7 +187,7 @@ class ParameterServer:
         self._where.admit(node_id)
         if node_id in self._tables:
             raise ParamddsError(f"node {node_id!r} is already hosted by this server")
-        worker = NodeWorker(self.persistence, self.publication, table)
+        worker = NodeWorker(self.persistence, self.publication, table, replied=self._send_set_replies)
         self.publication.begin(table)
         with self._hosting:  # against _on_assignment: no assignment falls between the two
             self._workers[node_id] = worker
@@ -549,6 +551,13 @@ class ParameterServer:
         except Exception as exc:
             who = response.client_id
             self._log_once(f"write:{topic}", "could not send a %s to client %x: %s", topic, who, exc)
+
+    def _send_set_replies(self) -> None:
+        """Send the set replies a worker's group wrote (one datagram per client reader)."""
+        try:
+            flush_writes(self._reply_writers["SetParametersResponse"])
+        except Exception as exc:
+            self._log_once("flush:SetParametersResponse", "could not send set replies: %s", exc)
 
     def _log_once(self, kind: str, message: str, *args: object) -> None:
         """Log a problem caused by peers once per kind, so a faulty peer cannot flood the log."""
