@@ -29,7 +29,7 @@ measured reason:
 * :class:`BatchingWriter` and :func:`flush_writes` give a writer Cyclone's
   writer-batching QoS (``dds_qset_writer_batching``, set on the C QoS the binding
   builds) and send its batch (``dds_write_flush``): the state writer sends a set's
-  samples as one datagram per reader, not one per sample;
+  samples, and the set-reply writer a group's replies, as one datagram per reader;
 * :func:`dispose_serialized` and :func:`unregister_serialized` dispose or
   unregister an instance given as raw key bytes (the fault-injection tests send
   keys no encoder would write);
@@ -304,7 +304,8 @@ def assert_liveliness(entity: Any) -> None:
 class BatchingWriter(DataWriter[Any]):  # type: ignore[misc]  # the binding is untyped
     """A DataWriter with Cyclone's writer-batching QoS: its samples wait in one message
     until :func:`flush_writes`, so a burst goes out as one datagram per reader, not one per
-    sample. A sample never flushed is not lost: the writer's next heartbeat has it resent."""
+    sample. A sample never flushed is not lost, only late: reliability's heartbeats have it
+    resent (tests/dds/test_integration_batching.py checks that it is flushed)."""
 
     def _create_writer(self, publisher: Any, topic: Any, qos: Any, listener: Any) -> Any:
         if not qos:
