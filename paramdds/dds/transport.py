@@ -84,8 +84,17 @@ class Grants(Protocol):
 def not_permitted(what: str, grants: Grants, exc: BaseException) -> NotPermittedError:
     return NotPermittedError(
         f"{what}: not permitted for identity {grants.name!r} (role {grants.role}, nodes "
-        f"{' '.join(grants.nodes)}); DDS Security refused it ({exc})"
+        f"{' '.join(grants.nodes)}); DDS Security refused it ({_refusal(exc)})"
     )
+
+
+def _refusal(exc: BaseException) -> str:
+    """What DDS said, without the binding's note of where (it names Python classes; ``what``
+    says it for the user)."""
+    if isinstance(exc, DDSException) and exc.code in DDSException.error_message_mapping:
+        name, meaning = DDSException.error_message_mapping[exc.code]
+        return f"[{name}] {meaning}"
+    return str(exc)
 
 
 class Participant(DomainParticipant):
