@@ -32,6 +32,7 @@
 #define ANSWER_TIMEOUT DDS_SECS (5)
 #define REPLY_ALLOWANCE DDS_MSECS (200) /* a set's deadline is this long before the caller stops waiting */
 #define MAX_PARAMS 8
+#define ANSWERED 64 /* answers to sets kept: a resent set gets its first answer, not a second application */
 
 static const char *TYPE_NAMES[] = {"not_set", "bool", "integer", "double", "string",
                                    "byte_array", "bool_array", "integer_array", "double_array",
@@ -190,6 +191,9 @@ struct node
   uint64_t incarnation; /* random, non-zero, new on every start: (incarnation, revision) never repeats */
   dds_entity_t state;
   char host[256];
+  paramdds_SetParametersResponse answered[ANSWERED]; /* copies, their strings on the heap */
+  bool kept[ANSWERED];
+  int next_answer;
 };
 
 static struct param *find (struct node *n, const char *name)
@@ -322,8 +326,41 @@ static void answer_list (struct node *n, const paramdds_ListParametersRequest *r
   check (dds_write (wr, &rp), "write ListParametersResponse");
 }
 
+/* Write a set's answer and keep a copy (the oldest kept one makes room). */
+static void reply_set (struct node *n, const paramdds_SetParametersResponse *rp, dds_entity_t wr)
+{
+  check (dds_write (wr, rp), "write SetParametersResponse");
+  paramdds_SetParametersResponse *kept = &n->answered[n->next_answer];
+  if (n->kept[n->next_answer])
+    dds_sample_free (kept, &paramdds_SetParametersResponse_desc, DDS_FREE_CONTENTS);
+  n->kept[n->next_answer] = true;
+  n->next_answer = (n->next_answer + 1) % ANSWERED;
+  *kept = *rp; /* the node id (an array), ids and numbers; the strings and results copied below */
+  kept->code = dds_string_dup (rp->code);
+  kept->reason = dds_string_dup (rp->reason);
+  kept->results._buffer = dds_alloc ((rp->results._length + 1) * sizeof (*rp->results._buffer));
+  kept->results._release = true;
+  for (uint32_t i = 0; i < rp->results._length; i++)
+  {
+    const paramdds_SetParameterResult *r = &rp->results._buffer[i];
+    paramdds_SetParameterResult *k = &kept->results._buffer[i];
+    k->name = dds_string_dup (r->name);
+    k->successful = r->successful;
+    k->reason = dds_string_dup (r->reason);
+    k->code = dds_string_dup (r->code);
+  }
+}
+
 static void answer_set (struct node *n, const paramdds_SetParametersRequest *rq, dds_entity_t wr)
 {
+  for (int i = 0; i < ANSWERED; i++) /* a resent set: its first answer again, nothing applied twice */
+    if (n->kept[i] && n->answered[i].client_id == rq->client_id
+        && n->answered[i].request_id == rq->request_id)
+    {
+      check (dds_write (wr, &n->answered[i]), "write SetParametersResponse");
+      return;
+    }
+
   paramdds_SetParametersResponse rp;
   paramdds_SetParameterResult results[64];
   uint32_t count = rq->parameters._length < 64 ? rq->parameters._length : 64;
@@ -344,7 +381,7 @@ static void answer_set (struct node *n, const paramdds_SetParametersRequest *rq,
     rp.code = "EXPIRED", rp.reason = reason;
     rp.revision = n->revision;
     rp.incarnation = n->incarnation;
-    check (dds_write (wr, &rp), "write SetParametersResponse");
+    reply_set (n, &rp, wr);
     return;
   }
   for (uint32_t i = 0; i < count; i++) /* validate everything first: an atomic set is all or nothing */
@@ -401,7 +438,7 @@ static void answer_set (struct node *n, const paramdds_SetParametersRequest *rq,
   rp.incarnation = n->incarnation;
   rp.results._length = rp.results._maximum = count;
   rp.results._buffer = results;
-  check (dds_write (wr, &rp), "write SetParametersResponse");
+  reply_set (n, &rp, wr);
   fflush (stdout);
 }
 

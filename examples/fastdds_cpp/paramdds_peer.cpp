@@ -31,6 +31,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <ctime>
+#include <deque>
 #include <random>
 #include <string>
 #include <thread>
@@ -292,6 +293,10 @@ struct Node
     uint64_t incarnation = new_incarnation();
     DataWriter *state = nullptr;
     std::string host;
+    // the last answers to sets: a resent set (same client_id and request_id) gets its first
+    // answer again and is not applied twice (clients resend while discovery settles)
+    std::deque<paramdds::SetParametersResponse> answered;
+    static constexpr size_t ANSWERED = 64;
 
     paramdds::Parameter *find(const std::string &name)
     {
@@ -393,8 +398,23 @@ struct Node
         wr->write(&rp);
     }
 
+    void reply(paramdds::SetParametersResponse &rp, DataWriter *wr)
+    {
+        wr->write(&rp);
+        answered.push_back(rp);
+        if (answered.size() > ANSWERED)
+            answered.pop_front();
+    }
+
     void answer(const paramdds::SetParametersRequest &rq, DataWriter *wr)
     {
+        for (const auto &before : answered)
+            if (before.client_id() == rq.client_id() && before.request_id() == rq.request_id())
+            {
+                paramdds::SetParametersResponse again = before;
+                wr->write(&again);
+                return;
+            }
         paramdds::SetParametersResponse rp;
         rp.node_id(id);
         rp.client_id(rq.client_id());
@@ -411,7 +431,7 @@ struct Node
             rp.reason(reason);
             rp.revision(revision);
             rp.incarnation(incarnation);
-            wr->write(&rp);
+            reply(rp, wr);
             return;
         }
         bool all_ok = true;
@@ -455,7 +475,7 @@ struct Node
             publish_presence();
         rp.revision(revision);
         rp.incarnation(incarnation);
-        wr->write(&rp);
+        reply(rp, wr);
         std::fflush(stdout);
     }
 };

@@ -165,11 +165,15 @@ class _Node:
         assert self.proc.stdout is not None
         line = self.proc.stdout.readline()
         assert line.strip() == "READY", line + (self.proc.stderr.read() if self.proc.stderr else "")
+        self.output: str | None = None
 
-    def kill(self) -> None:
+    def kill(self) -> str:
+        """Kill the node (if it still runs); what it printed."""
         if self.proc.poll() is None:
             self.proc.send_signal(signal.SIGKILL)
-        self.proc.communicate(timeout=10)
+        if self.output is None:
+            self.output = self.proc.communicate(timeout=10)[0]
+        return self.output
 
 
 def _state_of(node: str, env: dict[str, str]) -> str:
@@ -215,8 +219,7 @@ def test_a_foreign_node_is_served_by_the_paramdds_tools(
 
         # compare-and-set on the foreign node's (incarnation, revision): a wrong incarnation is
         # refused although the revision matches, the right one applies
-        # (the example peers keep no reply cache: a resend of an applied request is applied
-        # again, or refused once the revision moved, so the node's value is what is checked)
+        # (the node's value is what is checked; `nodes` may show the revision before the last set)
         def count() -> object:
             got = _run([PARAMDDS, "get", "fnode", f"{p}count", "-o", "json"], cli_env)
             return json.loads(got.stdout)[f"{p}count"]
@@ -305,3 +308,41 @@ def test_a_foreign_node_refuses_a_set_past_its_deadline(
             assert json.loads(got.stdout) == {f"{p}count": 7}
     finally:
         node.kill()
+
+
+def test_a_foreign_node_applies_a_resent_set_once(
+    vendor: tuple[Vendor, Path], envs: tuple[dict[str, str], dict[str, str]], domain_id: int
+) -> None:
+    """Clients resend a set while discovery settles: the example peers answer the same
+    (client_id, request_id) with their first answer and apply it once (they keep 64)."""
+    from paramdds.dds.wire import types as wire
+
+    from ..reliability.rawwire import RawPeer
+
+    info, program = vendor
+    p = info.prefix
+    node = _Node(program, "fnode", envs[0])
+    try:
+        with DdsSession(domain_id) as session:
+            peer = RawPeer(session.participant())
+            request = wire.SetParametersRequest(
+                node_id="fnode",
+                client_id=77,
+                request_id=1,
+                expected_revision=-1,
+                parameters=[wire.Parameter(f"{p}count", wire.ParameterValue(type=2, integer_value=9))],
+            )
+            for _ in range(40):  # until the peer has matched the node (a VOLATILE copy is lost before)
+                peer.send(request)
+                if peer.replies(request, 1, timeout=0.5):
+                    break
+            answered = len(peer.replies(request, 1, timeout=0))
+            assert answered, "no answer from the foreign node"
+            for _ in range(3):
+                peer.send(request)
+            answers = peer.replies(request, answered + 3, timeout=5.0)
+    finally:
+        printed = node.kill()
+    assert len(answers) >= answered + 3
+    assert [(a.revision, a.results[0].successful) for a in answers] == [(2, True)] * len(answers)
+    assert printed.splitlines().count(f"SET {p}count") == 1  # the node applied it once
