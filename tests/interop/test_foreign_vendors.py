@@ -19,6 +19,7 @@ configuration paramdds builds), Fast DDS through ``PARAMDDS_LOCALHOST=1`` (UDPv4
 on 127.0.0.1, initial peers 127.0.0.1).
 """
 
+import contextlib
 import json
 import os
 import signal
@@ -265,49 +266,51 @@ def test_a_foreign_node_is_served_by_the_paramdds_tools(
         node.kill()
 
 
+def _count_set(prefix: str, client_id: int, request_id: int, value: int, deadline: int = 0) -> Any:
+    """A SetParametersRequest of the foreign node's ``count`` (no revision expected)."""
+    from paramdds.dds.wire import types as wire
+
+    return wire.SetParametersRequest(
+        node_id="fnode",
+        client_id=client_id,
+        request_id=request_id,
+        expected_revision=-1,
+        parameters=[wire.Parameter(f"{prefix}count", wire.ParameterValue(type=2, integer_value=value))],
+        deadline=deadline,
+    )
+
+
+@contextlib.contextmanager
+def _node_and_peer(
+    vendor: tuple[Vendor, Path], envs: tuple[dict[str, str], dict[str, str]], domain_id: int
+) -> Iterator[tuple[str, _Node, Any]]:
+    """A foreign node "fnode" and a raw peer beside it: (its parameters' prefix, node, peer)."""
+    from ..reliability.rawwire import RawPeer
+
+    info, program = vendor
+    node = _Node(program, "fnode", envs[0])
+    try:
+        with DdsSession(domain_id) as session:
+            yield info.prefix, node, RawPeer(session.participant())
+    finally:
+        node.kill()
+
+
 def test_a_foreign_node_refuses_a_set_past_its_deadline(
     vendor: tuple[Vendor, Path], envs: tuple[dict[str, str], dict[str, str]], domain_id: int
 ) -> None:
     """The deadline (the last member of SetParametersRequest) read by another vendor's node:
     past it, EXPIRED with nothing applied; with time left, applied."""
-    from paramdds.dds.wire import types as wire
-
-    from ..reliability.rawwire import RawPeer
-
-    info, program = vendor
-    _, cli_env = envs
-    p = info.prefix
-    node = _Node(program, "fnode", envs[0])
-    try:
-        with DdsSession(domain_id) as session:
-            peer = RawPeer(session.participant())
-
-            def call(request_id: int, deadline: int) -> Any:
-                request = wire.SetParametersRequest(
-                    node_id="fnode",
-                    client_id=99,
-                    request_id=request_id,
-                    expected_revision=-1,
-                    parameters=[wire.Parameter(f"{p}count", wire.ParameterValue(type=2, integer_value=7))],
-                    deadline=deadline,
-                )
-                for _ in range(40):  # until the peer has matched the node (a VOLATILE copy is lost before)
-                    peer.send(request)
-                    got = peer.replies(request, 1, timeout=0.5)
-                    if got:
-                        return got[0]
-                raise AssertionError("no answer from the foreign node")
-
-            late = call(1, time.time_ns() - 1_000_000_000)
-            assert late.code == "EXPIRED" and "after its deadline" in late.reason, late
-            got = _run([PARAMDDS, "get", "fnode", f"{p}count", "-o", "json"], cli_env)
-            assert json.loads(got.stdout) == {f"{p}count": 3}  # nothing applied
-            in_time = call(2, time.time_ns() + 10_000_000_000)
-            assert in_time.code == "" and in_time.results[0].successful, in_time
-            got = _run([PARAMDDS, "get", "fnode", f"{p}count", "-o", "json"], cli_env)
-            assert json.loads(got.stdout) == {f"{p}count": 7}
-    finally:
-        node.kill()
+    cli_env = envs[1]
+    with _node_and_peer(vendor, envs, domain_id) as (p, _node, peer):
+        late = peer.first_answer(_count_set(p, 99, 1, 7, time.time_ns() - 1_000_000_000))
+        assert late.code == "EXPIRED" and "after its deadline" in late.reason, late
+        got = _run([PARAMDDS, "get", "fnode", f"{p}count", "-o", "json"], cli_env)
+        assert json.loads(got.stdout) == {f"{p}count": 3}  # nothing applied
+        in_time = peer.first_answer(_count_set(p, 99, 2, 7, time.time_ns() + 10_000_000_000))
+        assert in_time.code == "" and in_time.results[0].successful, in_time
+        got = _run([PARAMDDS, "get", "fnode", f"{p}count", "-o", "json"], cli_env)
+        assert json.loads(got.stdout) == {f"{p}count": 7}
 
 
 def test_a_foreign_node_applies_a_resent_set_once(
@@ -315,34 +318,13 @@ def test_a_foreign_node_applies_a_resent_set_once(
 ) -> None:
     """Clients resend a set while discovery settles: the example peers answer the same
     (client_id, request_id) with their first answer and apply it once (they keep 64)."""
-    from paramdds.dds.wire import types as wire
-
-    from ..reliability.rawwire import RawPeer
-
-    info, program = vendor
-    p = info.prefix
-    node = _Node(program, "fnode", envs[0])
-    try:
-        with DdsSession(domain_id) as session:
-            peer = RawPeer(session.participant())
-            request = wire.SetParametersRequest(
-                node_id="fnode",
-                client_id=77,
-                request_id=1,
-                expected_revision=-1,
-                parameters=[wire.Parameter(f"{p}count", wire.ParameterValue(type=2, integer_value=9))],
-            )
-            for _ in range(40):  # until the peer has matched the node (a VOLATILE copy is lost before)
-                peer.send(request)
-                if peer.replies(request, 1, timeout=0.5):
-                    break
-            answered = len(peer.replies(request, 1, timeout=0))
-            assert answered, "no answer from the foreign node"
-            for _ in range(3):
-                peer.send(request)
-            answers = peer.replies(request, answered + 3, timeout=5.0)
-    finally:
-        printed = node.kill()
+    with _node_and_peer(vendor, envs, domain_id) as (p, node, peer):
+        request = _count_set(p, 77, 1, 9)
+        peer.first_answer(request)
+        answered = len(peer.replies(request, 1, timeout=0))
+        for _ in range(3):
+            peer.send(request)
+        answers = peer.replies(request, answered + 3, timeout=5.0)
     assert len(answers) >= answered + 3
     assert [(a.revision, a.results[0].successful) for a in answers] == [(2, True)] * len(answers)
-    assert printed.splitlines().count(f"SET {p}count") == 1  # the node applied it once
+    assert node.kill().splitlines().count(f"SET {p}count") == 1  # the node applied it once

@@ -90,6 +90,16 @@ class RawPeer:
         assert got, f"no reply to {type(request).__name__} {request.request_id} within {timeout} s"
         return got[0]
 
+    def first_answer(self, request: Any, tries: int = 40) -> Any:
+        """Send ``request`` until it is answered (a copy written before this peer matched the
+        node is lost: VOLATILE)."""
+        for _ in range(tries):
+            self.send(request)
+            got = self.replies(request, 1, timeout=0.5)
+            if got:
+                return got[0]
+        raise AssertionError(f"no reply to {type(request).__name__} {request.request_id} after {tries} sends")
+
     def pump_events(self) -> list[Any]:
         self._pump()
         return self.event_log

@@ -272,7 +272,7 @@ def test_a_request_past_its_deadline_is_refused_with_nothing_applied_and_no_even
         parameters=[wire.Parameter("robot.mode", wire.ParameterValue(type=4, string_value="manual"))],
         deadline=time.time_ns() - 1_000_000_000,  # a second ago
     )
-    reply = _call(peer, late)
+    reply = peer.first_answer(late)
     assert reply.code == "EXPIRED" and "after its deadline" in reply.reason, reply
     peer.send(late)  # a resend gets the cached answer
     again = peer.replies(late, 2, timeout=10)[-1]
@@ -290,19 +290,9 @@ def test_a_request_past_its_deadline_is_refused_with_nothing_applied_and_no_even
         parameters=late.parameters,
         deadline=time.time_ns() + 10_000_000_000,
     )
-    applied = _call(peer, fresh)
+    applied = peer.first_answer(fresh)
     assert applied.code == "" and applied.results[0].successful
     assert _value(client, "robot.mode") == "manual"
-
-
-def _call(peer: RawPeer, request: Any) -> Any:
-    """Send until answered (a copy written before the peer matched the server is lost)."""
-    for _ in range(20):
-        peer.send(request)
-        got = peer.replies(request, 1, timeout=0.5)
-        if got:
-            return got[0]
-    raise AssertionError("no reply")
 
 
 def _value(client: Any, name: str) -> object:
