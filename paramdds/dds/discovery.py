@@ -51,13 +51,13 @@ times. Each probe is new to every peer, so each peer answers it four more times,
 and since Cyclone keeps what it discovers per domain, not per participant, the
 answer serves the client's own participant too. A probe costs a peer what one more
 short-lived CLI process costs it; probes live until the watch is closed. The test is
-"no server", not "nobody": until issue 24 it was "no remote participant at all", and
-fresh CLI processes running side by side know each other at once (the same host),
-so a process whose four answers from the server were lost never asked again and
-waited for the server's next periodic announcement, 8 s later: that was the rare
-TIMEOUT "no parameter server discovered yet (N remote participant(s) known)" at 30 %
-loss (Cyclone traces of four such processes at 50 % loss: none had received a single
-announcement from the server's address, only from the other clients).
+"no server", not "nobody": fresh CLI processes running side by side know each other at
+once (the same host), so with "no remote participant at all" as the test, a process
+whose four answers from the server were lost would never ask again and would wait for
+the server's next periodic announcement, 8 s later, and end in TIMEOUT "no parameter
+server discovered yet (N remote participant(s) known)" (Cyclone traces of four such
+processes at 50 % loss: none had received a single announcement from the server's
+address, only from the other clients).
 
 Which writers are not alive. Cyclone reports liveliness per reader, not per writer:
 the reader's LIVELINESS_CHANGED status says how many matched writers are alive and

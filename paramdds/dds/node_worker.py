@@ -21,10 +21,10 @@ change is on disk. A plain job (a queued get, a presence write) ends the group: 
 after the group's replies, so it never overtakes them.
 
 The group is what queued while the worker ran the group before (its flush, replies and
-publication). A second thread that flushed, replied and published while the worker
-committed the next group (so a flush covered about N requests) was tried and taken out:
-its extra hand-off per group cost more than the larger groups gained (docs/benchmarks.md,
-round five, "Target 4").
+publication). There is no second thread that flushes, replies and publishes while the
+worker commits the next group (which would let a flush cover about N requests): its
+extra hand-off per group cost more than the larger groups gained (docs/decisions.md,
+"One thread per node's commits").
 
 The server watches :attr:`NodeWorker.busy_since` from its dispatch loop: a job that
 runs for longer than the liveliness lease marks the worker stalled

@@ -13,7 +13,7 @@ discovers any remote endpoint of them, and matches those endpoints without askin
 participants for the types (XTypes type lookup). Type lookup is to be avoided twice over:
 
 * a peer answering requests meant for another can derail it;
-* Fast DDS 3.2 crashes in it (SIGSEGV, issue 30): while the reply for a type is handled
+* Fast DDS 3.2 crashes in it (SIGSEGV): while the reply for a type is handled
   (``TypeLookupManager::notify_callbacks``, on its reply thread, without a lock), discovery
   of more endpoints of that type appends to the same list of callbacks (under a lock the
   reply thread does not take), and a reallocation leaves the reply thread calling freed
