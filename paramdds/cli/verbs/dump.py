@@ -14,7 +14,8 @@ HELP = "nodes' parameters as a ROS 2 parameter file on stdout"
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("nodes", nargs="+", metavar="NODE", help="nodes, globs allowed: 'fleet/*', 's1/*'")
     p.add_argument("--descriptors", action="store_true", help="add the descriptors (a map ROS 2 cannot read)")
-    p.add_argument("--no-descriptors", action="store_true", help=argparse.SUPPRESS)  # the default now
+    # the default; still accepted, so scripts that pass it keep working
+    p.add_argument("--no-descriptors", action="store_true", help=argparse.SUPPRESS)
 
 
 def run(args: argparse.Namespace) -> int:
