@@ -18,9 +18,9 @@ The rules a hosted table keeps:
   the server persists and publishes what the listeners get, and nothing else.
 * **Reads never change anything**, and a refusal is raised as a
   :class:`~paramdds.errors.ParamddsError` (its code goes into the reply).
-* **``try_locked``** yields True while the table's reads cannot wait on a write in
-  progress (the server's dispatch thread answers reads inline only then), False at once
-  otherwise.
+* **``try_locked``** holds the table's lock and yields True when it is free right now,
+  else yields False at once: the server's dispatch thread answers a read inline only
+  when it is True (it must never wait on a callback another thread is running).
 * **``forwards_writes``** is True for a table whose sets wait on another process: the
   server answers its reads at once even while a set is out (they never wait for its
   writes), and a set that outlasts the liveliness lease marks the node ``stale``, not
