@@ -8,7 +8,9 @@ forwards it to the ROS 2 node's own service (from the node's worker, bounded by 
 timeout: a node hanging in a callback delays only its own requests) and commits what
 the node accepted with :meth:`ParameterTable.mirror`, so the server publishes it like
 any change. Changes made in ROS 2 arrive on ``/parameter_events`` and are committed
-the same way.
+the same way. A MirrorTable is not a ParameterTable: it holds one (what is known of the
+node) and is hosted through the :class:`~paramdds.core.hosted.HostedTable` protocol, as
+an :class:`UnreachableTable` is.
 
 Compare-and-set is refused: ROS 2 has no revision, so the check and the set could
 never be one step (another ROS 2 client may set in between).
@@ -197,8 +199,8 @@ class RosLink:
 
 
 class _Held:
-    """A hosted table made of a plain :class:`ParameterTable` (``held``) that keeps what is
-    known of a ROS 2 node: the reads and the watching of :class:`HostedTable` are its."""
+    """A :class:`HostedTable` whose state is a plain :class:`ParameterTable` (``held``):
+    reads and change listeners are the held table's; what a set does is the subclass's."""
 
     forwards_writes = False
 
