@@ -74,6 +74,7 @@ from pathlib import Path
 from typing import Any
 
 from .core.descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
+from .core.hosted import HostedTable
 from .core.results import ChangeKind, ChangeSet
 from .core.table import ParameterTable
 from .core.values import ParameterType, ParameterValue
@@ -504,7 +505,7 @@ class PersistStore:
         self._broken = False
         self._flushed = self._appended  # the snapshot holds every table's state
 
-    def record(self, table: ParameterTable, changes: Sequence[ChangeSet]) -> None:
+    def record(self, table: HostedTable, changes: Sequence[ChangeSet]) -> None:
         """The server's persister: the changes reach the disk before the reply is sent."""
         if not changes:
             return

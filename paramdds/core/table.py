@@ -82,7 +82,6 @@ import threading
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import replace
-from types import MappingProxyType
 
 from ..errors import (
     AlreadyDeclaredError,
@@ -236,9 +235,7 @@ def _callback_error(stage: str, exc: Exception) -> ParamddsError:
 class ParameterTable:
     """The parameters of one node (see the module docstring for the rules)."""
 
-    #: True for a table whose sets wait on another process (a mirrored ROS 2 node): its reads
-    #: never wait for its writes (a server answers them from the table while a set is out), and
-    #: a set that outlasts the liveliness lease marks the node ``stale``, not offline.
+    #: False: its sets commit here (a server hosts it as a :class:`~.hosted.HostedTable`).
     forwards_writes = False
 
     def __init__(
@@ -527,34 +524,6 @@ class ParameterTable:
                     stage.pending[name] = entry
             change, _ = self._commit(stage, [], post_set=False)
             return change
-
-    # --- extending: a table whose sets are applied elsewhere ---------------------------------
-    #
-    # A subclass that forwards sets to the node it mirrors (the ROS 2 bridge's MirrorTable)
-    # overrides set and set_atomically, and uses these instead of the table's internals:
-    # screen (the whole-request refusals a set would give), entry (what is held for one
-    # name), mirror (commit what the node accepted) and mirror_from (commit entries computed
-    # from what is held, under the lock).
-
-    def screen(self, params: object) -> tuple[_Objects, SetOutcome | None]:
-        """``params`` as a request list, and the outcome :meth:`set` gives when the whole
-        request is refused before anything runs (too many parameters; None when it is not)."""
-        request = self._request(params)
-        with self._lock:
-            return request, self._refuse_all(request, None)
-
-    def entry(self, name: str) -> _Entry | None:
-        """The value and descriptor held for ``name`` (None when it is not declared)."""
-        with self._lock:
-            return self._params.get(name)
-
-    def mirror_from(
-        self, compute: Callable[[Mapping[str, _Entry]], Mapping[str, _Entry | None]]
-    ) -> ChangeSet | None:
-        """:meth:`mirror` the entries ``compute`` derives from what the table holds (a
-        read-only view), under the table's lock, so nothing commits in between."""
-        with self._lock:
-            return self.mirror(compute(MappingProxyType(self._params)))
 
     # --- setting ---------------------------------------------------------------------------
 

@@ -41,8 +41,8 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Protocol
 
+from ..core.hosted import HostedTable
 from ..core.results import ChangeSet
-from ..core.table import ParameterTable
 
 log = logging.getLogger(__name__)
 
@@ -79,7 +79,7 @@ _EMPTY = object()
 class Persists(Protocol):
     """Where a worker persists its node's changes (:class:`.publication.Persistence`)."""
 
-    def persist(self, table: ParameterTable, changes: Sequence[ChangeSet]) -> str:
+    def persist(self, table: HostedTable, changes: Sequence[ChangeSet]) -> str:
         """Persist ``changes``; what failed ("" when nothing did)."""
         ...
 
@@ -87,9 +87,9 @@ class Persists(Protocol):
 class Publishes(Protocol):
     """Where a worker publishes its node's changes and presence (:class:`.publication.StatePublication`)."""
 
-    def publish(self, table: ParameterTable, changes: Sequence[ChangeSet]) -> None: ...
+    def publish(self, table: HostedTable, changes: Sequence[ChangeSet]) -> None: ...
 
-    def write_presence(self, table: ParameterTable, *tags: str) -> None: ...
+    def write_presence(self, table: HostedTable, *tags: str) -> None: ...
 
 
 class NodeWorker:
@@ -99,7 +99,7 @@ class NodeWorker:
         self,
         persistence: Persists,
         publication: Publishes,
-        table: ParameterTable,
+        table: HostedTable,
         *,
         replied: Callable[[], None] = lambda: None,
     ) -> None:

@@ -23,8 +23,8 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from ..core.hosted import HostedTable
 from ..core.results import ChangeKind, ChangeSet
-from ..core.table import ParameterTable
 from ._binding import assert_liveliness, flush_writes, unregister_serialized, write_serialized
 from .wire import types as wire
 from .wire.convert import state_descriptor_to_wire, value_to_wire
@@ -36,7 +36,7 @@ log = logging.getLogger(__name__)
 
 # persist the changes of one node (called on its worker, before the reply); raising means
 # the changes are applied but not persisted (NOT_PERSISTED)
-Persister = Callable[[ParameterTable, Sequence[ChangeSet]], None]
+Persister = Callable[[HostedTable, Sequence[ChangeSet]], None]
 
 
 def new_incarnation() -> int:
@@ -55,7 +55,7 @@ class Persistence:
     def __init__(self) -> None:
         self.persisters: list[Persister] = []
 
-    def persist(self, table: ParameterTable, changes: Sequence[ChangeSet]) -> str:
+    def persist(self, table: HostedTable, changes: Sequence[ChangeSet]) -> str:
         """Run the persisters; what failed ("" when every one succeeded)."""
         for persist in self.persisters if changes else []:
             try:
@@ -84,7 +84,7 @@ class StatePublication:
 
     # -- incarnations ---------------------------------------------------------------
 
-    def begin(self, table: ParameterTable) -> None:
+    def begin(self, table: HostedTable) -> None:
         """Start publishing ``table``'s node: a new incarnation, its state and its presence."""
         self._incarnations[table.node_id] = new_incarnation()
         for name, value, descriptor in table.snapshot():
@@ -105,7 +105,7 @@ class StatePublication:
 
     # -- samples (each public method flushes the writer's batch: one datagram a reader) --
 
-    def _state(self, table: ParameterTable, name: str, value: Any, descriptor: Any, revision: int) -> None:
+    def _state(self, table: HostedTable, name: str, value: Any, descriptor: Any, revision: int) -> None:
         """Publish one parameter's state; the common shape is encoded without a wire object."""
         sec, nanosec = divmod(time.time_ns(), 1_000_000_000)
         incarnation = self.incarnation(table.node_id)
@@ -126,12 +126,12 @@ class StatePublication:
             )
         )
 
-    def write_presence(self, table: ParameterTable, *tags: str) -> None:
+    def write_presence(self, table: HostedTable, *tags: str) -> None:
         """The node's presence sample; ``tags`` are said once, beside the server's own."""
         self._presence(table, *tags)
         flush_writes(self.writer)
 
-    def _presence(self, table: ParameterTable, *tags: str) -> None:
+    def _presence(self, table: HostedTable, *tags: str) -> None:
         value = self._tags
         if tags:
             value = wire.ParameterValue(
@@ -152,7 +152,7 @@ class StatePublication:
             )
         )
 
-    def publish(self, table: ParameterTable, changes: Sequence[ChangeSet]) -> None:
+    def publish(self, table: HostedTable, changes: Sequence[ChangeSet]) -> None:
         """Publish committed changes of a hosted node, then its presence (a local DDS failure is
         logged once: the table is right, the events are late)."""
         if not self._hosted(table.node_id):

@@ -67,11 +67,11 @@ from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
 from ..core import deadline as deadlines
+from ..core.hosted import HostedTable
 from ..core.limits import check_request_size
 from ..core.names import canonical_node_id
 from ..core.results import SetResult
 from ..core.revision import incarnation_text
-from ..core.table import ParameterTable
 from ..core.values import Parameter, ParameterType
 from ..errors import ErrorCode, ParamddsError
 from ._binding import BatchingWriter, flush_writes, take_serialized
@@ -112,7 +112,7 @@ class ParameterServer:
         ``tags``: more ``name=value`` items for its presence value (``origin=ros2``)."""
         self._dp = participant
         self._qos = qos or QosProfiles.load()
-        self._tables: dict[str, ParameterTable] = {}
+        self._tables: dict[str, HostedTable] = {}
         self._workers: dict[str, NodeWorker] = {}
         self._replies_lock = threading.Lock()
         # (node, client_id, request_id) -> (encoded request, reply), for retried requests
@@ -181,7 +181,7 @@ class ParameterServer:
 
     # -- hosting -----------------------------------------------------------------
 
-    def add_node(self, table: ParameterTable) -> None:
+    def add_node(self, table: HostedTable) -> None:
         """Host ``table``: publish its state and presence and serve its requests."""
         node_id = table.node_id
         self._where.admit(node_id)
@@ -217,7 +217,7 @@ class ParameterServer:
                 self.publication.dispose(node_id, name)
 
     @property
-    def nodes(self) -> dict[str, ParameterTable]:
+    def nodes(self) -> dict[str, HostedTable]:
         return dict(self._tables)
 
     def incarnation(self, node_id: str) -> int:
@@ -493,7 +493,7 @@ class ParameterServer:
         self._send_reply("SetParametersResponse", response)
 
     def _finish_set(
-        self, table: ParameterTable, response: Any, changes: Sequence[Any], reply: bool, failure: str
+        self, table: HostedTable, response: Any, changes: Sequence[Any], reply: bool, failure: str
     ) -> None:
         """A set's second half, once its changes are persisted (``failure`` says what failed)."""
         if failure:
@@ -503,7 +503,7 @@ class ParameterServer:
         # an assignment is answered too: its assigner reports each refusal (paramdds.dds.assign)
         self._send_reply("SetParametersResponse", response)
 
-    def _apply_set(self, table: ParameterTable, request: Any) -> tuple[list[Any], int]:
+    def _apply_set(self, table: HostedTable, request: Any) -> tuple[list[Any], int]:
         deadlines.check(request.deadline)  # after its wait in the worker's queue (again at the commit)
         check_request_size(len(request.parameters))
         params: list[Parameter | None] = []
@@ -602,7 +602,7 @@ class ParameterServer:
                         continue
             worker.submit(partial(self._fill_and_reply, worker.table, request, reply_topic, fill))
 
-    def _fill_and_reply(self, table: ParameterTable, request: Any, reply_topic: str, fill: Fill) -> None:
+    def _fill_and_reply(self, table: HostedTable, request: Any, reply_topic: str, fill: Fill) -> None:
         """``fill(table, request, response)`` does the work; a refusal becomes the reply's code."""
         reply_type: Any = wire.TOPICS[reply_topic]
         response = reply_type(
@@ -655,10 +655,10 @@ def _not_persisted(result: Any, revision: int, failure: str) -> Any:
     )
 
 
-Fill = Callable[[ParameterTable, Any, Any], None]
+Fill = Callable[[HostedTable, Any, Any], None]
 
 
-def _fill_get(table: ParameterTable, request: Any, response: Any) -> None:
+def _fill_get(table: HostedTable, request: Any, response: Any) -> None:
     check_request_size(len(request.names), "get")
     results = table.get_many(list(request.names), with_descriptors=request.with_descriptors)
     response.results = [
@@ -673,7 +673,7 @@ def _fill_get(table: ParameterTable, request: Any, response: Any) -> None:
     ]
 
 
-def _fill_list(table: ParameterTable, request: Any, response: Any) -> None:
+def _fill_list(table: HostedTable, request: Any, response: Any) -> None:
     result = table.list(list(request.prefixes), int(request.depth))
     response.names, response.prefixes = list(result.names), list(result.prefixes)
 

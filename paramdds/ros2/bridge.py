@@ -29,8 +29,8 @@ from typing import Any
 
 from cyclonedds.domain import DomainParticipant
 
+from ..core.hosted import HostedTable
 from ..core.names import canonical_node_id
-from ..core.table import ParameterTable
 from ..dds.client import ParameterClient
 from ..dds.filters import origin_tag, status_tag
 from ..dds.qos import QosProfiles
@@ -121,7 +121,7 @@ class Bridge:
         except KeyError:
             log.debug("%s was not hosted any more", node_id)
 
-    def _show_unreachable(self, table: ParameterTable) -> None:
+    def _show_unreachable(self, table: HostedTable) -> None:
         """Host a node whose services do not answer, with ``status=unreachable`` in its presence."""
         with self._unreachable_lock:
             if self._unreachable is None:

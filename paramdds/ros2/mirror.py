@@ -8,7 +8,9 @@ forwards it to the ROS 2 node's own service (from the node's worker, bounded by 
 timeout: a node hanging in a callback delays only its own requests) and commits what
 the node accepted with :meth:`ParameterTable.mirror`, so the server publishes it like
 any change. Changes made in ROS 2 arrive on ``/parameter_events`` and are committed
-the same way.
+the same way. A MirrorTable is not a ParameterTable: it holds one (what is known of the
+node) and is hosted through the :class:`~paramdds.core.hosted.HostedTable` protocol, as
+an :class:`UnreachableTable` is.
 
 Compare-and-set is refused: ROS 2 has no revision, so the check and the set could
 never be one step (another ROS 2 client may set in between).
@@ -30,7 +32,7 @@ import contextlib
 import logging
 import random
 import threading
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -38,11 +40,13 @@ from typing import Any
 from ..core import deadline as deadlines
 from ..core.descriptors import ParameterDescriptor
 from ..core.fit import fit_value
+from ..core.hosted import HostedTable
+from ..core.limits import check_request_size
 from ..core.names import canonical_node_id, is_valid_name
-from ..core.results import SetOutcome, SetResult
+from ..core.results import ChangeSet, GetResult, ListResult, SetOutcome, SetResult
 from ..core.table import ParameterTable
 from ..core.values import Parameter, ParameterType, ParameterValue
-from ..errors import ErrorCode, OutcomeUnknownError, ParamddsError
+from ..errors import ErrorCode, InvalidValueError, OutcomeUnknownError, ParamddsError, TooLargeError
 from .messages import descriptor_from_ros, parameter_to_ros, result_from_ros, value_from_ros
 from .rosside import RosSide, Unanswered
 
@@ -194,7 +198,49 @@ class RosLink:
                 self.ros = ros
 
 
-class UnreachableTable(ParameterTable):
+class _Held:
+    """A :class:`HostedTable` whose state is a plain :class:`ParameterTable` (``held``):
+    reads and change listeners are the held table's; what a set does is the subclass's."""
+
+    forwards_writes = False
+
+    def __init__(self, node_id: str) -> None:
+        self.node_id = node_id
+        self.held = ParameterTable(node_id)
+
+    @property
+    def revision(self) -> int:
+        return self.held.revision
+
+    def __len__(self) -> int:
+        return len(self.held)
+
+    def has(self, name: str) -> bool:
+        return self.held.has(name)
+
+    def names(self) -> list[str]:
+        return self.held.names()
+
+    def snapshot(self) -> list[tuple[str, ParameterValue, ParameterDescriptor]]:
+        return self.held.snapshot()
+
+    def get_many(self, names: Sequence[str], *, with_descriptors: bool = False) -> list[GetResult]:
+        return self.held.get_many(names, with_descriptors=with_descriptors)
+
+    def list(self, prefixes: Sequence[str] = (), depth: int = 0) -> ListResult:
+        return self.held.list(prefixes, depth)
+
+    def try_locked(self) -> contextlib.AbstractContextManager[bool]:
+        return self.held.try_locked()
+
+    def add_change_listener(self, fn: Callable[[ChangeSet], None]) -> object:
+        return self.held.add_change_listener(fn)
+
+    def remove_change_listener(self, handle: object) -> None:
+        self.held.remove_change_listener(handle)
+
+
+class UnreachableTable(_Held):
     """What paramdds holds of a ROS 2 node whose parameter services do not answer: no
     parameters, and every request refused with UNAVAILABLE (never "not declared")."""
 
@@ -208,10 +254,10 @@ class UnreachableTable(ParameterTable):
     def _refuse(self) -> ParamddsError:
         return ParamddsError(self.reason, code=ErrorCode.UNAVAILABLE)
 
-    def get_many(self, names: Sequence[str], *, with_descriptors: bool = False) -> Any:
+    def get_many(self, names: Sequence[str], *, with_descriptors: bool = False) -> list[GetResult]:
         raise self._refuse()
 
-    def list(self, prefixes: Sequence[str] = (), depth: int = 0) -> Any:
+    def list(self, prefixes: Sequence[str] = (), depth: int = 0) -> ListResult:
         raise self._refuse()
 
     def set(self, params: Sequence[Parameter], *, expected_revision: int | None = None) -> SetOutcome:
@@ -223,17 +269,21 @@ class UnreachableTable(ParameterTable):
         raise self._refuse()
 
 
-class MirrorTable(ParameterTable):
+class MirrorTable(_Held):
     """The table of a mirrored ROS 2 node: reads are local, sets go to the node first.
 
     Its reads never wait for a forwarded set (``forwards_writes``): while the node is stalled
-    they are answered from what the table holds, and the node shows ``status=stale``."""
+    they are answered from what the table holds, and the node shows ``status=stale``. What
+    the node accepted, and what its events and reads say, is committed to the held table
+    with :meth:`ParameterTable.mirror`, under a lock of this table's, so that what is held
+    cannot change between reading it and committing what is derived from it."""
 
     forwards_writes = True
 
     def __init__(self, node_id: str, link: RosLink) -> None:
         super().__init__(node_id)
         self.link = link
+        self._commits = threading.Lock()
 
     def set(self, params: Sequence[Parameter], *, expected_revision: int | None = None) -> SetOutcome:
         return self._forward(params, expected_revision, atomic=False)
@@ -246,7 +296,7 @@ class MirrorTable(ParameterTable):
     def _forward(
         self, params: Sequence[Parameter], expected_revision: int | None, atomic: bool
     ) -> SetOutcome:
-        request, refused = self.screen(params)
+        request, refused = self._screen(params)
         deadline = deadlines.current()  # the paramdds caller's (0 for an assignment)
         deadlines.check(deadline)  # not forwarded once its caller has given up
         if expected_revision is not None:
@@ -272,19 +322,43 @@ class MirrorTable(ParameterTable):
             raise unanswered(self.link.fqn, exc) from exc
         except ParamddsError as exc:  # not sent (its service is not there)
             answers = [SetResult(p.name, False, exc.message, exc.code) for _, p in send]
-        entries: dict[str, Entry | None] = {}
+        accepted: list[Parameter] = []
         for (i, p), answer in zip(send, answers, strict=True):
             results[i] = answer
             if answer.successful:
-                entries[p.name] = self._entry_after(p)
-        change = self.mirror(entries) if entries else None
+                accepted.append(p)
+        change = None
+        if accepted:
+            with self._commits:
+                change = self.held.mirror({p.name: self._entry_after(p) for p in accepted})
         done = tuple(r for r in results if r is not None)
         return SetOutcome(done, change.revision if change is not None else self.revision, change)
+
+    def _screen(self, params: object) -> tuple[list[object], SetOutcome | None]:
+        """``params`` as a request list, and the outcome a table gives when the whole request
+        is refused before anything runs (too many parameters; None when it is not)."""
+        if isinstance(params, (str, bytes, Mapping)) or not isinstance(params, Iterable):
+            raise InvalidValueError(f"a set takes a list of Parameter, got {type(params).__name__}")
+        request = list(params)
+        try:
+            check_request_size(len(request))
+        except TooLargeError as exc:
+            reason = f"not applied: {exc.message}"
+            results = tuple(SetResult(_name_of(p), False, reason, exc.code) for p in request)
+            return request, SetOutcome(results, self.revision, None)
+        return request, None
+
+    def _entry(self, name: str) -> Entry | None:
+        """The value and descriptor held for ``name`` (None when it is not declared)."""
+        found = self.held.get_many([name], with_descriptors=True)[0]
+        if found.value is None or found.descriptor is None:
+            return None
+        return found.value, found.descriptor
 
     def _widened(self, p: Parameter) -> Parameter:
         """paramdds widens an integer to a double; ROS 2 refuses it: type the value as every
         front end does (core.fit) before forwarding; what does not fit, the node refuses."""
-        current = self.entry(p.name)
+        current = self._entry(p.name)
         value = p.value if isinstance(p.value, ParameterValue) else ParameterValue.from_python(p.value)
         with contextlib.suppress(ParamddsError):
             value = fit_value(p.name, value, current[1] if current is not None else None)
@@ -294,7 +368,7 @@ class MirrorTable(ParameterTable):
         """What the table holds once the node accepted ``p`` (None: deleted)."""
         value = p.value
         assert isinstance(value, ParameterValue)
-        current = self.entry(p.name)
+        current = self._entry(p.name)
         if value.type is ParameterType.NOT_SET:
             return None
         if current is None:
@@ -304,15 +378,19 @@ class MirrorTable(ParameterTable):
             desc = replace(desc, type=value.type)
         return value, desc
 
+    def mirror(self, entries: Mapping[str, Entry | None]) -> ChangeSet | None:
+        """Commit ``entries`` as the node holds them (see :meth:`ParameterTable.mirror`)."""
+        with self._commits:
+            return self.held.mirror(entries)
+
     def apply_event(self, new: Sequence[Any], changed: Sequence[Any], deleted: Sequence[Any]) -> list[str]:
         """Commit one ``/parameter_events`` message; the names that still need a descriptor."""
         fresh: list[str] = []
-
-        def merged(held: Mapping[str, Entry]) -> dict[str, Entry | None]:
+        with self._commits:
             entries: dict[str, Entry | None] = {}
             for p in [*new, *changed]:
                 value = value_from_ros(p.value)
-                current = held.get(p.name)
+                current = self._entry(p.name)
                 if current is None:
                     entries[p.name] = (value, ParameterDescriptor(p.name, value.type))
                     fresh.append(p.name)
@@ -323,14 +401,14 @@ class MirrorTable(ParameterTable):
                 entries[p.name] = (value, desc)
             for p in deleted:
                 entries[p.name] = None
-            return entries
-
-        self.mirror_from(merged)
+            self.held.mirror(entries)
         return fresh
 
     def resync(self, entries: Mapping[str, Entry]) -> None:
         """Make the table hold exactly ``entries`` (a fresh fetch of the node)."""
-        self.mirror_from(lambda held: {**entries, **{n: None for n in held if n not in entries}})
+        with self._commits:
+            gone = {n: None for n in self.held.names() if n not in entries}
+            self.held.mirror({**entries, **gone})
 
 
 def forward_budget(timeout: float, deadline: int) -> float:
@@ -349,6 +427,11 @@ def unanswered(fqn: str, exc: ParamddsError) -> OutcomeUnknownError:
         f"outcome unknown: {exc.message}; the set was forwarded to {fqn} and ROS 2 has no deadline, "
         "so it may still be applied (`get` shows it once the node has answered)"
     )
+
+
+def _name_of(p: object) -> str:
+    name = getattr(p, "name", "")
+    return name if isinstance(name, str) else repr(name)[:80]
 
 
 def _all_failed(request: Sequence[object], results: Sequence[SetResult | None]) -> list[SetResult]:
@@ -400,14 +483,14 @@ class Mirror:
     def __init__(
         self,
         ros: RosSide,
-        host: Callable[[ParameterTable], None],
+        host: Callable[[HostedTable], None],
         unhost: Callable[[str], None],
         forget: Callable[[str, Sequence[str]], None],
         *,
         timeout: float,
         resync: float,
         sync_threads: int = 16,
-        show_unreachable: Callable[[ParameterTable], None] | None = None,
+        show_unreachable: Callable[[HostedTable], None] | None = None,
         hide_unreachable: Callable[[str], None] | None = None,
     ) -> None:
         self.ros = ros
