@@ -90,11 +90,11 @@ def revision_field(body: dict[str, Any]) -> int | Revision | None:
 
 def file_entries(text: str, node: str) -> list[tuple[str, ParameterValue, ParameterDescriptor | None]]:
     """The entries an uploaded parameter file gives ``node`` (seed or ROS 2 format, as ``paramdds load``)."""
-    from ..core.yaml.files import is_seed_format, parse_ros_text
+    from ..formats.files import is_seed_format, parse_ros_text
 
     source = "upload"
     if is_seed_format(text, source):
-        from ..core.yaml.seed import load_seed_params_str
+        from ..formats.seed import load_seed_params_str
 
         return [(p.name, p.value, None) for p in load_seed_params_str(text, source=source)]
     return parse_ros_text(text, source, node)

@@ -9,8 +9,8 @@ import pytest
 from paramdds.core.values import Parameter
 from paramdds.core.values import ParameterType as T
 from paramdds.core.values import ParameterValue as PV
-from paramdds.core.yaml.seed import load_seed_params, load_seed_params_str
 from paramdds.errors import FileFormatError
+from paramdds.formats.seed import load_seed_params, load_seed_params_str
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 

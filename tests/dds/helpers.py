@@ -105,7 +105,7 @@ cfg = json.loads(sys.argv[1])
 signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})  # every thread inherits the mask
 from paramdds.core.descriptors import IntegerRange, ParameterDescriptor
 from paramdds.core.table import ParameterTable
-from paramdds.core.yaml.seed import load_seed_params
+from paramdds.formats.seed import load_seed_params
 from paramdds.dds.participant import close_participant, make_participant
 from paramdds.dds.server import ParameterServer
 

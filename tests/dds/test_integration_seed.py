@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 
 from paramdds.core.values import ParameterValue
-from paramdds.core.yaml.seed import load_seed_params
 from paramdds.dds.monitor import EventKind, MonitorEvent
+from paramdds.formats.seed import load_seed_params
 
 from .helpers import DdsSession, ServerProc
 

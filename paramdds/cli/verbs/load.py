@@ -18,7 +18,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ...core.yaml.files import read_values
+    from ...formats.files import read_values
     from ...frontend.exits import UsageError
     from ...frontend.load import load
     from ...frontend.session import Session

@@ -50,8 +50,8 @@ import re
 
 import yaml
 
-from ...errors import FileFormatError, InvalidValueError, ParamddsError
-from ..values import INT64_MAX, INT64_MIN, NOT_SET, ParameterType, ParameterValue
+from ..core.values import INT64_MAX, INT64_MIN, NOT_SET, ParameterType, ParameterValue
+from ..errors import FileFormatError, InvalidValueError, ParamddsError
 from .base import STR_TAG, Source, compose
 
 __all__ = [

@@ -11,8 +11,8 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from ..descriptors import ParameterDescriptor
-from ..values import Parameter, ParameterValue
+from ..core.descriptors import ParameterDescriptor
+from ..core.values import Parameter, ParameterValue
 
 Entry = tuple[str, ParameterValue, ParameterDescriptor | None]
 Snapshot = list[tuple[str, ParameterValue, ParameterDescriptor]]

@@ -25,7 +25,7 @@ from typing import Any
 
 import yaml
 
-from ...errors import FileFormatError
+from ..errors import FileFormatError
 
 PLAIN_TAG = "tag:paramdds:plain"
 NONPLAIN_TAG = "tag:paramdds:nonplain"

@@ -62,10 +62,10 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import unquote, urlsplit
 
-from ...errors import FileFormatError, ParamddsError
-from ..descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor
-from ..table import ParameterTable
-from ..values import INT64_MAX, INT64_MIN, NOT_SET, ParameterType, ParameterValue
+from ..core.descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor
+from ..core.table import ParameterTable
+from ..core.values import INT64_MAX, INT64_MIN, NOT_SET, ParameterType, ParameterValue
+from ..errors import FileFormatError, ParamddsError
 
 __all__ = [
     "NodeSchema",

@@ -21,9 +21,9 @@ from typing import Any
 
 import yaml
 
-from ...errors import FileFormatError, ParamddsError
-from ..validation import validate
-from ..values import ParameterType, ParameterValue
+from ..core.validation import validate
+from ..core.values import ParameterType, ParameterValue
+from ..errors import FileFormatError, ParamddsError
 from .base import NONPLAIN_TAG, PLAIN_TAG, Source, compose, read_file
 from .scalar import resolve_plain
 from .schema import PARAMS_KEY, NodeSchema
@@ -102,7 +102,7 @@ def check_with_spec(spec: Any, path: str | Path) -> list[Finding]:
     """Every section of a parameter file against a generate_parameter_library spec: each
     value's type, ranges and validators, names the spec does not declare, required
     parameters without a value."""
-    from ..values import NOT_SET
+    from ..core.values import NOT_SET
 
     document = read_document(path)
     entries = {e.name: e for e in spec}

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import yaml
 
-from ..values import Parameter, ParameterType, ParameterValue
+from ..core.values import Parameter, ParameterType, ParameterValue
 from .base import Source, compose, expect_map, items, line_of, read_file
 from .scalar import node_value
 
