@@ -1,7 +1,6 @@
 """The file formats: ROS 2 parameter files, the seed's list format, generate_parameter_library
 specs, and the dump that takes them back (no DDS); and Autoware's JSON Schemas of parameter
-files (:mod:`.schema`: declaring and checking a node; :mod:`.schema_check`: files offline;
-:mod:`.schema_export`: deriving one).
+files (:mod:`.schema`: declaring, enforcing, checking files offline, deriving one).
 
 :mod:`.scalar` reads one typed value, :mod:`.base` holds what the formats share (sources,
 composing them, reading a file with its name and line in every error), and :mod:`.ros`,

@@ -35,7 +35,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ...errors import ParamddsError
     from ...formats.schema import load_schema
-    from ...formats.schema_check import Finding, autoware_pairs, check_with_schema, check_with_spec
+    from ...formats.schema.check import Finding, autoware_pairs, check_with_schema, check_with_spec
     from ...frontend.exits import Exit, UsageError
 
     report: list[dict[str, Any]] = []

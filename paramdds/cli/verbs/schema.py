@@ -25,7 +25,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ...formats.ros import DESCRIPTORS_KEY
-    from ...formats.schema_export import derive_schema
+    from ...formats.schema.export import derive_schema
     from ...frontend.exits import UsageError
 
     if bool(args.spec) == bool(args.node):

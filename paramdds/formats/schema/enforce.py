@@ -62,10 +62,10 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import unquote, urlsplit
 
-from ..core.descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor
-from ..core.table import ParameterTable
-from ..core.values import INT64_MAX, INT64_MIN, NOT_SET, ParameterType, ParameterValue
-from ..errors import FileFormatError, ParamddsError
+from ...core.descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor
+from ...core.table import ParameterTable
+from ...core.values import INT64_MAX, INT64_MIN, NOT_SET, ParameterType, ParameterValue
+from ...errors import FileFormatError, ParamddsError
 
 __all__ = [
     "NodeSchema",
@@ -196,7 +196,7 @@ def _formats() -> frozenset[str]:
 
 
 def _load_document(path: Path, *, lenient: bool) -> Any:
-    from .base import read_file
+    from ..base import read_file
 
     name = str(path)
     doc = parse_json(read_file(path), name)
@@ -613,7 +613,7 @@ def load_schema(path: str | Path, *, lenient: bool = False, declare: bool = True
 
     ``declare=False`` only reads and checks it for validating files (no envelope needed;
     a ``$ref`` is followed only when a file's check needs it)."""
-    from .base import read_file
+    from ..base import read_file
 
     return load_schema_str(
         read_file(path), source=str(path), lenient=lenient, base=Path(path), declare=declare
@@ -887,7 +887,7 @@ def _group_notes(node: dict[str, Any], prefix: str) -> list[str]:
 
 def _default(raw: object, ptype: ParameterType | None, where: str, file: str) -> ParameterValue:
     """A schema default as a value: JSON data, or a string read as a parameter file's text."""
-    from .scalar import parse_cli_value
+    from ..scalar import parse_cli_value
 
     try:
         if isinstance(raw, str) and ptype is not T.STRING:
