@@ -26,7 +26,8 @@ from ...core.values import ParameterType, ParameterValue
 from ...errors import FileFormatError, ParamddsError
 from ..base import NONPLAIN_TAG, PLAIN_TAG, Source, compose, read_file
 from ..scalar import resolve_plain
-from .enforce import PARAMS_KEY, NodeSchema
+from .enforce import NodeSchema
+from .resolve import PARAMS_KEY
 
 __all__ = ["Finding", "autoware_pairs", "check_with_schema", "check_with_spec", "read_document"]
 

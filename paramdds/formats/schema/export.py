@@ -33,7 +33,8 @@ from typing import Any
 
 from ...core.descriptors import ParameterDescriptor, Validator
 from ...core.values import INT64_MAX, INT64_MIN, ParameterType, ParameterValue
-from .enforce import ENVELOPE, PARAMS_KEY, to_json
+from .enforce import to_json
+from .resolve import ENVELOPE, PARAMS_KEY
 
 __all__ = ["derive_schema", "property_schema"]
 
