@@ -7,7 +7,7 @@ Sources, lowest precedence first (each later one overrides the values before it)
    with their descriptors and validators (a schema also checks the whole node on
    every change, see :mod:`paramdds.formats.schema`);
 2. the parameter files (``--params-file``), in order: a file with a top-level
-   ``parameters:`` list is in the seed format and applies to every hosted node;
+   ``parameters:`` list is a parameter list and applies to every hosted node;
    any other file is a ROS 2 parameter file and only the sections matching the
    node apply;
 3. the persisted runtime values (``--persist``), and its record of parameters

@@ -1,4 +1,4 @@
-"""``paramdds load``: set a node's parameters from a parameter file (seed or ROS 2 format).
+"""``paramdds load``: set a node's parameters from a parameter file (a parameter list or a ROS 2 file).
 
 Only the values that differ from the node's are sent (:mod:`paramdds.frontend.load`): a
 node's own dump loads back as a no-op, each value reported ``unchanged``.
