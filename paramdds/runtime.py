@@ -5,9 +5,9 @@ Sources, lowest precedence first (each later one overrides the values before it)
 1. the spec's defaults (``--spec``, a generate_parameter_library file, or
    ``--schema``, a JSON Schema as Autoware writes them): it declares the parameters,
    with their descriptors and validators (a schema also checks the whole node on
-   every change, see :mod:`paramdds.core.yaml.schema`);
+   every change, see :mod:`paramdds.formats.schema`);
 2. the parameter files (``--params-file``), in order: a file with a top-level
-   ``parameters:`` list is in the seed format and applies to every hosted node;
+   ``parameters:`` list is a parameter list and applies to every hosted node;
    any other file is a ROS 2 parameter file and only the sections matching the
    node apply;
 3. the persisted runtime values (``--persist``), and its record of parameters
@@ -33,8 +33,8 @@ from typing import Any
 from .core.descriptors import ParameterDescriptor
 from .core.table import ParameterTable
 from .core.values import ParameterValue
-from .core.yaml.files import Entry, dump_text, parse_ros_text, read_entries
 from .errors import FileFormatError, ParamddsError
+from .formats.files import Entry, dump_text, parse_ros_text, read_entries
 from .journal import PersistError, PersistStore
 
 log = logging.getLogger(__name__)
@@ -45,7 +45,7 @@ log = logging.getLogger(__name__)
 
 
 def _load_spec(path: str, strict: bool = False) -> Any:
-    from .core.yaml import spec as yaml_spec
+    from .formats import spec as yaml_spec
 
     return yaml_spec.load_spec(path, strict=strict)
 
@@ -53,8 +53,8 @@ def _load_spec(path: str, strict: bool = False) -> Any:
 def _declare_spec(
     table: ParameterTable, spec: Any, values: Mapping[str, ParameterValue], options: ServerOptions
 ) -> None:
-    from .core.yaml import schema as yaml_schema
-    from .core.yaml import spec as yaml_spec
+    from .formats import schema as yaml_schema
+    from .formats import spec as yaml_spec
 
     if isinstance(spec, yaml_schema.NodeSchema):  # --schema: a JSON Schema declares the node
         for note in yaml_schema.declare_schema(table, spec, values, lenient=options.lenient):
@@ -177,7 +177,7 @@ def prepare(options: ServerOptions) -> tuple[dict[str, ParameterTable], list[str
     """
     spec = _load_spec(options.spec, options.strict_spec) if options.spec else None
     if options.schema:
-        from .core.yaml.schema import load_schema
+        from .formats.schema import load_schema
 
         spec = load_schema(options.schema, lenient=options.lenient)
     store = persist_store(options.persist) if options.persist else None

@@ -20,7 +20,7 @@ from paramdds.core.descriptors import ParameterDescriptor
 from paramdds.core.results import ChangeKind, ChangeSet, ParameterChange
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import NOT_SET, Parameter, ParameterValue
-from paramdds.core.yaml.files import dump_text, parse_ros_text
+from paramdds.formats.files import dump_text, parse_ros_text
 from paramdds.journal import (
     PREALLOCATE,
     PersistError,

@@ -38,7 +38,7 @@ NOT_IMPORTED = (
     "paramdds.secure",
     "paramdds.web",
     "paramdds.ros2",
-    "paramdds.core.yaml",
+    "paramdds.formats",
     "paramdds.core.table",
     "paramdds.journal",
     "paramdds.runtime",

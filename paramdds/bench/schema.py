@@ -37,9 +37,9 @@ _GPL = {"bool": "bool", "integer": "int", "double": "double", "string": "string"
 
 def _largest(root: Path) -> tuple[Path, Path, Any]:
     """(schema, its first parameter file, the loaded schema) with the most parameters, valid pairs only."""
-    from ..core.yaml.schema import load_schema
-    from ..core.yaml.schema_check import autoware_pairs, check_with_schema
     from ..errors import ParamddsError
+    from ..formats.schema import load_schema
+    from ..formats.schema.check import autoware_pairs, check_with_schema
 
     best: tuple[Path, Path, Any] | None = None
     for schema_path, params in autoware_pairs(root):
@@ -191,7 +191,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _pairs(autoware: Path) -> list[tuple[Path, list[Path]]]:
-    from ..core.yaml.schema_check import autoware_pairs
+    from ..formats.schema.check import autoware_pairs
 
     return autoware_pairs(autoware)
 

@@ -72,7 +72,7 @@ def names_arg(names: Sequence[str]) -> list[str]:
 
 def parse_value(text: str) -> ParameterValue:
     """A command-line value typed like a YAML scalar (UsageError when unparsable)."""
-    from ..core.yaml.scalar import parse_cli_value
+    from ..formats.scalar import parse_cli_value
 
     try:
         return parse_cli_value(text)

@@ -67,7 +67,7 @@ absent), and returns ``(name, reason)`` to refuse it (``name`` is the parameter 
 fault, ``""`` for all of them) or None.
 It runs for every unit of a set (so per parameter for :meth:`ParameterTable.set`, once
 for an atomic set), for declarations and for undeclare; a refusal is INVALID_VALUE.
-A JSON Schema uses it (:mod:`.yaml.schema`): checks such as ``required`` or
+A JSON Schema uses it (:mod:`paramdds.formats.schema`): checks such as ``required`` or
 ``oneOf`` concern several parameters at once.
 
 Threads: every request runs under one re-entrant lock, so it is applied atomically
@@ -852,7 +852,7 @@ class ParameterTable:
         """``fn`` runs after each commit, outside callbacks, and may declare parameters.
 
         What it declares is a commit of its own (a new revision) that runs no hooks; an
-        exception it raises is logged. Spec mapped parameters use it (see core.yaml.spec).
+        exception it raises is logged. Spec mapped parameters use it (see paramdds.formats.spec).
         """
         with self._lock:
             self._guard("add a commit hook")

@@ -10,7 +10,7 @@ than one of them needs lives here, below them:
 * :mod:`.shapes`   the JSON shapes of values and descriptors (pure);
 * :mod:`.load`     loading a parameter file onto a node: only the values it changes are sent.
 
-The parameter files (read, dump) are :mod:`paramdds.core.yaml.files`; building and
+The parameter files (read, dump) are :mod:`paramdds.formats.files`; building and
 running a server process is :mod:`paramdds.runtime`. Nothing here imports Cyclone at
 import time.
 """

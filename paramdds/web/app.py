@@ -213,7 +213,7 @@ class Console:
           200: {description: the file}
           404: {description: NOT_FOUND}
         """
-        from ..core.yaml.files import dump_text
+        from ..formats.files import dump_text
 
         self._check_read(request)
         node = node_arg(request.query_params.get("node"))

@@ -89,12 +89,12 @@ def revision_field(body: dict[str, Any]) -> int | Revision | None:
 
 
 def file_entries(text: str, node: str) -> list[tuple[str, ParameterValue, ParameterDescriptor | None]]:
-    """The entries an uploaded parameter file gives ``node`` (seed or ROS 2 format, as ``paramdds load``)."""
-    from ..core.yaml.files import is_seed_format, parse_ros_text
+    """The entries an uploaded parameter file gives ``node`` (either format, as ``paramdds load``)."""
+    from ..formats.files import is_param_list, parse_ros_text
 
     source = "upload"
-    if is_seed_format(text, source):
-        from ..core.yaml.seed import load_seed_params_str
+    if is_param_list(text, source):
+        from ..formats.paramlist import load_param_list_str
 
-        return [(p.name, p.value, None) for p in load_seed_params_str(text, source=source)]
+        return [(p.name, p.value, None) for p in load_param_list_str(text, source=source)]
     return parse_ros_text(text, source, node)

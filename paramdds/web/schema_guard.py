@@ -1,7 +1,7 @@
 """``paramdds web --schema NODE=FILE``: the console checks a write against the node's JSON
 Schema before sending it, with the node's own rule and reason (the node still checks).
 
-The check is :meth:`paramdds.core.yaml.schema.NodeSchema.node_validator`, the one a node
+The check is :meth:`paramdds.formats.schema.NodeSchema.node_validator`, the one a node
 declared by ``paramdds server --schema FILE`` runs, on the console's view of the node's
 values: a plain set checks each parameter on the state the ones before it leave (only
 those that pass are sent), an atomic set checks them together (nothing is sent when it

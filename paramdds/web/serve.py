@@ -140,8 +140,8 @@ def options_from(args: argparse.Namespace, host: str) -> WebOptions:
 def _schemas(given: Sequence[str]) -> tuple[tuple[str, object], ...]:
     """``--schema NODE=FILE`` values, each schema loaded (a bad one: exit 2 naming it)."""
     from ..core.names import canonical_node_id
-    from ..core.yaml.schema import load_schema
     from ..errors import InvalidNameError
+    from ..formats.schema import load_schema
 
     out = []
     for text in given:

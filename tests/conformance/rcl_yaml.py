@@ -20,8 +20,8 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-from paramdds.core.yaml.ros import load_ros_text_full
 from paramdds.errors import ParamddsError
+from paramdds.formats.ros import load_ros_text_full
 
 from .ros_oracle import AUTOMATIC, from_ros, ros_missing, same_payload
 

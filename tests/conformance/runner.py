@@ -41,9 +41,9 @@ from paramdds.core.descriptors import FloatingPointRange, IntegerRange, Paramete
 from paramdds.core.listing import list_names
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import NOT_SET, Parameter, ParameterType, ParameterValue
-from paramdds.core.yaml.ros import load_ros_params_str, load_ros_text_full
-from paramdds.core.yaml.spec import declare_spec, load_spec_str
 from paramdds.errors import ParamddsError
+from paramdds.formats.ros import load_ros_params_str, load_ros_text_full
+from paramdds.formats.spec import declare_spec, load_spec_str
 
 ERROR = "ERROR"
 TYPES = {t.label: t for t in ParameterType}

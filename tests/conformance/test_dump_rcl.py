@@ -15,8 +15,8 @@ from typing import Any
 import pytest
 
 from paramdds.core.values import ParameterType, ParameterValue
-from paramdds.core.yaml.dump import dump_ros_params
-from paramdds.core.yaml.ros import load_ros_text_full
+from paramdds.formats.dump import dump_ros_params
+from paramdds.formats.ros import load_ros_text_full
 
 from . import rcl_yaml as ry
 from . import ros_oracle as ro

@@ -21,9 +21,9 @@ from paramdds.core.descriptors import ParameterDescriptor
 from paramdds.core.table import ParameterTable
 from paramdds.core.validation import validate
 from paramdds.core.values import Parameter, ParameterType, ParameterValue
-from paramdds.core.yaml.ros import load_ros_file_full, load_ros_params
-from paramdds.core.yaml.spec import Spec, SpecEntry, declare_spec, load_spec
 from paramdds.errors import FileFormatError, ParamddsError
+from paramdds.formats.ros import load_ros_file_full, load_ros_params
+from paramdds.formats.spec import Spec, SpecEntry, declare_spec, load_spec
 
 _REPO = Path(__file__).resolve().parents[2]
 # CI: beside the clone; a git worktree under <checkout>/wt/<name> finds it one level further up.

@@ -11,8 +11,8 @@ from paramdds.core.table import ParameterTable
 from paramdds.core.values import Parameter
 from paramdds.core.values import ParameterType as T
 from paramdds.core.values import ParameterValue as PV
-from paramdds.core.yaml.spec import declare_spec, load_spec_str
 from paramdds.errors import FileFormatError, InvalidValueError
+from paramdds.formats.spec import declare_spec, load_spec_str
 
 MAPPED = """\
 ns:

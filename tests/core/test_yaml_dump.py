@@ -17,9 +17,9 @@ from paramdds.core.descriptors import (
 )
 from paramdds.core.values import ParameterType as T
 from paramdds.core.values import ParameterValue as PV
-from paramdds.core.yaml.dump import dump_ros_params
-from paramdds.core.yaml.ros import load_ros_params_str, load_ros_text_full
 from paramdds.errors import InvalidNameError
+from paramdds.formats.dump import dump_ros_params
+from paramdds.formats.ros import load_ros_params_str, load_ros_text_full
 
 Item = tuple[str, PV, "ParameterDescriptor | None"]
 

@@ -9,14 +9,14 @@ import pytest
 from paramdds.core.descriptors import FloatingPointRange, ParameterDescriptor, Validator
 from paramdds.core.values import ParameterType as T
 from paramdds.core.values import ParameterValue as PV
-from paramdds.core.yaml.ros import (
+from paramdds.errors import ErrorCode, FileFormatError
+from paramdds.formats.ros import (
     load_ros_file_full,
     load_ros_params,
     load_ros_params_str,
     load_ros_text_full,
     node_key_matches,
 )
-from paramdds.errors import ErrorCode, FileFormatError
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 

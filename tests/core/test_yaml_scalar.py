@@ -13,9 +13,9 @@ from hypothesis import strategies as st
 
 from paramdds.core.values import ParameterType as T
 from paramdds.core.values import ParameterValue as PV
-from paramdds.core.yaml.ros import load_ros_params_str
-from paramdds.core.yaml.scalar import parse_cli_value, resolve_plain
 from paramdds.errors import ErrorCode, InvalidValueError
+from paramdds.formats.ros import load_ros_params_str
+from paramdds.formats.scalar import parse_cli_value, resolve_plain
 
 
 @pytest.mark.parametrize(

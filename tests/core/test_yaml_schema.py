@@ -1,4 +1,4 @@
-"""JSON Schema parameter files (core/yaml/schema.py, schema_check.py, schema_export.py).
+"""JSON Schema parameter files (paramdds/formats/schema/: load, enforce, declare, check, export).
 
 The Autoware schemas and parameter files are read where CI puts them
 (``<repo>/../shared/realworld/autoware``, see its SOURCES.md); the verdicts they are
@@ -19,12 +19,12 @@ from hypothesis import strategies as st
 
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import Parameter, ParameterType, ParameterValue
-from paramdds.core.yaml.ros import load_ros_params
-from paramdds.core.yaml.schema import NodeSchema, declare_schema, load_schema, load_schema_str
-from paramdds.core.yaml.schema_check import autoware_pairs, check_with_schema, check_with_spec
-from paramdds.core.yaml.schema_export import derive_schema
-from paramdds.core.yaml.spec import load_spec_str
 from paramdds.errors import ErrorCode, FileFormatError
+from paramdds.formats.ros import load_ros_params
+from paramdds.formats.schema import NodeSchema, declare_schema, load_schema, load_schema_str
+from paramdds.formats.schema.check import autoware_pairs, check_with_schema, check_with_spec
+from paramdds.formats.schema.export import derive_schema
+from paramdds.formats.spec import load_spec_str
 
 _REPO = Path(__file__).resolve().parents[2]
 _PLACES = (_REPO.parent / "shared" / "realworld", _REPO.parent.parent / "shared" / "realworld")

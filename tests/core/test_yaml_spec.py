@@ -11,8 +11,8 @@ from paramdds.core.table import ParameterTable
 from paramdds.core.values import NOT_SET
 from paramdds.core.values import ParameterType as T
 from paramdds.core.values import ParameterValue as PV
-from paramdds.core.yaml.spec import SpecEntry, declare_spec, load_spec, load_spec_str
 from paramdds.errors import FileFormatError, InvalidValueError
+from paramdds.formats.spec import SpecEntry, declare_spec, load_spec, load_spec_str
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 

@@ -96,7 +96,7 @@ class DdsSession:
 # -- a server in another process ---------------------------------------------------------------
 
 # Config (JSON in argv[1]): {"domain": int, "app_name": str, "topic_discovery": bool,
-#   "nodes": [{"id": str, "seed": path, "allow_undeclared": bool,
+#   "nodes": [{"id": str, "param_list": path, "allow_undeclared": bool,
 #              "params": {name: value}, "ranged": {name: [value, from, to]},
 #              "read_only": {name: value}, "dynamic": {name: value}}]}
 _SERVER_SCRIPT = r"""
@@ -105,7 +105,7 @@ cfg = json.loads(sys.argv[1])
 signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})  # every thread inherits the mask
 from paramdds.core.descriptors import IntegerRange, ParameterDescriptor
 from paramdds.core.table import ParameterTable
-from paramdds.core.yaml.seed import load_seed_params
+from paramdds.formats.paramlist import load_param_list
 from paramdds.dds.participant import close_participant, make_participant
 from paramdds.dds.server import ParameterServer
 
@@ -114,8 +114,8 @@ dp = make_participant(cfg["domain"], localhost=True, app_name=cfg.get("app_name"
 server = ParameterServer(dp)
 for node in cfg["nodes"]:
     t = ParameterTable(node["id"], allow_undeclared=node.get("allow_undeclared", False))
-    if node.get("seed"):
-        for p in load_seed_params(node["seed"]):
+    if node.get("param_list"):
+        for p in load_param_list(node["param_list"]):
             t.declare(p.name, p.value)
     for name, value in node.get("params", {}).items():
         t.declare(name, value)

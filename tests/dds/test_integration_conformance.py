@@ -58,7 +58,7 @@ def test_an_unset_typed_parameter_travels_and_is_set_by_its_type_only(dds: DdsSe
 
 
 def test_mapped_parameters_of_a_new_key_entry_reach_clients_and_monitors(dds: DdsSession) -> None:
-    from paramdds.core.yaml.spec import declare_spec, load_spec_str
+    from paramdds.formats.spec import declare_spec, load_spec_str
 
     spec = load_spec_str(
         "arm:\n  joints:\n    type: string_array\n    default_value: [j1]\n"

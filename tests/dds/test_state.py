@@ -20,14 +20,14 @@ from hypothesis import strategies as st
 from paramdds.bench.worker import make_table
 from paramdds.core.descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
 from paramdds.core.values import NOT_SET, ParameterType, ParameterValue
-from paramdds.core.yaml.ros import load_ros_params
-from paramdds.core.yaml.spec import load_spec
 from paramdds.dds._binding import Endianness
 from paramdds.dds.wire import state
 from paramdds.dds.wire import types as wire
 from paramdds.dds.wire.cdr import MalformedSample, encode
 from paramdds.dds.wire.convert import is_plain, state_descriptor_to_wire, value_to_wire
 from paramdds.dds.wire.state import _decode_fast, decode_state, decode_state_slowly, encode_state
+from paramdds.formats.ros import load_ros_params
+from paramdds.formats.spec import load_spec
 
 from .strategies import StateArgs, canonical, samples, state_args
 

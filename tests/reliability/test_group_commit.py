@@ -24,7 +24,7 @@ from typing import Any
 import pytest
 
 from paramdds.core.table import ParameterTable
-from paramdds.core.yaml.files import dump_text, parse_ros_text
+from paramdds.formats.files import dump_text, parse_ros_text
 from paramdds.journal import PersistStore
 
 from .conftest import DDS

@@ -27,9 +27,9 @@ import pytest
 from paramdds.core.descriptors import ParameterDescriptor
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import Parameter, ParameterValue
-from paramdds.core.yaml.files import dump_text, parse_ros_text
 from paramdds.dds.client import ParameterClient
 from paramdds.errors import ErrorCode, ParamddsError
+from paramdds.formats.files import dump_text, parse_ros_text
 from paramdds.journal import HEADER, PersistStore, frame, unframe
 
 from .conftest import DDS, PARAMDDS, Proc, make_dds_env, other_domain, start_server

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from paramdds.core.yaml.schema import load_schema
+from paramdds.formats.schema import load_schema
 
 from ..cli._support import PARAMDDS, run_cli, start_server
 from ..core.test_yaml_schema import AUTOWARE, PASSING, REALWORLD, needs_realworld

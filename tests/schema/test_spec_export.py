@@ -22,9 +22,9 @@ import pytest
 from paramdds.core.descriptors import ParameterDescriptor, Validator
 from paramdds.core.validation import validate
 from paramdds.core.values import ParameterType, ParameterValue
-from paramdds.core.yaml.schema_export import derive_schema
-from paramdds.core.yaml.spec import load_spec
 from paramdds.errors import ParamddsError
+from paramdds.formats.schema.export import derive_schema
+from paramdds.formats.spec import load_spec
 
 from ..core.test_yaml_schema import REALWORLD, needs_realworld
 

@@ -28,7 +28,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
 
     from ...core.values import Parameter
-    from ...core.yaml.files import read_values
+    from ...formats.files import read_values
     from ...frontend.exits import Exit, UsageError
     from ...frontend.session import Session
     from .._live import wait_until_interrupted

@@ -33,9 +33,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ...core.yaml.schema import load_schema
-    from ...core.yaml.schema_check import Finding, autoware_pairs, check_with_schema, check_with_spec
     from ...errors import ParamddsError
+    from ...formats.schema import load_schema
+    from ...formats.schema.check import Finding, autoware_pairs, check_with_schema, check_with_spec
     from ...frontend.exits import Exit, UsageError
 
     report: list[dict[str, Any]] = []
@@ -94,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
                 return check_with_schema(schema, path)
 
         else:
-            from ...core.yaml.spec import load_spec
+            from ...formats.spec import load_spec
 
             against = args.spec
             spec = load_spec(args.spec)

@@ -93,7 +93,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ...core.yaml.files import read_values
+    from ...formats.files import read_values
     from ...frontend.exits import Exit
     from ...frontend.session import Session
     from .._live import wait_until_interrupted

@@ -22,8 +22,8 @@ def run(args: argparse.Namespace) -> int:
     import sys
 
     from ...core.names import is_node_glob
-    from ...core.yaml.files import dump_text
     from ...errors import UnavailableError
+    from ...formats.files import dump_text
     from ...frontend.session import Session
     from .._live import current_states
     from .._output import report_missing

@@ -1,4 +1,4 @@
-"""``paramdds load``: set a node's parameters from a parameter file (seed or ROS 2 format).
+"""``paramdds load``: set a node's parameters from a parameter file (a parameter list or a ROS 2 file).
 
 Only the values that differ from the node's are sent (:mod:`paramdds.frontend.load`): a
 node's own dump loads back as a no-op, each value reported ``unchanged``.
@@ -18,7 +18,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ...core.yaml.files import read_values
+    from ...formats.files import read_values
     from ...frontend.exits import UsageError
     from ...frontend.load import load
     from ...frontend.session import Session

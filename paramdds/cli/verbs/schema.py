@@ -24,8 +24,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ...core.yaml.ros import DESCRIPTORS_KEY
-    from ...core.yaml.schema_export import derive_schema
+    from ...formats.ros import DESCRIPTORS_KEY
+    from ...formats.schema.export import derive_schema
     from ...frontend.exits import UsageError
 
     if bool(args.spec) == bool(args.node):
@@ -33,7 +33,7 @@ def run(args: argparse.Namespace) -> int:
     if args.spec:
         from pathlib import Path
 
-        from ...core.yaml.spec import load_spec
+        from ...formats.spec import load_spec
 
         spec = load_spec(args.spec)
         title = args.title or Path(args.spec).name.split(".")[0]

@@ -85,13 +85,13 @@ from pathlib import Path
 
 import yaml
 
-from ...errors import InvalidValueError, ParamddsError
-from ..custom_validators import lookup_validator
-from ..descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
-from ..results import ChangeSet
-from ..table import ParameterTable
-from ..validation import check_validator
-from ..values import INT64_MAX, INT64_MIN, NOT_SET, ParameterType, ParameterValue
+from ..core.custom_validators import lookup_validator
+from ..core.descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
+from ..core.results import ChangeSet
+from ..core.table import ParameterTable
+from ..core.validation import check_validator
+from ..core.values import INT64_MAX, INT64_MIN, NOT_SET, ParameterType, ParameterValue
+from ..errors import InvalidValueError, ParamddsError
 from .base import Source, compose, expect_map, items, read_file
 from .ros import parse_validator
 from .scalar import node_value, typed_value

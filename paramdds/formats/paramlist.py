@@ -1,4 +1,4 @@
-"""The seed's parameter list format (``examples/params.yaml``)::
+"""Parameter lists: a file's ``parameters:`` list of typed entries (``examples/params.yaml``)::
 
     parameters:
       - name: robot.max_velocity
@@ -12,7 +12,7 @@ must fit ``type``: an integer is widened for a ``double`` (as
 :meth:`ParameterValue.coerce` does), a plain scalar for a ``string`` is taken as
 written (``value: 1.50`` is ``"1.50"``), an empty list takes the stated array
 type, a ``byte_array`` is a list of integers 0..255. A repeated name is an error.
-Unlike the seed's C++ loader, nothing is skipped: every problem is a
+Nothing is skipped: every problem is a
 :class:`~paramdds.errors.FileFormatError` naming the file, line and parameter,
 and no partial list is returned. Order is kept.
 """
@@ -23,18 +23,18 @@ from pathlib import Path
 
 import yaml
 
-from ..values import Parameter, ParameterType, ParameterValue
+from ..core.values import Parameter, ParameterType, ParameterValue
 from .base import Source, compose, expect_map, items, line_of, read_file
 from .scalar import node_value
 
-__all__ = ["SEED_TYPES", "load_seed_params", "load_seed_params_str"]
+__all__ = ["TYPES", "load_param_list", "load_param_list_str"]
 
-SEED_TYPES: dict[str, ParameterType] = {t.label: t for t in ParameterType if t is not ParameterType.NOT_SET}
+TYPES: dict[str, ParameterType] = {t.label: t for t in ParameterType if t is not ParameterType.NOT_SET}
 _KEYS = ("name", "type", "value")
 
 
-def load_seed_params_str(text: str, *, source: str = "<string>") -> list[Parameter]:
-    """Like :func:`load_seed_params` for text; ``source`` names it in errors."""
+def load_param_list_str(text: str, *, source: str = "<string>") -> list[Parameter]:
+    """Like :func:`load_param_list` for text; ``source`` names it in errors."""
     src = Source(source)
     root = compose(text, src)
     if root is None:
@@ -79,13 +79,13 @@ def _entry(entry: yaml.Node, index: int, src: Source) -> Parameter:
             raise src.error(f"{where}: missing key {key!r}", entry)
     type_node = fields["type"][1]
     label = type_node.value if isinstance(type_node, yaml.ScalarNode) else None
-    if label not in SEED_TYPES:
-        raise src.error(f"{where}: unknown type {label!r} (known: {', '.join(SEED_TYPES)})", type_node)
-    value = node_value(fields["value"][1], src, name, SEED_TYPES[label])
+    if label not in TYPES:
+        raise src.error(f"{where}: unknown type {label!r} (known: {', '.join(TYPES)})", type_node)
+    value = node_value(fields["value"][1], src, name, TYPES[label])
     assert isinstance(value, ParameterValue)
     return Parameter(name, value)
 
 
-def load_seed_params(path: str | Path) -> list[Parameter]:
-    """The parameters of a seed-format file, in file order (rules in the module doc)."""
-    return load_seed_params_str(read_file(path), source=str(path))
+def load_param_list(path: str | Path) -> list[Parameter]:
+    """The parameters of a parameter list file, in file order (rules in the module doc)."""
+    return load_param_list_str(read_file(path), source=str(path))

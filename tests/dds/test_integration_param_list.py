@@ -1,4 +1,4 @@
-"""The seed scenario end to end: a server process loads the seed's 7-parameter YAML; a
+"""A parameter list end to end: a server process loads examples/params.yaml (7 parameters); a
 monitor and a late client (list, get, set) see it over real Cyclone on loopback."""
 
 from __future__ import annotations
@@ -10,14 +10,14 @@ from pathlib import Path
 import pytest
 
 from paramdds.core.values import ParameterValue
-from paramdds.core.yaml.seed import load_seed_params
 from paramdds.dds.monitor import EventKind, MonitorEvent
+from paramdds.formats.paramlist import load_param_list
 
 from .helpers import DdsSession, ServerProc
 
 pytestmark = pytest.mark.timeout(60)
 
-SEED_FILE = Path(__file__).resolve().parents[2] / "examples" / "params.yaml"
+LIST_FILE = Path(__file__).resolve().parents[2] / "examples" / "params.yaml"
 NODE = "robot1"
 
 NEW_VALUES = {
@@ -37,9 +37,9 @@ def dds(domain_id: int) -> Iterator[DdsSession]:
         yield session
 
 
-def test_seed_scenario_list_get_set_and_events(dds: DdsSession) -> None:
-    seed = {p.name: p.value for p in load_seed_params(SEED_FILE)}
-    assert len(seed) == 7
+def test_example_list_is_served_listed_got_set_and_watched(dds: DdsSession) -> None:
+    params = {p.name: p.value for p in load_param_list(LIST_FILE)}
+    assert len(params) == 7
 
     events: list[MonitorEvent] = []
     lock = threading.Lock()
@@ -49,24 +49,24 @@ def test_seed_scenario_list_get_set_and_events(dds: DdsSession) -> None:
             events.append(event)
 
     monitor = dds.monitor(on_event=record)
-    with ServerProc(dds.domain_id, [{"id": NODE, "seed": str(SEED_FILE)}]) as server:
+    with ServerProc(dds.domain_id, [{"id": NODE, "param_list": str(LIST_FILE)}]) as server:
         # the monitor was there first: it sees the node join with its 7 parameters
         assert monitor.wait_complete([NODE], timeout=5.0)
         state = monitor.snapshot()[NODE]
         assert state.online and state.pid == server.pid
-        assert set(state.parameters) == set(seed)
-        for name, value in seed.items():
+        assert set(state.parameters) == set(params)
+        for name, value in params.items():
             assert state.parameters[name][0].same_as(value), name
 
         client = dds.client()  # the late client
         listed = client.list(NODE)
-        assert sorted(listed.names) == sorted(seed)
+        assert sorted(listed.names) == sorted(params)
 
-        got = client.get(NODE, list(seed))
-        assert [r.name for r in got.results] == list(seed)
+        got = client.get(NODE, list(params))
+        assert [r.name for r in got.results] == list(params)
         assert all(r.code is None for r in got.results)
         for name, value in got.values().items():
-            assert value.same_as(seed[name]), name
+            assert value.same_as(params[name]), name
         start_revision = got.revision
 
         revisions = []
@@ -86,8 +86,8 @@ def test_seed_scenario_list_get_set_and_events(dds: DdsSession) -> None:
             param_events = [e for e in events if e.event in (EventKind.ADDED, EventKind.MODIFIED)]
         added = [e for e in param_events if e.event is EventKind.ADDED]
         modified = [e for e in param_events if e.event is EventKind.MODIFIED]
-        assert sorted(e.name for e in added) == sorted(seed)
-        assert {e.name for e in added} == set(seed)
+        assert sorted(e.name for e in added) == sorted(params)
+        assert {e.name for e in added} == set(params)
         # one modified event per set, each with its own revision, in order
         assert [(e.name, e.revision) for e in modified] == list(zip(NEW_VALUES, revisions, strict=True))
         for e in modified:

@@ -1,6 +1,6 @@
 """Parameter files as the front ends use them: read one for a node, whatever its format, and dump.
 
-A file with a top-level ``parameters:`` list is in the seed format and applies to every
+A file with a top-level ``parameters:`` list is a parameter list and applies to every
 node; any other file is a ROS 2 parameter file and only the sections matching the node
 apply. The CLI, the web console, the server process and the journal read and write
 parameter files through these functions (pure: files in, values out; no DDS).
@@ -11,8 +11,8 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from ..descriptors import ParameterDescriptor
-from ..values import Parameter, ParameterValue
+from ..core.descriptors import ParameterDescriptor
+from ..core.values import Parameter, ParameterValue
 
 Entry = tuple[str, ParameterValue, ParameterDescriptor | None]
 Snapshot = list[tuple[str, ParameterValue, ParameterDescriptor]]
@@ -31,8 +31,8 @@ def _entries(items: Sequence[Any]) -> list[Entry]:
     return out
 
 
-def is_seed_format(text: str, source: str) -> bool:
-    """True when the document is a map with a top-level ``parameters:`` list (the seed format)."""
+def is_param_list(text: str, source: str) -> bool:
+    """True when the document is a map with a top-level ``parameters:`` list (a parameter list)."""
     import yaml
 
     from .base import Source, compose
@@ -44,15 +44,15 @@ def is_seed_format(text: str, source: str) -> bool:
 
 
 def read_entries(path: str, node_id: str) -> list[Entry]:
-    """The entries a parameter file gives ``node_id``: every one of a seed file, in file
+    """The entries a parameter file gives ``node_id``: every one of a parameter list, in file
     order, or those of the matching sections of a ROS 2 file."""
     from .base import read_file
 
     text = read_file(path)
-    if is_seed_format(text, path):
-        from .seed import load_seed_params_str
+    if is_param_list(text, path):
+        from .paramlist import load_param_list_str
 
-        return _entries(load_seed_params_str(text, source=path))
+        return _entries(load_param_list_str(text, source=path))
     return parse_ros_text(text, path, node_id)
 
 

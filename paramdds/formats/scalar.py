@@ -33,11 +33,11 @@ and quotes still make a string).
 Lists are typed by their elements, which must all have one type. Integers and
 doubles mixed in one list are an error, as in rcl ("Sequence should be of same
 type"): write ``[1.0, 2.5]``. An untagged empty list ``[]`` has no type; it is
-an error unless the caller knows the type (a seed ``type:``, a spec ``type:``, a
+an error unless the caller knows the type (a parameter list's ``type:``, a spec ``type:``, a
 descriptor), or write ``!double_array []``. Nested lists and maps inside a list
 are errors.
 
-Where the type is given explicitly (seed and spec files, ``expected=``), a value
+Where the type is given explicitly (parameter lists and spec files, ``expected=``), a value
 is checked against it: an integer widens to a double (as
 :meth:`ParameterValue.coerce` does), and a plain scalar in a string slot is
 taken as written (``value: 1.50`` for a ``string`` is ``"1.50"``).
@@ -50,8 +50,8 @@ import re
 
 import yaml
 
-from ...errors import FileFormatError, InvalidValueError, ParamddsError
-from ..values import INT64_MAX, INT64_MIN, NOT_SET, ParameterType, ParameterValue
+from ..core.values import INT64_MAX, INT64_MIN, NOT_SET, ParameterType, ParameterValue
+from ..errors import FileFormatError, InvalidValueError, ParamddsError
 from .base import STR_TAG, Source, compose
 
 __all__ = [

@@ -1,4 +1,4 @@
-"""The seed's `parameters:` list format: typed entries, loud failures, order kept."""
+"""Parameter lists (a `parameters:` list): typed entries, loud failures, order kept."""
 
 from __future__ import annotations
 
@@ -9,14 +9,14 @@ import pytest
 from paramdds.core.values import Parameter
 from paramdds.core.values import ParameterType as T
 from paramdds.core.values import ParameterValue as PV
-from paramdds.core.yaml.seed import load_seed_params, load_seed_params_str
 from paramdds.errors import FileFormatError
+from paramdds.formats.paramlist import load_param_list, load_param_list_str
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 
-def test_example_file_has_the_seeds_seven_parameters_in_order() -> None:
-    params = load_seed_params(EXAMPLES / "params.yaml")
+def test_example_file_has_its_seven_parameters_in_order() -> None:
+    params = load_param_list(EXAMPLES / "params.yaml")
     assert [p.name for p in params] == [
         "robot.max_velocity",
         "robot.max_acceleration",
@@ -51,7 +51,7 @@ def entry(type_: str, value: str, name: str = "p") -> str:
     ],
 )
 def test_values_are_read_as_their_stated_type(type_: str, value: str, expected: PV) -> None:
-    assert load_seed_params_str(entry(type_, value)) == [Parameter("p", expected)]
+    assert load_param_list_str(entry(type_, value)) == [Parameter("p", expected)]
 
 
 @pytest.mark.parametrize(
@@ -75,7 +75,7 @@ def test_values_are_read_as_their_stated_type(type_: str, value: str, expected: 
 )
 def test_every_problem_names_file_line_and_parameter(text: str, line: int, match: str) -> None:
     with pytest.raises(FileFormatError, match=match) as info:
-        load_seed_params_str(text, source="seed.yaml")
+        load_param_list_str(text, source="seed.yaml")
     assert (info.value.file, info.value.line) == ("seed.yaml", line)
 
 
@@ -83,4 +83,4 @@ def test_an_empty_file_is_an_error(tmp_path: Path) -> None:
     path = tmp_path / "empty.yaml"
     path.write_text("")
     with pytest.raises(FileFormatError, match="empty"):
-        load_seed_params(path)
+        load_param_list(path)

@@ -75,9 +75,15 @@ from pathlib import Path
 
 import yaml
 
-from ...errors import FileFormatError, ParamddsError
-from ..descriptors import VALIDATOR_ARITY, FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
-from ..values import ParameterType, ParameterValue
+from ..core.descriptors import (
+    VALIDATOR_ARITY,
+    FloatingPointRange,
+    IntegerRange,
+    ParameterDescriptor,
+    Validator,
+)
+from ..core.values import ParameterType, ParameterValue
+from ..errors import FileFormatError, ParamddsError
 from .base import PLAIN_TAG, SEQ_TAG, Source, compose, expect_map, items, key_text, line_of, read_file
 from .scalar import UntypedEmptyList, node_value, typed_value
 

@@ -1,6 +1,6 @@
 """Reading YAML into composed nodes, and the one place PyYAML errors become ours.
 
-Every parameter format (seed, ROS 2 files, specs, command-line values) is read
+Every parameter format (parameter lists, ROS 2 files, specs, command-line values) is read
 the same way: PyYAML *composes* the text into nodes with a loader whose implicit
 resolvers are switched off, so no scalar is typed by YAML 1.1's rules (``1:20``
 is never 80, ``yes`` is never guessed by PyYAML). Each untagged scalar arrives
@@ -25,7 +25,7 @@ from typing import Any
 
 import yaml
 
-from ...errors import FileFormatError
+from ..errors import FileFormatError
 
 PLAIN_TAG = "tag:paramdds:plain"
 NONPLAIN_TAG = "tag:paramdds:nonplain"

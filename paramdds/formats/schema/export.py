@@ -31,9 +31,10 @@ import sys
 from collections.abc import Iterable
 from typing import Any
 
-from ..descriptors import ParameterDescriptor, Validator
-from ..values import INT64_MAX, INT64_MIN, ParameterType, ParameterValue
-from .schema import ENVELOPE, PARAMS_KEY, to_json
+from ...core.descriptors import ParameterDescriptor, Validator
+from ...core.values import INT64_MAX, INT64_MIN, ParameterType, ParameterValue
+from .enforce import to_json
+from .resolve import ENVELOPE, PARAMS_KEY
 
 __all__ = ["derive_schema", "property_schema"]
 

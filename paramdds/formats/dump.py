@@ -48,9 +48,9 @@ import math
 import re
 from collections.abc import Iterable, Sequence
 
-from ...errors import InvalidNameError
-from ..descriptors import ParameterDescriptor, Validator
-from ..values import ParameterType, ParameterValue
+from ..core.descriptors import ParameterDescriptor, Validator
+from ..core.values import ParameterType, ParameterValue
+from ..errors import InvalidNameError
 from .ros import DESCRIPTORS_KEY, PARAMS_KEY
 from .scalar import resolve_plain
 

@@ -1,7 +1,7 @@
 """Checking parameter files offline: against a JSON Schema (as Autoware's CI does with
 check-jsonschema) or against a generate_parameter_library spec. No DDS.
 
-A parameter file is read as plain data with ROS 2's scalar rules (:mod:`.scalar`:
+A parameter file is read as plain data with ROS 2's scalar rules (:mod:`..scalar`:
 ``30`` an integer, ``0.5`` a double, ``true`` a bool, ``$(var x)`` a string; quoted
 text a string; an empty value null) and the whole document is validated, envelope
 included, so the verdict is check-jsonschema's. (check-jsonschema reads YAML 1.2,
@@ -21,12 +21,13 @@ from typing import Any
 
 import yaml
 
+from ...core.validation import validate
+from ...core.values import ParameterType, ParameterValue
 from ...errors import FileFormatError, ParamddsError
-from ..validation import validate
-from ..values import ParameterType, ParameterValue
-from .base import NONPLAIN_TAG, PLAIN_TAG, Source, compose, read_file
-from .scalar import resolve_plain
-from .schema import PARAMS_KEY, NodeSchema
+from ..base import NONPLAIN_TAG, PLAIN_TAG, Source, compose, read_file
+from ..scalar import resolve_plain
+from .enforce import NodeSchema
+from .resolve import PARAMS_KEY
 
 __all__ = ["Finding", "autoware_pairs", "check_with_schema", "check_with_spec", "read_document"]
 
@@ -102,7 +103,7 @@ def check_with_spec(spec: Any, path: str | Path) -> list[Finding]:
     """Every section of a parameter file against a generate_parameter_library spec: each
     value's type, ranges and validators, names the spec does not declare, required
     parameters without a value."""
-    from ..values import NOT_SET
+    from ...core.values import NOT_SET
 
     document = read_document(path)
     entries = {e.name: e for e in spec}

@@ -1,9 +1,0 @@
-"""The YAML formats: ROS 2 parameter files, the seed's list format, generate_parameter_library
-specs, and the dump that takes them back (no DDS); and Autoware's JSON Schemas of parameter
-files (:mod:`.schema`: declaring and checking a node; :mod:`.schema_check`: files offline;
-:mod:`.schema_export`: deriving one).
-
-:mod:`.scalar` reads one typed value, :mod:`.base` holds what the formats share (sources,
-composing them, reading a file with its name and line in every error), and :mod:`.ros`,
-:mod:`.seed`, :mod:`.spec` and :mod:`.dump` are one format each.
-"""
