@@ -3,8 +3,8 @@
 It has the shape of :class:`~paramdds.dds.client.ParameterClient` (a subclass, so the
 CLI's verbs, :class:`~paramdds.dds.client.AsyncParameterClient` and the web console take
 either), with the DDS machinery replaced by Zenoh queries, through the protected
-interface of :class:`~paramdds.dds.client.ClientBase`. The remote monitor is
-:mod:`.monitor`'s (re-exported here), the state queries both use :mod:`.states`'.
+interface of :class:`~paramdds.dds.client.ClientBase`. The remote monitor lives in
+:mod:`.monitor` (its name is re-exported here); the state queries both make, in :mod:`.states`.
 
 * the client sends each call as one query to the node's key, with an explicit Zenoh
   timeout, once Zenoh says a gateway of the site serves it (else UNAVAILABLE, and
@@ -12,6 +12,7 @@ interface of :class:`~paramdds.dds.client.ClientBase`. The remote monitor is
   OUTCOME_UNKNOWN for a set, which may have reached the gateway), or the answer did not
   come back in time (TIMEOUT).
 """
+
 from __future__ import annotations
 
 import asyncio
