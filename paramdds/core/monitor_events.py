@@ -2,7 +2,7 @@
 
 :class:`MonitorEvent` is one change a monitor saw (its kind an :class:`EventKind`);
 :class:`NodeState` is what a monitor holds of one node. Both are plain data: the rules
-that produce them are the feeds' (:mod:`paramdds.dds.monitor_feed` over DDS,
+that produce them are the feeds' (:mod:`paramdds.dds.monitor_rules` over DDS,
 :mod:`paramdds.zenoh.monitor` over Zenoh), the book that keeps them is
 :class:`~paramdds.core.state_book.StateBook`.
 """
@@ -68,7 +68,7 @@ class NodeState:
     status: str | None = None
     parameters: dict[str, tuple[ParameterValue, ParameterDescriptor]] = field(default_factory=dict)
     shown: int = 0  # the highest revision an event showed for this incarnation
-    # deletions waiting for the presence sample that gives their revision (see paramdds.dds.monitor_feed)
+    # deletions waiting for the presence sample that gives their revision (see paramdds.dds.monitor_rules)
     deleting: list[tuple[str, ParameterValue, ParameterDescriptor]] = field(default_factory=list)
     # events of a node whose presence has not arrived yet: emitted with it, once its origin is known
     early: list[MonitorEvent] = field(default_factory=list)

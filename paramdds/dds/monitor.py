@@ -2,8 +2,8 @@
 
 A :class:`ParameterMonitor` holds a :class:`~paramdds.core.state_book.StateBook` (each
 node's state, the waits on it, the events) and the feed that fills it: made on a DDS
-participant it reads ``ParameterEvents`` (:mod:`.monitor_feed`, whose module doc has
-the rules its events follow); made on a :class:`~paramdds.core.state_book.StateFeed` it
+participant it reads ``ParameterEvents`` (:mod:`.monitor_feed`; the rules its events
+follow are :mod:`.monitor_rules`'); made on a :class:`~paramdds.core.state_book.StateFeed` it
 is fed by that (the Zenoh feed of :mod:`paramdds.zenoh.monitor`). Either way it offers
 the same calls and events.
 """
