@@ -4,15 +4,16 @@
 fed by a :class:`ZenohStateFeed` instead of a DDS reader, so the CLI's verbs and the web
 console take it as they take the DDS one. The feed:
 
-* subscribes to every node's ``state`` first, then asks each site's gateway for the
-  current state of all its nodes (one query, answered from the gateway's current state,
-  never from history), and keeps, per node, the publication with the highest ``seq`` of
-  its gateway (a reply and a publication of one change may cross);
-* holds a node online while its gateway says so *and* its liveliness token is alive: a
-  gateway killed, or an uplink cut, takes every node of its site offline within the
-  Zenoh lease (:data:`~.config.LEASE_MS`); when a token comes back the node is asked for
-  again (publications made meanwhile were lost), so nothing stale shows online;
-* marks the monitor synced once the first states have been asked for.
+* subscribes to every node's ``state`` and liveliness token first, then asks each site's
+  gateway for the current state of all its nodes (one query, answered from the
+  gateway's current state, never from history), and marks the monitor synced;
+* applies each state and token by the rules of :mod:`.monitor_rules` (the newest state
+  of a node's gateway is held; a node is online while its gateway says so *and* its
+  token is alive): a gateway killed, or an uplink cut, takes every node of its site
+  offline within the Zenoh lease (:data:`~.config.LEASE_MS`);
+* asks for a node's whole state again when its token comes back (publications made
+  meanwhile were lost, so nothing stale shows online), when a delta does not follow the
+  state held, and (a few times) when a state did not come or did not decode.
 """
 
 from __future__ import annotations
@@ -27,11 +28,12 @@ from typing import Any
 import zenoh
 
 from ..core.names import NodeFilter, is_node_glob
-from ..core.state_book import BookUpdate, StateBook
+from ..core.state_book import StateBook
 from ..dds.client import DEFAULT_TIMEOUT
-from ..dds.monitor import EventCallback, EventKind, MonitorEvent, ParameterMonitor
+from ..dds.monitor import EventCallback, ParameterMonitor
 from ..errors import ParamddsError
 from . import codec, keys
+from .monitor_rules import GAP, HELD, RemoteStates
 from .states import ask_states, sites_of
 
 log = logging.getLogger(__name__)
@@ -113,11 +115,7 @@ class ZenohStateFeed:
         self._session = session
         self._timeout = timeout
         self._book: StateBook | None = None
-        # the feed's own book-keeping, guarded by the book's lock (changed in its updates)
-        self._seen: dict[str, tuple[str, int]] = {}  # node -> (gateway, seq) of the state held
-        self._reported: dict[str, bool] = {}  # node -> online as its gateway last said
-        self._alive: set[str] = set()  # nodes whose liveliness token is alive
-        self._gone: set[str] = set()  # nodes whose token the subscriber saw go (the first sync's get may lag)
+        self._states = RemoteStates()  # changed only in the book's updates (under its lock)
         self._refresh_lock = threading.Lock()
         self._to_refresh: set[tuple[str, str]] = set()
         self._asked_again: dict[str, int] = {}  # node -> times asked again (see _ask_again)
@@ -170,7 +168,7 @@ class ZenohStateFeed:
             for scope in self._scopes:  # the tokens first, so that the states below show online exactly
                 alive = _alive_of(self._session, keys.site_pattern(scope, keys.ALIVE), self._timeout)
                 with book.update():
-                    self._alive.update(n for n in alive if self._wanted(n) and n not in self._gone)
+                    self._states.tokens_found(n for n in alive if self._wanted(n))
                 if scope == "*":  # a query per site (see ask_states), the sites wanted of those up
                     known = {n.split("/", 1)[0] for n in alive} | set(sites_of(self._session, self._timeout))
                     up = sorted(site for site in known if self._wanted_site(site))
@@ -201,18 +199,8 @@ class ZenohStateFeed:
         if not self._wanted(name):
             return
         book = self._sink
-        came_back = False
         with book.update() as change:
-            if _is_delete(sample):
-                self._alive.discard(name)
-                self._gone.add(name)
-            else:
-                came_back = name in self._gone
-                self._alive.add(name)
-                self._gone.discard(name)
-            state = change.get(name)
-            if state is not None:
-                change.set_online(state, self._reported.get(name, False) and name in self._alive)
+            came_back = self._states.token(change, name, not _is_delete(sample))
         if not _is_delete(sample) and (book.synced or came_back):
             # back (a gateway took over, an uplink came back, a session dropped by loss): what was
             # published meanwhile is lost, and so is a first query that was in flight (before the
@@ -269,7 +257,7 @@ class ZenohStateFeed:
                 continue
             asked.add((site, node))
         with self._sink.update() as change:
-            missing = [n for n in self._alive if change.get(n) is None]
+            missing = self._states.missing(change)
         asked.update(keys.split_remote(n) for n in missing)
         for site, node in asked:
             name = keys.remote_name(site, node)
@@ -282,61 +270,14 @@ class ZenohStateFeed:
         name = keys.remote_name(msg.site, msg.node)
         if not self._wanted(name):
             return
-        with self._sink.update() as change:
-            seen = self._seen.get(name)
-            if seen is not None and seen[0] == msg.gateway and msg.seq <= seen[1]:
-                return  # this state or a newer one is held already
-            if msg.kind == "delta":
-                held = change.get(name)
-                if held is None or seen != (msg.gateway, msg.base):
-                    self._refresh(msg.site, msg.node)  # not the state this change follows: ask for it all
-                    return
-                merged = {n: e for n, e in held.parameters.items() if n not in msg.deleted}
-                merged.update(msg.parameters)
-                msg.parameters, msg.kind = merged, "state"
-            self._seen[name] = (msg.gateway, msg.seq)
-            self._hold(change, name, msg)
-        with self._refresh_lock:
-            self._asked_again.pop(name, None)  # held now: a later loss gets its own tries
-
-    def _hold(self, change: BookUpdate, name: str, msg: codec.NodeStateMsg) -> None:
-        """Replace ``name``'s state by the whole state ``msg``: an event per parameter changed."""
-        state = change.node(name)
-        old = state.parameters
-        stamp = time.time()
-        if self._sink.has_callbacks:
-            for pname, (value, descriptor) in msg.parameters.items():
-                before = old.get(pname)
-                if before is None:
-                    kind = EventKind.ADDED
-                elif not before[0].same_as(value) or before[1] != descriptor:
-                    kind = EventKind.MODIFIED
-                else:
-                    continue
-                change.emit(
-                    MonitorEvent(kind, name, pname, value, descriptor, msg.revision, stamp, msg.incarnation)
-                )
-            for pname, (value, descriptor) in old.items():
-                if pname not in msg.parameters:
-                    change.emit(
-                        MonitorEvent(
-                            EventKind.DELETED,
-                            name,
-                            pname,
-                            value,
-                            descriptor,
-                            msg.revision,
-                            stamp,
-                            msg.incarnation,
-                        )
-                    )
-        state.parameters = dict(msg.parameters)
-        state.host, state.pid = msg.host, msg.pid
-        state.revision, state.announced = msg.revision, msg.announced
-        state.incarnation, state.origin = msg.incarnation, msg.origin
-        self._reported[name] = msg.online
-        change.set_status(state, msg.status)
-        change.set_online(state, msg.online and name in self._alive)
+        book = self._sink
+        with book.update() as change:
+            outcome = self._states.apply(book, change, name, msg)
+            if outcome is GAP:  # not the state this change follows: ask for the whole one
+                self._refresh(msg.site, msg.node)
+        if outcome is HELD:
+            with self._refresh_lock:
+                self._asked_again.pop(name, None)  # held now: a later loss gets its own tries
 
 
 def _is_delete(sample: Any) -> bool:
