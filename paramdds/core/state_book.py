@@ -76,9 +76,6 @@ class BookUpdate:
             state = self._states[node] = NodeState(node)
         return state
 
-    def nodes(self) -> Iterator[NodeState]:
-        return iter(self._states.values())
-
     def emit(self, event: MonitorEvent) -> None:
         self.events.append(event)
 
