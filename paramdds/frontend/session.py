@@ -93,7 +93,7 @@ class Session:
         self, nodes: list[str] | None = None, on_event: EventCallback | None = None
     ) -> ParameterMonitor:
         if getattr(self.args, "zenoh", None):
-            from ..zenoh.remote import RemoteParameterMonitor, sites_from_env
+            from ..zenoh.monitor import RemoteParameterMonitor, sites_from_env
 
             remote = RemoteParameterMonitor(
                 self.zenoh, sites=sites_from_env(), nodes=nodes, on_event=on_event, timeout=self.args.timeout

@@ -169,11 +169,13 @@ def test_a_status_change_alone_updates_the_node_list_and_the_log() -> None:
     node's new summary and its log a ``status`` line, at once, not at a later refresh."""
     from typing import cast
 
-    from paramdds.dds.monitor import MonitorBase, NodeState, ParameterMonitor
+    from paramdds.core.state_book import StateBook
+    from paramdds.dds.monitor import ParameterMonitor
 
-    monitor = MonitorBase()
-    with monitor._cond:
-        monitor._states["arm/driver"] = NodeState("arm/driver", online=True, origin="ros2", status="stale")
+    monitor = StateBook()
+    with monitor.update() as change:
+        held = change.node("arm/driver")
+        held.online, held.origin, held.status = True, "ros2", "stale"
 
     event = MonitorEvent(EventKind.STATUS, "arm/driver", revision=3, origin="ros2", status="stale")
     nodes, log = _streamed(StateView(cast(ParameterMonitor, monitor)), "", [event])

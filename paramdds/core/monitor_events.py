@@ -1,0 +1,82 @@
+"""What a monitor tells and holds, whatever feeds it: its events and each node's state.
+
+:class:`MonitorEvent` is one change a monitor saw (its kind an :class:`EventKind`);
+:class:`NodeState` is what a monitor holds of one node. Both are plain data: the rules
+that produce them are the feeds' (:mod:`paramdds.dds.monitor_rules` over DDS,
+:mod:`paramdds.zenoh.monitor` over Zenoh), the book that keeps them is
+:class:`~paramdds.core.state_book.StateBook`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from enum import Enum
+
+from .descriptors import ParameterDescriptor
+from .values import ParameterValue
+
+
+class EventKind(str, Enum):
+    ADDED = "added"
+    MODIFIED = "modified"
+    DELETED = "deleted"
+    ONLINE = "online"
+    OFFLINE = "offline"
+    RESTARTED = "restarted"  # the node's server started again (a new incarnation)
+    STATUS = "status"  # an online node's status changed (NodeState.status; None: back to normal)
+    SYNCED = "synced"
+
+
+@dataclass(frozen=True)
+class MonitorEvent:
+    """A change a monitor saw: a parameter's new state, or a node going on or offline."""
+
+    event: EventKind
+    node: str = ""
+    name: str = ""
+    value: ParameterValue | None = None
+    descriptor: ParameterDescriptor | None = None
+    revision: int = 0
+    stamp: float = 0.0  # seconds since the epoch, from the writer
+    incarnation: int = 0  # the server's for the node (new on every start): see NodeState.incarnation
+    origin: str | None = None  # the node's presence tag "origin" ("ros2": mirrored by the bridge), if known
+    status: str | None = None  # the node's status (see NodeState.status) on online and status events
+
+
+@dataclass
+class NodeState:
+    """What a monitor holds of one node: its presence and its parameters."""
+
+    node: str
+    online: bool = False
+    host: str = ""
+    pid: int = 0
+    revision: int = 0
+    announced: int = -1  # parameter count from the presence instance; -1 before it is seen
+    # other processes seen publishing this node's presence while it was online ("pid N on H"):
+    # one node id hosted twice, whose requests reach both
+    duplicates: list[str] = field(default_factory=list)
+    writer: int = 0  # the publication handle of the last presence sample
+    request_filter: str | None = None  # "native" or "handler" as the server says; None if it does not
+    # the server's for this node, new on every start: a different one is a restart, whose
+    # revisions start again (compare-and-set compares both; see ParameterClient.set)
+    incarnation: int = 0
+    origin: str | None = None  # the presence tag "origin" ("ros2": mirrored by the bridge); None if unsaid
+    # the presence tag "status": "unreachable" for a ROS 2 node the bridge sees but cannot read
+    # (no parameters; requests fail with UNAVAILABLE); None for a node that is what it says
+    status: str | None = None
+    parameters: dict[str, tuple[ParameterValue, ParameterDescriptor]] = field(default_factory=dict)
+    shown: int = 0  # the highest revision an event showed for this incarnation
+    # deletions waiting for the presence sample that gives their revision (see paramdds.dds.monitor_rules)
+    deleting: list[tuple[str, ParameterValue, ParameterDescriptor]] = field(default_factory=list)
+    # events of a node whose presence has not arrived yet: emitted with it, once its origin is known
+    early: list[MonitorEvent] = field(default_factory=list)
+
+    @property
+    def complete(self) -> bool:
+        """True when this monitor holds every parameter the node announced."""
+        return self.announced == len(self.parameters)
+
+
+EventCallback = Callable[[MonitorEvent], None]

@@ -1,0 +1,297 @@
+"""The remote monitor: every site's nodes over Zenoh, named ``SITE/NODE``.
+
+:class:`RemoteParameterMonitor` is a :class:`~paramdds.dds.monitor.ParameterMonitor`
+fed by a :class:`ZenohStateFeed` instead of a DDS reader, so the CLI's verbs and the web
+console take it as they take the DDS one. The feed:
+
+* subscribes to every node's ``state`` and liveliness token first, then asks each site's
+  gateway for the current state of all its nodes (one query, answered from the
+  gateway's current state, never from history), and marks the monitor synced;
+* applies each state and token by the rules of :mod:`.monitor_rules` (the newest state
+  of a node's gateway is held; a node is online while its gateway says so *and* its
+  token is alive): a gateway killed, or an uplink cut, takes every node of its site
+  offline within the Zenoh lease (:data:`~.config.LEASE_MS`);
+* asks for a node's whole state again when its token comes back (publications made
+  meanwhile were lost, so nothing stale shows online), when a delta does not follow the
+  state held, and (a few times) when a state did not come or did not decode.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import logging
+import threading
+import time
+from collections.abc import Iterable
+from typing import Any
+
+import zenoh
+
+from ..core.names import NodeFilter, is_node_glob
+from ..core.state_book import StateBook
+from ..dds.client import DEFAULT_TIMEOUT
+from ..dds.monitor import EventCallback, ParameterMonitor
+from ..errors import ParamddsError
+from . import codec, keys
+from .monitor_rules import GAP, HELD, RemoteStates
+from .states import ask_states, sites_of
+
+log = logging.getLogger(__name__)
+
+REFRESH_BATCH = 0.05  # seconds: nodes to ask for again are gathered this long, then asked per site
+ASK_AGAIN = 3  # times a node whose state did not come, or did not decode, is asked for again
+
+
+def sites_from_env(environ: Any = None) -> list[str] | None:
+    """``PARAMDDS_ZENOH_SITES`` (``north,south``; globs allowed): the sites the CLI's monitor
+    watches, site by site when they are exact names (an operator granted only those)."""
+    import os
+
+    text = (os.environ if environ is None else environ).get("PARAMDDS_ZENOH_SITES", "")
+    sites = [s.strip() for s in text.split(",") if s.strip()]
+    return sites or None
+
+
+def remote_filter(patterns: Iterable[str]) -> NodeFilter:
+    """``SITE/NODE`` names and globs over them (``s1/*``, ``*/robot1``, ``north*/*``): each
+    names a site (or a glob of sites) and a node (InvalidNameError otherwise)."""
+    checked: list[str] = []
+    for raw in patterns:
+        text = raw[1:] if raw.startswith("/") else raw
+        if is_node_glob(text):
+            site = text.split("/", 1)[0]
+            if not is_node_glob(site):
+                keys.check_site(site)
+            checked.append(text)
+        else:
+            checked.append(keys.remote_name(*keys.split_remote(text)))
+    return NodeFilter(checked)
+
+
+class RemoteParameterMonitor(ParameterMonitor):
+    """Every node of every site (or of ``sites``, globs) over one Zenoh ``session``.
+
+    ``nodes`` (``SITE/NODE`` names or globs, :func:`remote_filter`) keeps only those; when
+    each names an exact site, only those sites are subscribed to (what an operator granted
+    only some sites needs).
+
+    ``snapshot()``, ``wait_until``, ``wait_complete``, ``wait_synced`` and the events
+    (``added``, ``modified``, ``deleted``, ``online``, ``offline``, ``synced``) are those
+    of :class:`~paramdds.dds.monitor.ParameterMonitor`; node names are ``SITE/NODE``.
+    """
+
+    def __init__(
+        self,
+        session: Any,
+        *,
+        sites: Iterable[str] | None = None,
+        nodes: Iterable[str] | None = None,
+        on_event: EventCallback | None = None,
+        timeout: float = DEFAULT_TIMEOUT,
+    ) -> None:
+        only = remote_filter(nodes) if nodes else None
+        feed = ZenohStateFeed(session, sites=sites, nodes=only, timeout=timeout)
+        super().__init__(feed, nodes=only, on_event=on_event)
+
+
+class ZenohStateFeed:
+    """A :class:`~paramdds.core.state_book.StateFeed` from the gateways of every site (or of
+    ``sites``, globs; or of the exact sites ``nodes`` names) over one Zenoh ``session``;
+    each query bounded by ``timeout``."""
+
+    def __init__(
+        self,
+        session: Any,
+        *,
+        sites: Iterable[str] | None = None,
+        nodes: NodeFilter | None = None,
+        timeout: float = DEFAULT_TIMEOUT,
+    ) -> None:
+        self._sites = list(sites) if sites else None
+        if self._sites is None and nodes is not None:  # nodes of exact sites: only those sites
+            named = {p.split("/", 1)[0] for p in nodes.patterns()}
+            if not any(is_node_glob(site) for site in named):
+                self._sites = sorted(named)
+        self._session = session
+        self._timeout = timeout
+        self._book: StateBook | None = None
+        self._states = RemoteStates()  # changed only in the book's updates (under its lock)
+        self._refresh_lock = threading.Lock()
+        self._to_refresh: set[tuple[str, str]] = set()
+        self._asked_again: dict[str, int] = {}  # node -> times asked again (see _ask_again)
+        self._refresher: threading.Thread | None = None
+        # an exact list of sites is asked for site by site (an operator whose certificate is granted
+        # some sites may not even declare a subscriber on every site's keys); globs filter here
+        exact = self._sites is not None and not any("*" in g or "?" in g for g in self._sites)
+        self._scopes = [keys.check_site(site) for site in self._sites or ()] if exact else ["*"]
+        self._entities: list[Any] = []
+
+    @property
+    def _sink(self) -> StateBook:
+        if self._book is None:
+            raise RuntimeError("the Zenoh feed was not started")
+        return self._book
+
+    def start(self, book: StateBook) -> None:
+        self._book = book
+        session = self._session
+        self._entities = [
+            entity
+            for scope in self._scopes
+            for entity in (
+                session.declare_subscriber(keys.site_pattern(scope, keys.STATE), self._on_state),
+                session.liveliness().declare_subscriber(
+                    keys.site_pattern(scope, keys.ALIVE), self._on_alive, history=True
+                ),
+            )
+        ]
+        threading.Thread(target=self._first_sync, name="paramdds-zenoh-sync", daemon=True).start()
+
+    def close(self) -> None:
+        for entity in self._entities:
+            try:
+                entity.undeclare()
+            except Exception:
+                log.debug("undeclaring %r failed", entity, exc_info=True)
+
+    def _wanted(self, name: str) -> bool:
+        return self._sink.wanted(name) and self._wanted_site(name.split("/", 1)[0])
+
+    def _wanted_site(self, site: str) -> bool:
+        return self._sites is None or any(fnmatch.fnmatchcase(site, g) for g in self._sites)
+
+    def _first_sync(self) -> None:
+        book = self._sink
+        bad: list[str] = []
+        try:
+            patterns: list[str] = []
+            for scope in self._scopes:  # the tokens first, so that the states below show online exactly
+                alive = _alive_of(self._session, keys.site_pattern(scope, keys.ALIVE), self._timeout)
+                with book.update():
+                    self._states.tokens_found(n for n in alive if self._wanted(n))
+                if scope == "*":  # a query per site (see ask_states), the sites wanted of those up
+                    known = {n.split("/", 1)[0] for n in alive} | set(sites_of(self._session, self._timeout))
+                    up = sorted(site for site in known if self._wanted_site(site))
+                    patterns += [keys.site_pattern(site, keys.STATE) for site in up]
+                else:
+                    patterns.append(keys.site_pattern(scope, keys.STATE))
+            for msg in ask_states(self._session, patterns, self._timeout, bad):
+                self._apply_state(msg)
+        except Exception as exc:  # the session closed under us
+            log.debug("the first state query failed: %s", exc)
+        self._ask_again(bad)
+        book.mark_synced()
+
+    def _on_state(self, sample: Any) -> None:
+        try:
+            msg = codec.NodeStateMsg.decode(sample.payload.to_bytes())
+        except ParamddsError as exc:
+            log.warning("ignoring a state published on %s: %s", sample.key_expr, exc)
+            return
+        self._apply_state(msg)
+
+    def _on_alive(self, sample: Any) -> None:
+        try:
+            site, node, _ = keys.parse_node_key(str(sample.key_expr))
+        except ParamddsError:
+            return
+        name = keys.remote_name(site, node)
+        if not self._wanted(name):
+            return
+        book = self._sink
+        with book.update() as change:
+            came_back = self._states.token(change, name, not _is_delete(sample))
+        if not _is_delete(sample) and (book.synced or came_back):
+            # back (a gateway took over, an uplink came back, a session dropped by loss): what was
+            # published meanwhile is lost, and so is a first query that was in flight (before the
+            # first sync is done, a token seen for the first time is in its query anyway)
+            self._refresh(site, node)
+
+    def _refresh(self, site: str, node: str) -> None:
+        """Ask for ``node``'s whole state again, soon (one thread asks for all, a query per site)."""
+        with self._refresh_lock:
+            if self._sink.closed:
+                return
+            self._to_refresh.add((site, node))
+            if self._refresher is None or not self._refresher.is_alive():
+                self._refresher = threading.Thread(
+                    target=self._refresh_loop, name="paramdds-zenoh-refresh", daemon=True
+                )
+                self._refresher.start()
+
+    def _refresh_loop(self) -> None:
+        while True:
+            time.sleep(REFRESH_BATCH)  # a site coming back announces its nodes in a burst
+            with self._refresh_lock:
+                wanted, self._to_refresh = self._to_refresh, set()
+                if not wanted or self._sink.closed:
+                    self._refresher = None
+                    return
+            by_site: dict[str, list[str]] = {}
+            for site, node in wanted:
+                by_site.setdefault(site, []).append(node)
+            asked = [
+                keys.node_key(site, site_nodes[0], keys.STATE)
+                if len(site_nodes) == 1
+                else keys.site_pattern(site, keys.STATE)
+                for site, site_nodes in by_site.items()
+            ]
+            bad: list[str] = []
+            try:
+                for msg in ask_states(self._session, asked, self._timeout, bad):
+                    self._apply_state(msg)
+            except Exception as exc:  # the session closed under us
+                log.debug("refreshing %s failed: %s", asked, exc)
+            self._ask_again(bad)
+
+    def _ask_again(self, bad: list[str]) -> None:
+        """Ask again (up to :data:`ASK_AGAIN` times a node) for the states whose reply did not
+        decode (seen in a 30-site bench: a reply with bytes that were not its JSON), and for
+        the nodes whose token is alive but whose state did not come (the query's timeout ended
+        before every reply of a large fleet had arrived)."""
+        asked: set[tuple[str, str]] = set()
+        for key in bad:
+            try:
+                site, node, _ = keys.parse_node_key(key)
+            except ParamddsError:
+                continue
+            asked.add((site, node))
+        with self._sink.update() as change:
+            missing = self._states.missing(change)
+        asked.update(keys.split_remote(n) for n in missing)
+        for site, node in asked:
+            name = keys.remote_name(site, node)
+            with self._refresh_lock:
+                tries = self._asked_again[name] = self._asked_again.get(name, 0) + 1
+            if tries <= ASK_AGAIN:
+                self._refresh(site, node)
+
+    def _apply_state(self, msg: codec.NodeStateMsg) -> None:
+        name = keys.remote_name(msg.site, msg.node)
+        if not self._wanted(name):
+            return
+        book = self._sink
+        with book.update() as change:
+            outcome = self._states.apply(book, change, name, msg)
+            if outcome is GAP:  # not the state this change follows: ask for the whole one
+                self._refresh(msg.site, msg.node)
+        if outcome is HELD:
+            with self._refresh_lock:
+                self._asked_again.pop(name, None)  # held now: a later loss gets its own tries
+
+
+def _is_delete(sample: Any) -> bool:
+    return bool(sample.kind == zenoh.SampleKind.DELETE)
+
+
+def _alive_of(session: Any, pattern: str, timeout: float) -> set[str]:
+    """The remote names of the nodes whose liveliness token is alive now."""
+    alive: set[str] = set()
+    for reply in session.liveliness().get(pattern, timeout=timeout):
+        if reply.ok is not None:
+            try:
+                site, node, _ = keys.parse_node_key(str(reply.ok.key_expr))
+            except ParamddsError:
+                continue
+            alive.add(keys.remote_name(site, node))
+    return alive
