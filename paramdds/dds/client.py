@@ -93,6 +93,8 @@ class ParameterClient:
         self._ids = itertools.count(1)
         self._ids_lock = threading.Lock()
         if isinstance(participant, ClientTransport):
+            if qos is not None or client_id is not None or one_shot:
+                raise TypeError("qos, client_id and one_shot are the DDS transport's: give them to it")
             self.transport: ClientTransport = participant
         else:
             self.transport = DdsClientTransport(
