@@ -7,7 +7,7 @@ loopback. Site 0's gateway reaches the router through a byte-counting TCP relay:
 uplink. Measured:
 
 * **fresh remote client holds every node**: a new Zenoh session and
-  :class:`~paramdds.zenoh.remote.RemoteParameterMonitor` until every node of every site
+  :class:`~paramdds.zenoh.monitor.RemoteParameterMonitor` until every node of every site
   is complete (median of ``--rounds``, default 3);
 * **remote get / set p50, p99** of a node of site 0 (``--requests``, default 300) and the
   same calls made directly on site 0's DDS domain (a ParameterClient there);
@@ -254,7 +254,7 @@ def _gateways(sites: list[tuple[str, int]], endpoints: list[str]) -> Iterator[li
 
 def _remote_full_state(endpoint: str, names: list[str], timeout: float) -> float:
     from ..zenoh.config import ZenohOptions, open_session
-    from ..zenoh.remote import RemoteParameterMonitor
+    from ..zenoh.monitor import RemoteParameterMonitor
 
     t0 = time.perf_counter()
     session = open_session(ZenohOptions(connect=[endpoint]))
@@ -363,8 +363,9 @@ def _measure(
 ) -> dict[str, Any]:
     from ..dds.client import ParameterClient
     from ..dds.participant import close_participant, make_participant
+    from ..zenoh.client import RemoteParameterClient
     from ..zenoh.config import ZenohOptions, open_session, router_options
-    from ..zenoh.remote import RemoteParameterClient, RemoteParameterMonitor
+    from ..zenoh.monitor import RemoteParameterMonitor
 
     timeout = 60.0
     names = node_names(nodes)

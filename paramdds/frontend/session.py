@@ -73,7 +73,7 @@ class Session:
 
     def client(self) -> ParameterClient:
         if getattr(self.args, "zenoh", None):  # every site's nodes, as SITE/NODE (paramdds.zenoh)
-            from ..zenoh.remote import RemoteParameterClient
+            from ..zenoh.client import RemoteParameterClient
 
             remote = RemoteParameterClient(self.zenoh, timeout=self.args.timeout)
             self._closers.append(remote)

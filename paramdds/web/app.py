@@ -29,7 +29,7 @@ import hmac
 import logging
 from collections.abc import AsyncIterator
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 from urllib.parse import unquote
 
 from starlette.applications import Starlette
@@ -59,6 +59,9 @@ from .model import (
 )
 from .status import WebCode, WebError, code_of, error_body, status_of
 from .view import NodeDetail, StateView
+
+if TYPE_CHECKING:
+    from ..dds.client import AsyncParameterClient
 
 log = logging.getLogger(__name__)
 
@@ -112,10 +115,10 @@ def _bearer(request: Request) -> str:
 class Console:
     """The routes, over one state view, one hub and one client."""
 
-    def __init__(self, view: StateView, hub: Hub, client: Any, options: WebOptions) -> None:
+    def __init__(self, view: StateView, hub: Hub, client: AsyncParameterClient, options: WebOptions) -> None:
         self.view = view
         self.hub = hub
-        self.client = client  # AsyncParameterClient: set, delete
+        self.client = client  # set, delete
         self.options = options
 
     def _detail(self, node: str) -> NodeDetail:
@@ -442,7 +445,7 @@ def _in_order(requested: dict[str, Any], rows: list[Row]) -> list[Row]:
     return sorted(rows, key=lambda r: order.get(str(r["name"]), len(order)))
 
 
-def build_app(view: StateView, hub: Hub, client: Any, options: WebOptions) -> ASGIApp:
+def build_app(view: StateView, hub: Hub, client: AsyncParameterClient, options: WebOptions) -> ASGIApp:
     """The whole application, wrapped in the Host/header guard."""
     from importlib.resources import files
 

@@ -4,9 +4,11 @@
 * :mod:`.codec`: the JSON payloads (values, descriptors, node states, requests, replies);
 * :mod:`.config`: Zenoh configurations from endpoints, modes, TLS files and JSON5 files;
 * :mod:`.gateway`: one site's DDS domain published on Zenoh, calls forwarded to its nodes;
-* :mod:`.remote`: :class:`~.remote.RemoteParameterClient` and
-  :class:`~.remote.RemoteParameterMonitor`, the shapes of the DDS ones, nodes named
-  ``SITE/NODE``.
+* :mod:`.client`: :func:`~.client.RemoteParameterClient`, the one
+  :class:`~paramdds.dds.client.ParameterClient` over a Zenoh transport, nodes named ``SITE/NODE``;
+* :mod:`.monitor`: :class:`~.monitor.RemoteParameterMonitor`, the one
+  :class:`~paramdds.dds.monitor.ParameterMonitor` over a Zenoh feed;
+* :mod:`.states`: the gateways' node states, which both query.
 
 Only this package imports ``zenoh``; nothing else of paramdds needs it.
 """

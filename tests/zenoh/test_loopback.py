@@ -17,7 +17,8 @@ from paramdds.core.revision import Revision
 from paramdds.dds.client import AsyncParameterClient
 from paramdds.dds.monitor import EventKind, MonitorEvent
 from paramdds.errors import ErrorCode, UnavailableError
-from paramdds.zenoh.remote import ROUTE_WAIT, RemoteParameterClient, RemoteParameterMonitor
+from paramdds.zenoh.client import ROUTE_WAIT, RemoteParameterClient
+from paramdds.zenoh.monitor import RemoteParameterMonitor
 
 from ..reliability.conftest import PARAMDDS, make_dds_env
 from .conftest import Fleet, free_port, holds_online, wait_for

@@ -19,7 +19,8 @@ import pytest
 
 from paramdds.dds.monitor import EventKind, MonitorEvent
 from paramdds.errors import ErrorCode, OutcomeUnknownError, TransportError, UnavailableError
-from paramdds.zenoh.remote import RemoteParameterClient, RemoteParameterMonitor
+from paramdds.zenoh.client import RemoteParameterClient
+from paramdds.zenoh.monitor import RemoteParameterMonitor
 
 from ..conftest import next_domain_id
 from ..reliability.conftest import PARAMDDS, Proc, make_dds_env

@@ -14,7 +14,7 @@ from typing import Any
 from paramdds.core.descriptors import ParameterDescriptor
 from paramdds.core.values import ParameterType, ParameterValue
 from paramdds.zenoh import codec, keys
-from paramdds.zenoh.remote import RemoteParameterMonitor
+from paramdds.zenoh.monitor import RemoteParameterMonitor
 
 from .conftest import Fleet
 
@@ -141,7 +141,7 @@ def test_a_nodes_status_reaches_remote_viewers_live_as_an_event_and_in_nodes(fle
     ``unreachable``): the remote monitor holds it and reports each change as one ``status``
     event while the node stays online, and the remote client's ``nodes()`` shows it."""
     from paramdds.dds.monitor import EventKind, MonitorEvent
-    from paramdds.zenoh.remote import RemoteParameterClient
+    from paramdds.zenoh.client import RemoteParameterClient
 
     gw = FakeGateway(fleet.remote())
     token = gw.session.liveliness().declare_token(keys.node_key("s1", NODE, keys.ALIVE))

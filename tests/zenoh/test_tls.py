@@ -16,8 +16,9 @@ import pytest
 pytest.importorskip("cryptography", reason="the secure extra (cryptography) is not installed")
 
 from paramdds.errors import UnavailableError
+from paramdds.zenoh.client import RemoteParameterClient
 from paramdds.zenoh.config import TlsFiles, ZenohOptions, open_session
-from paramdds.zenoh.remote import RemoteParameterClient, RemoteParameterMonitor
+from paramdds.zenoh.monitor import RemoteParameterMonitor
 
 from ..conftest import next_domain_id
 from ..reliability.conftest import PARAMDDS, Proc, make_dds_env
