@@ -26,7 +26,8 @@ with a JSON library. The shapes (docs/zenoh.md repeats them):
   "reason", "code"}``), list ``{"ok": true, "names", "prefixes"}``, or an error
   ``{"ok": false, "code": "UNAVAILABLE", "message": "..."}``.
 
-Pure: no Zenoh, no DDS.
+Values and descriptors take the tagged form of :mod:`paramdds.core.jsonform` (the one mapping
+the CLI, the console and the journal share). Pure: no Zenoh, no DDS.
 """
 
 from __future__ import annotations
