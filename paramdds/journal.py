@@ -71,13 +71,13 @@ import weakref
 import zlib
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
 
-from .core.descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
+from .core.descriptors import ParameterDescriptor
 from .core.hosted import HostedTable
+from .core.jsonform import descriptor_of_row, descriptor_row, value_of_row, value_row
 from .core.results import ChangeKind, ChangeSet
 from .core.table import ParameterTable
-from .core.values import ParameterType, ParameterValue
+from .core.values import ParameterValue
 from .errors import FileFormatError, ParamddsError
 
 log = logging.getLogger(__name__)
@@ -160,46 +160,7 @@ def atomic_write(path: Path, text: str) -> None:
         os.close(dir_fd)
 
 
-# -- journal records: a change set as one JSON line ---------------------------------------------
-
-
-def _value_json(v: ParameterValue) -> list[object]:
-    data = v.value
-    return [int(v.type), list(data) if isinstance(data, bytes) else data]
-
-
-def _value_from_json(item: Any) -> ParameterValue:
-    t, data = item
-    return ParameterValue.of(ParameterType(t), data)
-
-
-def _descriptor_json(d: ParameterDescriptor) -> list[object]:
-    ir, fr = d.integer_range, d.floating_point_range
-    return [
-        int(d.type),
-        d.description,
-        d.additional_constraints,
-        d.read_only,
-        d.dynamic_typing,
-        None if ir is None else [ir.from_value, ir.to_value, ir.step],
-        None if fr is None else [fr.from_value, fr.to_value, fr.step],
-        [[v.kind, [_value_json(a) for a in v.args]] for v in d.validators],
-    ]
-
-
-def _descriptor_from_json(name: str, item: Any) -> ParameterDescriptor:
-    t, description, constraints, read_only, dynamic, ir, fr, validators = item
-    return ParameterDescriptor(
-        name,
-        ParameterType(t),
-        description=description,
-        additional_constraints=constraints,
-        read_only=read_only,
-        dynamic_typing=dynamic,
-        integer_range=None if ir is None else IntegerRange(*ir),
-        floating_point_range=None if fr is None else FloatingPointRange(*fr),
-        validators=tuple(Validator(k, tuple(_value_from_json(a) for a in args)) for k, args in validators),
-    )
+# -- journal records: a change set as one JSON line (rows of paramdds.core.jsonform) -----------
 
 
 def encode_record(change: ChangeSet) -> bytes:
@@ -209,7 +170,7 @@ def encode_record(change: ChangeSet) -> bytes:
         if c.kind is ChangeKind.DELETED:
             entries.append([c.name])
         else:
-            entries.append([c.name, *_value_json(c.value), _descriptor_json(c.descriptor)])
+            entries.append([c.name, *value_row(c.value), descriptor_row(c.descriptor)])
     payload = json.dumps([change.node_id, change.revision, entries], separators=(",", ":")).encode()
     return b"%08x %s\n" % (zlib.crc32(payload), payload)
 
@@ -460,7 +421,7 @@ class PersistStore:
                 continue  # deleted
             try:
                 _, t, data, desc = entry
-                out.append((name, _value_from_json([t, data]), _descriptor_from_json(name, desc)))
+                out.append((name, value_of_row([t, data]), descriptor_of_row(name, desc)))
             except (ValueError, TypeError, ParamddsError) as exc:
                 raise PersistError(
                     f"bad journal entry for {node_id}/{name}: {exc}", file=str(self.journal_path)

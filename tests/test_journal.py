@@ -17,6 +17,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from paramdds.core.descriptors import ParameterDescriptor
+from paramdds.core.jsonform import descriptor_of_row as _descriptor_from_json
+from paramdds.core.jsonform import value_of_row as _value_from_json
 from paramdds.core.results import ChangeKind, ChangeSet, ParameterChange
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import NOT_SET, Parameter, ParameterValue
@@ -25,8 +27,6 @@ from paramdds.journal import (
     PREALLOCATE,
     PersistError,
     PersistStore,
-    _descriptor_from_json,
-    _value_from_json,
     encode_record,
     read_journal,
 )

@@ -8,7 +8,8 @@ import time
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-from ..frontend.shapes import dumps_json, json_value, shown_node
+from ..core.jsonform import json_value
+from ..frontend.shapes import dumps_json, shown_node
 from ._output import typed
 
 if TYPE_CHECKING:

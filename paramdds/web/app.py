@@ -10,6 +10,8 @@ GET      /api/node          ``?node=`` → ``{"summary", "rows": [row]}``
 GET      /api/dump          ``?node=&descriptors=0|1`` → a ROS 2 parameter file (text/yaml)
 GET      /api/events        ``?node=`` → server-sent events: node, params, nodes, log, resync
 GET      /api/openapi.json  the OpenAPI schema of these routes
+POST     /api/validate      ``{"node", "values": {name: value}}`` → ``{"node", "results": [{"name",
+                            "valid", "reason", "code"}]}`` (checks only; sends nothing)
 POST     /api/set           ``{"node", "values": {name: value}, "atomic", "if_revision"}``
 POST     /api/delete        ``{"node", "names": [name]}``
 POST     /api/load          ``{"node", "text", "atomic"}`` (the text of a parameter file)
@@ -55,6 +57,7 @@ from .model import (
     parameter_row,
     result_row,
     summary_json,
+    typed_value,
     typed_values,
 )
 from .status import WebCode, WebError, code_of, error_body, status_of
@@ -278,6 +281,37 @@ class Console:
             headers={"Cache-Control": "no-store", "X-Accel-Buffering": "no"},
         )
 
+    async def validate(self, request: Request) -> Response:
+        """Validate values as the node would, sending nothing: the page asks it as the user edits.
+        ---
+        summary: 'Validate values without setting them: {"node", "values": {name: value}}'
+        requestBody: {required: true, content: {application/json: {}}}
+        responses:
+          200: {description: '{"node", "results": [{"name", "valid", "reason", "code"}]}'}
+          400: {description: BAD_REQUEST}
+          404: {description: NOT_FOUND (unknown node)}
+        """
+        self._check_read(request)
+        body = await read_body(request)
+        node = node_arg(body.get("node"))
+        values = body.get("values")
+        if not isinstance(values, dict) or not values:
+            raise WebError(WebCode.BAD_REQUEST, "'values' must be a non-empty object of name: value")
+        detail = self._detail(node)
+        refused: dict[str, Row] = {}
+        typed: list[Parameter] = []
+        for name, raw in values.items():
+            entry = detail.parameters.get(name)
+            try:
+                typed.append(Parameter(name, typed_value(name, raw, entry[1] if entry else None)))
+            except ParamddsError as exc:
+                refused[name] = {"reason": exc.message, "code": code_of(exc)}
+        for row in self._precheck(node, detail, typed, False)[1]:  # --schema NODE=FILE
+            refused[str(row["name"])] = {"reason": row["reason"], "code": row["code"]}
+        valid: Row = {"reason": "", "code": None}
+        results = [{"name": n, "valid": n not in refused, **refused.get(n, valid)} for n in values]
+        return JSONResponse({"node": node, "results": results})
+
     # -- writes -----------------------------------------------------------------------------
 
     def _check_write(self, request: Request) -> None:
@@ -477,6 +511,7 @@ def build_app(view: StateView, hub: Hub, client: AsyncParameterClient, options: 
         Route("/api/node", console.node),
         Route("/api/dump", console.dump),
         Route("/api/events", console.events),
+        Route("/api/validate", console.validate, methods=["POST"]),
         Mount("/static", StaticFiles(packages=[("paramdds.web", "static")]), name="static"),
     ]
     if not options.read_only:

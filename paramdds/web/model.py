@@ -26,6 +26,7 @@ from dataclasses import asdict
 
 from ..core.descriptors import ParameterDescriptor
 from ..core.fit import EMPTY_LIST, EmptyList, fit_value
+from ..core.jsonform import json_descriptor, json_value
 from ..core.limits import check_value
 from ..core.names import validate_name
 from ..core.results import SetResult
@@ -34,7 +35,6 @@ from ..core.validation import validate
 from ..core.values import ParameterType, ParameterValue
 from ..dds.client import NodeInfo
 from ..errors import InvalidValueError, TypeMismatchError
-from ..frontend.shapes import json_descriptor, json_value
 
 Row = dict[str, object]
 _HEX = re.compile(r"^(?:0x)?((?:[0-9a-fA-F]{2})*)$")

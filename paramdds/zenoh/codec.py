@@ -26,118 +26,38 @@ with a JSON library. The shapes (docs/zenoh.md repeats them):
   "reason", "code"}``), list ``{"ok": true, "names", "prefixes"}``, or an error
   ``{"ok": false, "code": "UNAVAILABLE", "message": "..."}``.
 
-Pure: no Zenoh, no DDS.
+Values and descriptors take the tagged form of :mod:`paramdds.core.jsonform` (the one mapping
+the CLI, the console and the journal share). Pure: no Zenoh, no DDS.
 """
 
 from __future__ import annotations
 
 import json
-import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..core.descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
+from ..core.descriptors import ParameterDescriptor
+from ..core.jsonform import descriptor_of_json, json_descriptor, json_tagged_value, value_of_tagged
 from ..core.results import GetResult, SetResult
 from ..core.revision import Revision, incarnation_text
-from ..core.values import Parameter, ParameterType, ParameterValue
+from ..core.values import Parameter, ParameterValue
 from ..errors import ErrorCode, FileFormatError, ParamddsError, TooLargeError, code_of, error_for
 
 VERSION = 1
 MAX_PAYLOAD = 16 * 1024 * 1024  # bytes: a reply or state larger than this is refused (TOO_LARGE)
 ENCODING = "application/json"
 
+# -- values and descriptors: the tagged form of paramdds.core.jsonform -----------------------------
 
-# -- values and descriptors ----------------------------------------------------------------
-
-
-def _scalar_out(v: object) -> object:
-    if isinstance(v, float) and not math.isfinite(v):
-        return "nan" if math.isnan(v) else ("inf" if v > 0 else "-inf")
-    return v
-
-
-def _double_in(v: object) -> object:
-    if isinstance(v, str) and v in ("nan", "inf", "-inf"):
-        return float(v)
-    if isinstance(v, int) and not isinstance(v, bool):
-        return float(v)  # JSON writers in other languages may drop the ".0"
-    return v
-
-
-def value_out(value: ParameterValue) -> dict[str, object]:
-    v = value.value
-    out: object
-    if isinstance(v, bytes):
-        out = list(v)
-    elif isinstance(v, tuple):
-        out = [_scalar_out(x) for x in v]
-    else:
-        out = _scalar_out(v)
-    return {"type": value.type.label, "value": out}
-
-
-def value_in(obj: object) -> ParameterValue:
-    if not isinstance(obj, Mapping) or "type" not in obj:
-        raise ParamddsError(f"not a value object (want {{'type', 'value'}}): {str(obj)[:80]}")
-    ptype = ParameterType.from_label(str(obj["type"]))
-    raw = obj.get("value")
-    if ptype is ParameterType.DOUBLE:
-        raw = _double_in(raw)
-    elif ptype is ParameterType.DOUBLE_ARRAY and isinstance(raw, list):
-        raw = [_double_in(x) for x in raw]
-    return ParameterValue.of(ptype, raw)
-
-
-def _range_out(r: IntegerRange | FloatingPointRange | None) -> object:
-    if r is None:
-        return None
-    return {
-        "from_value": _scalar_out(r.from_value),
-        "to_value": _scalar_out(r.to_value),
-        "step": _scalar_out(r.step),
-    }
+value_out = json_tagged_value
+value_in = value_of_tagged
+descriptor_in = descriptor_of_json
 
 
 def descriptor_out(d: ParameterDescriptor) -> dict[str, object]:
-    return {
-        "type": d.type.label,
-        "description": d.description,
-        "additional_constraints": d.additional_constraints,
-        "read_only": d.read_only,
-        "dynamic_typing": d.dynamic_typing,
-        "integer_range": _range_out(d.integer_range),
-        "floating_point_range": _range_out(d.floating_point_range),
-        "validators": [{"kind": v.kind, "args": [value_out(a) for a in v.args]} for v in d.validators],
-    }
-
-
-def descriptor_in(name: str, obj: object) -> ParameterDescriptor:
-    if not isinstance(obj, Mapping):
-        raise ParamddsError(f"not a descriptor object for {name!r}")
-    ir, fr = obj.get("integer_range"), obj.get("floating_point_range")
-    return ParameterDescriptor(
-        name,
-        ParameterType.from_label(str(obj.get("type", "not_set"))),
-        description=str(obj.get("description", "")),
-        additional_constraints=str(obj.get("additional_constraints", "")),
-        read_only=bool(obj.get("read_only", False)),
-        dynamic_typing=bool(obj.get("dynamic_typing", False)),
-        integer_range=None
-        if not isinstance(ir, Mapping)
-        else IntegerRange(int(ir["from_value"]), int(ir["to_value"]), int(ir.get("step", 0))),
-        floating_point_range=None
-        if not isinstance(fr, Mapping)
-        else FloatingPointRange(
-            float(str(_double_in(fr["from_value"]))),
-            float(str(_double_in(fr["to_value"]))),
-            float(str(_double_in(fr.get("step", 0.0)))),
-        ),
-        validators=tuple(
-            Validator(str(v["kind"]), tuple(value_in(a) for a in v.get("args", ())))
-            for v in obj.get("validators", ())
-        ),
-    )
+    """A descriptor in the tagged form (:func:`paramdds.core.jsonform.json_descriptor`)."""
+    return json_descriptor(d, tagged=True)
 
 
 # -- whole payloads ------------------------------------------------------------------------------

@@ -17,6 +17,7 @@ from paramdds.cli._parser import build_parser, resolve_globals
 from paramdds.cli._values import fit_to_type, parse_assignment, parse_assignments
 from paramdds.cli.verbs import VERBS, verb
 from paramdds.core.descriptors import FloatingPointRange, ParameterDescriptor, Validator
+from paramdds.core.jsonform import json_descriptor, json_value
 from paramdds.core.values import ParameterType, ParameterValue
 from paramdds.errors import (
     ConflictError,
@@ -28,7 +29,7 @@ from paramdds.errors import (
     UnavailableError,
 )
 from paramdds.frontend.exits import Exit, UsageError, exit_code
-from paramdds.frontend.shapes import dumps_json, json_descriptor, json_value
+from paramdds.frontend.shapes import dumps_json
 from paramdds.journal import HEADER, PersistError, atomic_write, frame, unframe
 
 PV = ParameterValue

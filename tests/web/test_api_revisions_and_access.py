@@ -201,6 +201,12 @@ def test_a_console_reachable_from_other_machines_checks_host_and_needs_the_token
             cookie = {"Cookie": f"paramdds-token={token}"}
             assert httpx.get(url + path_, headers=cookie, timeout=5).status_code == 200, path_
         assert error(httpx.get(url + "api/events?node=arm", timeout=5)) == (401, "UNAUTHORIZED")
+        ask = json.dumps({"node": "arm", "values": {"gain": 11}})
+        json_body = {"Content-Type": "application/json"}
+        unasked = httpx.post(url + "api/validate", content=ask, headers=json_body, timeout=5)
+        assert error(unasked) == (401, "UNAUTHORIZED")
+        checked = httpx.post(url + "api/validate", content=ask, headers={**json_body, **bearer}, timeout=5)
+        assert checked.json()["results"][0]["code"] == "OUT_OF_RANGE"  # a read: there with --read-only
         info = httpx.get(url + "api/info", timeout=5).json()  # what the page needs to ask for it
         assert info["token_for_reads"] is True and info["token_required"] is True
         assert httpx.get(url, timeout=5).status_code == 200  # the page itself holds no data

@@ -133,10 +133,11 @@ def test_control_and_bidirectional_characters_show_and_multi_line_strings_edit(
         ("tags", '["front", "front"]', "tags=[front, front]"),  # unique
     ],
 )
-def test_the_pages_own_checks_word_their_refusals_as_the_node(
+def test_the_page_words_its_refusals_as_the_node(
     page: Page, console: Console, domain: int, name: str, text: str, cli: str
 ) -> None:
-    """Item 8: the browser's message is the node's, word for word."""
+    """The browser's message is the node's, word for word: the console validates each edit
+    with the core's validation (POST /api/validate), the page holds no copy of the rules."""
     open_node(page, console, "arm")
     row(page, name).locator('[data-role="input"]').fill(text)
     message = row(page, name).locator(".error")
@@ -145,6 +146,32 @@ def test_the_pages_own_checks_word_their_refusals_as_the_node(
     assert direct.returncode == 1
     reason = direct.stdout.split("FAILED: ", 1)[1].splitlines()[0]  # "tags: FAILED: <the reason>"
     assert message.inner_text() == reason
+
+
+def test_an_edit_is_checked_by_the_server_and_a_refused_one_is_never_set(
+    page: Page, console: Console, domain: int
+) -> None:
+    """As the user types, the page asks the console (debounced) and shows its reason; while
+    the reason is shown, Enter (and the Set button) send nothing to the node."""
+    sent: list[str] = []
+    page.on("request", lambda r: sent.append(r.url.rsplit("/", 1)[-1]) if r.method == "POST" else None)
+    open_node(page, console, "arm")
+    field = row(page, "gain").locator('[data-role="input"]')
+    field.fill("11")  # integer_range [0, 10, 1]
+    message = row(page, "gain").locator(".error")
+    expect(message).to_contain_text("must be within")
+    assert sent and set(sent) == {"validate"}
+    field.press("Enter")
+    row(page, "gain").locator("button.set").click()
+    page.wait_for_timeout(300)
+    assert "set" not in sent
+    expect(message).to_contain_text("must be within")
+    assert cli_value(domain, "arm", "gain") == current(page, "gain").inner_text()
+    field.fill("7")
+    expect(message).to_have_text("")
+    field.press("Enter")
+    expect(current(page, "gain")).to_have_text("7")
+    assert "set" in sent
 
 
 def test_a_bad_or_unknown_node_in_the_link_leaves_the_page_working(page: Page, console: Console) -> None:

@@ -13,8 +13,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ...core.jsonform import json_descriptor
     from ...frontend.session import Session
-    from ...frontend.shapes import json_descriptor
     from .._output import describe_table, emit, report_missing
     from .._values import names_arg, node_arg
 

@@ -2,8 +2,9 @@
 //
 // State lives on the server (one monitor); this page shows one page of the node
 // list and one node's rows, kept live by one EventSource (/api/events?node=…).
-// Edits are validated here from the descriptor before anything is sent; the server
-// validates again and the node has the last word (its reason is shown under the field).
+// An edit is parsed here (its notation), then validated by the server against the node's
+// descriptor as the node validates it (POST /api/validate: the node's rules and words, never
+// a copy of them here); the node has the last word on a set (its reason is shown under the field).
 "use strict";
 
 const PAGE = 50;
@@ -15,6 +16,8 @@ const S = {
   dirty: new Map(),     // name -> value typed from the editor
   baseRevision: null,   // the revision the edits were started against (compare-and-set)
   es: null, listTimer: null,
+  checkTimers: new Map(),  // name -> the timer of its pending validation (debounced edits)
+  checks: new Map(),       // name -> sequence number of its newest validation (older answers are dropped)
 };
 const $ = (sel, root = document) => root.querySelector(sel);
 
@@ -70,6 +73,7 @@ function cellText(v, type) {
 // A range end that does not bound anything: a double's ±1.79e308 (DBL_MAX) or infinity, an
 // integer's int64 limit. The range is then shown open (≥ lo, ≤ hi) and gets no slider.
 const DBL_MAX = 1.7976931348623157e308;
+function num(x) { return x === "nan" ? NaN : x === "inf" ? Infinity : x === "-inf" ? -Infinity : x; }
 function openEnd(x, isFloat) {
   if (isFloat) { const v = Number(num(x)); return !Number.isFinite(v) || Math.abs(v) >= DBL_MAX; }
   const v = typeof x === "bigint" ? x : BigInt(x);
@@ -84,13 +88,6 @@ function rangeText(r, t) {
   return `[${showRangeEnd(r.from_value, t)}, ${showRangeEnd(r.to_value, t)}]${step}`;
 }
 function showRangeEnd(x, type) { return type.startsWith("double") ? showScalar(x, "double") : String(x); }
-// A validator's argument as the node shows it: a number in the parameter's own kind (2.0 for a
-// double), a string quoted, a list in brackets.
-function showArg(x, type) {
-  const t = type.startsWith("double") ? "double" : type.startsWith("string") ? "string" : "integer";
-  return Array.isArray(x) ? "[" + x.map((y) => showScalar(y, t)).join(", ") + "]" : showScalar(x, t);
-}
-
 function constraintsText(d) {
   const parts = [];
   const r = d.integer_range || d.floating_point_range;
@@ -101,9 +98,8 @@ function constraintsText(d) {
   return parts.join("; ");
 }
 
-// -- validation from the descriptor --------------------------------------------------------
+// -- parsing an editor's text ---------------------------------------------------------------
 
-const TOL = 1e-6;
 function elementType(type) { return { bool_array: "bool", integer_array: "integer", double_array: "double", string_array: "string", byte_array: "integer" }[type]; }
 
 function parseScalar(text, type) {
@@ -142,75 +138,6 @@ function parseEditor(row, raw) {
     if (!ok) throw new Error(`element ${i} (${toJSON(x)}) is not a ${et}`);
     return x;
   });
-}
-
-function num(x) { return x === "nan" ? NaN : x === "inf" ? Infinity : x === "-inf" ? -Infinity : x; }
-function elems(v) { return Array.isArray(v) ? v : [v]; }
-function onGrid(v, lo, step, isFloat) {
-  if (!step) return true;
-  if (!isFloat) return (v - lo) % step === 0;
-  const k = Math.round((v - lo) / step), near = lo + k * step;
-  return Math.abs(v - near) <= TOL * Math.max(Math.abs(v), Math.abs(near)) || Math.abs(v - near) <= TOL * step;
-}
-
-// The first rule `value` breaks, worded as the node words it; null when it keeps them all.
-function violation(name, row, value) {
-  const d = row.descriptor, type = d.type !== "not_set" ? d.type : row.type;
-  const shown = type === "byte_array" ? showValue(value.match(/../g)?.map((h) => parseInt(h, 16)) ?? [], type) : showValue(value, type);
-  const who = `Parameter '${name}' with value ${shown} must`;
-  const r = d.integer_range || d.floating_point_range;
-  if (r && type !== "byte_array" && !d.floating_point_range) {
-    const big = (x) => typeof x === "bigint" ? x : BigInt(x);
-    for (const x of elems(value)) {  // exact, also beyond 2^53
-      const v = big(x), lo = big(r.from_value), hi = big(r.to_value), st = big(r.step || 0);
-      if (v === lo || v === hi) continue;
-      if (!(v >= lo && v <= hi && (st === 0n || (v - lo) % st === 0n))) {
-        const grid = r.step ? ` in steps of ${r.step}` : "";
-        return `${who} be within [${r.from_value}, ${r.to_value}]${grid}`;
-      }
-    }
-  } else if (r && type !== "byte_array") {
-    const isFloat = !!d.floating_point_range;
-    for (const x of elems(value)) {
-      const v = num(x);
-      const atEnd = isFloat ? (Math.abs(v - r.from_value) <= TOL * Math.abs(r.from_value) || Math.abs(v - r.to_value) <= TOL * Math.abs(r.to_value)) : (v === r.from_value || v === r.to_value);
-      if (atEnd) continue;
-      if (!(Number.isFinite(v) && v >= r.from_value && v <= r.to_value && onGrid(v, r.from_value, r.step, isFloat))) {
-        const grid = r.step ? ` in steps of ${showRangeEnd(r.step, type)}` : "";
-        return `${who} be within [${showRangeEnd(r.from_value, type)}, ${showRangeEnd(r.to_value, type)}]${grid}`;
-      }
-    }
-  }
-  const list = Array.isArray(value) ? value : type === "byte_array" ? (value.match(/../g) || []) : null;
-  for (const val of d.validators) {
-    const a = val.args.map(num), size = list ? list.length : typeof value === "string" ? [...value].length : 0;
-    const scalar = num(value);
-    const arg = (i) => showArg(val.args[i], type), et = elementType(type) || type;
-    const repeated = () => { const seen = new Set(); return list.find((x) => { const k = typeof x + String(x); return seen.has(k) || !seen.add(k); }); };
-    const outside = (lo, hi) => list.find((x) => !(num(x) >= lo && num(x) <= hi));
-    const broken = {
-      bounds: () => !(scalar >= a[0] && scalar <= a[1]) && `be within bounds [${arg(0)}, ${arg(1)}]`,
-      lower_bounds: () => !(scalar >= a[0]) && `be at least ${arg(0)}`,
-      upper_bounds: () => !(scalar <= a[0]) && `be at most ${arg(0)}`,
-      gt: () => !(scalar > a[0]) && `be greater than ${arg(0)}`,
-      lt: () => !(scalar < a[0]) && `be less than ${arg(0)}`,
-      gt_eq: () => !(scalar >= a[0]) && `be greater than or equal to ${arg(0)}`,
-      lt_eq: () => !(scalar <= a[0]) && `be less than or equal to ${arg(0)}`,
-      one_of: () => !val.args[0].some((c) => c === value) && `be one of ${arg(0)}`,
-      size_gt: () => !(size > a[0]) && `have a size greater than ${a[0]} (it has ${size})`,
-      size_lt: () => !(size < a[0]) && `have a size less than ${a[0]} (it has ${size})`,
-      fixed_size: () => size !== a[0] && `have exactly ${a[0]} elements (it has ${size})`,
-      not_empty: () => size === 0 && "not be empty",
-      unique: () => list && repeated() !== undefined && `have unique elements (${showScalar(repeated(), et)} repeats)`,
-      subset_of: () => list && list.some((x) => !val.args[0].includes(x)) && `only hold elements of ${arg(0)} (${showScalar(list.find((x) => !val.args[0].includes(x)), et)} is not one)`,
-      element_bounds: () => list && outside(a[0], a[1]) !== undefined && `have every element within bounds [${arg(0)}, ${arg(1)}] (${showScalar(outside(a[0], a[1]), et)} is not)`,
-      lower_element_bounds: () => list && outside(a[0], Infinity) !== undefined && `have every element at least ${arg(0)} (${showScalar(outside(a[0], Infinity), et)} is not)`,
-      upper_element_bounds: () => list && outside(-Infinity, a[0]) !== undefined && `have every element at most ${arg(0)} (${showScalar(outside(-Infinity, a[0]), et)} is not)`,
-    }[val.kind];
-    const rule = broken ? broken() : false;
-    if (rule) return `${who} ${rule}`;
-  }
-  return null;
 }
 
 // -- API --------------------------------------------------------------------------------
@@ -415,26 +342,68 @@ function editorFor(row) {
 function rowOf(name) { return $(`#params tbody tr[data-name="${CSS.escape(name)}"]`); }
 function setError(name, text) { const tr = rowOf(name); if (tr) $(".error", tr).textContent = text || ""; }
 
-// The editor's value, parsed and checked; sets the inline error and returns undefined when bad.
+// The editor's value, parsed; shows the notation's error and returns undefined when it is not one.
 function editorValue(name) {
   const row = S.rows.get(name), tr = rowOf(name);
   if (!row || !tr) return undefined;
-  let value;
-  try { value = parseEditor(row, $(".editor", tr).readValue()); } catch (e) { setError(name, e.message); return undefined; }
-  const bad = violation(name, row, value);
-  setError(name, bad);
-  return bad ? undefined : value;
+  try { return parseEditor(row, $(".editor", tr).readValue()); } catch (e) { setError(name, e.message); return undefined; }
+}
+
+// -- validation by the server: the node's descriptor, the node's rules and words ----------------
+
+const CHECK_DELAY = 150;  // ms after the last keystroke before an edit is validated
+
+// The server's reasons for refusing `values` ({name: value}) on `node`: {name: reason}, "" when
+// valid. When it cannot answer (offline, a token missing) nothing is refused here: a set asks again.
+async function reasons(node, values) {
+  const { ok, data } = await api("/api/validate", { node, values });
+  const out = {};
+  for (const r of (ok && data.results) || []) out[r.name] = r.valid ? "" : r.reason;
+  return out;
+}
+
+// Validate the edits of `names` now; shows each one's reason (unless a newer edit of it was
+// validated meanwhile) and returns {name: value} when all are valid, else undefined.
+async function checkEdits(names) {
+  const node = S.selected, values = {}, seqs = {};
+  let parsed = true;
+  for (const n of names) {
+    clearTimeout(S.checkTimers.get(n));
+    const v = editorValue(n);
+    if (v === undefined) { parsed = false; continue; }
+    values[n] = v;
+    seqs[n] = (S.checks.get(n) || 0) + 1;
+    S.checks.set(n, seqs[n]);
+  }
+  if (!Object.keys(values).length) return undefined;
+  const found = await reasons(node, values);
+  let valid = parsed;
+  for (const n of Object.keys(values)) {
+    const reason = found[n] || "";
+    if (reason) valid = false;
+    if (node === S.selected && S.checks.get(n) === seqs[n]) setError(n, reason);
+  }
+  return valid && node === S.selected ? values : undefined;
+}
+
+function checkSoon(name) {
+  clearTimeout(S.checkTimers.get(name));
+  S.checkTimers.set(name, setTimeout(() => { S.checkTimers.delete(name); checkEdits([name]); }, CHECK_DELAY));
 }
 
 function markDirty(name) {
   if (S.dirty.size === 0) S.baseRevision = S.summary ? { incarnation: S.summary.incarnation, revision: S.summary.revision } : null;
   S.dirty.set(name, true);
   rowOf(name)?.classList.add("dirty");
-  editorValue(name);
+  if (editorValue(name) !== undefined) checkSoon(name);  // a notation error shows at once
   updateApply();
 }
 function clearDirty(names) {
-  for (const n of names) { S.dirty.delete(n); rowOf(n)?.classList.remove("dirty"); }
+  for (const n of names) {
+    S.dirty.delete(n); rowOf(n)?.classList.remove("dirty");
+    clearTimeout(S.checkTimers.get(n)); S.checkTimers.delete(n);
+    S.checks.set(n, (S.checks.get(n) || 0) + 1);  // an answer still on its way is not shown
+  }
   if (S.dirty.size === 0) S.baseRevision = null;
   updateApply();
 }
@@ -473,9 +442,9 @@ function showResults(data, names) {
 }
 
 async function applyOne(name) {
-  const value = editorValue(name);
-  if (value === undefined) return;
-  const node = S.selected;
+  const node = S.selected, checked = await checkEdits([name]);
+  if (checked === undefined || node !== S.selected) return;  // refused while its error is shown
+  const value = checked[name];
   const { ok, data } = await api("/api/set", { node, values: { [name]: value } });
   if (node !== S.selected) return;
   showResults(data, [name]);
@@ -489,15 +458,16 @@ async function applyOne(name) {
 }
 
 async function applyAll() {
-  const names = [...S.dirty.keys()], values = {};
-  for (const n of names) {
-    const v = editorValue(n);
-    if (v === undefined) { banner(`Not sent: ${n} is not valid.`, "error"); return; }
-    values[n] = v;
+  const names = [...S.dirty.keys()], node = S.selected, values = await checkEdits(names);
+  if (node !== S.selected) return;
+  if (values === undefined) {
+    const bad = names.find((n) => rowOf(n)?.querySelector(".error")?.textContent) || names[0];
+    banner(`Not sent: ${bad} is not valid.`, "error");
+    return;
   }
   // a node mirrored from ROS 2 has no revision of its own to compare (the bridge refuses
   // compare-and-set there): its atomic set is sent without one, and the banner says so
-  const node = S.selected, mirrored = !!(S.summary && S.summary.origin), expected = mirrored ? null : S.baseRevision;
+  const mirrored = !!(S.summary && S.summary.origin), expected = mirrored ? null : S.baseRevision;
   const if_revision = expected ? `${expected.incarnation}:${expected.revision}` : null;
   const { ok, status, data } = await api("/api/set", { node, values, atomic: true, if_revision });
   if (node !== S.selected) return;
