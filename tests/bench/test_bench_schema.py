@@ -11,7 +11,7 @@ from typing import Any
 
 import pytest
 
-from paramdds.bench.ros2 import find_realworld
+from tests.support.realworld import find_realworld
 
 
 def bench(scenario: str, domain_id: int) -> dict[str, Any]:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from paramdds.bench.ros2_shared import CRASH_CHARS, crash_report
+from tests.support.ros2_shared import CRASH_CHARS, crash_report
 
 DUMP = """paramdds: INFO: paramdds.ros2.bridge: the ROS 2 graph has 101 nodes
 Fatal Python error: Segmentation fault
