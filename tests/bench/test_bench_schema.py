@@ -13,6 +13,8 @@ import pytest
 
 from tests.support.realworld import find_realworld
 
+pytestmark = pytest.mark.slow
+
 
 def bench(scenario: str, domain_id: int) -> dict[str, Any]:
     cmd = [sys.executable, "-m", "paramdds.cli", "bench", scenario, "--quick", "-o", "json", "--localhost"]

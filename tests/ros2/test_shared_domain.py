@@ -35,7 +35,7 @@ from tests.support.ros2_shared import (
 
 from .conftest import REALWORLD, RosHost, paramdds_cli, require_ros2
 
-pytestmark = pytest.mark.timeout(240)
+pytestmark = [pytest.mark.slow, pytest.mark.timeout(240)]
 
 START = 30.0  # seconds a start may take (about 4-7 s here; generous for a loaded CI machine)
 
