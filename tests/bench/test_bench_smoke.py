@@ -15,8 +15,6 @@ from typing import Any
 
 import pytest
 
-pytestmark = pytest.mark.slow
-
 TIMEOUT = 150
 
 
@@ -49,6 +47,7 @@ def positive(data: dict[str, Any], *keys: str) -> None:
         assert isinstance(data[key], (int, float)) and data[key] > 0, f"{key} = {data[key]!r}"
 
 
+@pytest.mark.slow
 def test_latency(domain_id: int) -> None:
     data = bench("latency", domain_id, "--viewers", "2")
     assert data["viewers"] == 2
@@ -67,6 +66,7 @@ def test_latency(domain_id: int) -> None:
     assert data["raw_p99_us"] >= data["raw_p50_us"]
 
 
+@pytest.mark.slow
 def test_scaling(domain_id: int) -> None:
     data = bench("scaling", domain_id, "--nodes", "3,6")
     rows = data["rows"]
@@ -91,17 +91,20 @@ def test_scaling(domain_id: int) -> None:
     assert rows[1]["baseline_topics"] > rows[0]["baseline_topics"]
 
 
+@pytest.mark.slow
 def test_throughput(domain_id: int) -> None:
     data = bench("throughput", domain_id, "--seconds", "0.5")
     positive(data, "gets_per_s", "raw_per_s")
 
 
+@pytest.mark.slow
 def test_hosting(domain_id: int) -> None:
     data = bench("hosting", domain_id, "--nodes", "50")
     positive(data, "nodes", "rss_mb", "start_ms", "full_state_ms")
     assert data["nodes"] == 50
 
 
+@pytest.mark.slow
 def test_startup(domain_id: int) -> None:
     data = bench("startup", domain_id, "--rounds", "2")
     positive(data, "cli_get_ms", "import_floor_ms", "participant_floor_ms")
@@ -123,6 +126,7 @@ def test_bad_arguments_are_usage_errors(argv: list[str]) -> None:
     assert done.returncode == 2, done.stderr
 
 
+@pytest.mark.slow
 def test_fleet(domain_id: int) -> None:
     data = bench("fleet", domain_id, "--servers", "2", "--nodes", "20", "--params", "4", "--rounds", "1")
     positive(data, "synced_ms", "get_fleet_ms", "get_empty_ms", "get_ratio", "foreign_rate")
@@ -137,6 +141,7 @@ def test_fleet(domain_id: int) -> None:
     assert set(data["lo_bytes_per_request_by_servers"]) == {"1", "2"}  # measured with 1, then 2 readers
 
 
+@pytest.mark.slow
 def test_persist(domain_id: int) -> None:
     data = bench("persist", domain_id, "--seconds", "0.3", "--params", "10", "--requests", "2000")
     positive(data, "sets_per_s_10", "sets_per_s_10_no_persist", "restart_ms", "restart_empty_journal_ms")

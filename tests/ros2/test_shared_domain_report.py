@@ -1,4 +1,8 @@
-"""What a failed shared-domain start says about a bridge that crashed (faulthandler's report)."""
+"""What a failed shared-domain start says about a bridge that crashed (faulthandler's report).
+
+The report is made by the shared-domain harness (tests/support/ros2_shared.py) that
+test_shared_domain.py uses; it needs no ROS 2.
+"""
 
 from __future__ import annotations
 
