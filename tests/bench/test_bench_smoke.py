@@ -11,6 +11,7 @@ import json
 import os
 import subprocess
 import sys
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -146,3 +147,37 @@ def test_persist(domain_id: int) -> None:
     data = bench("persist", domain_id, "--seconds", "0.3", "--params", "10", "--requests", "2000")
     positive(data, "sets_per_s_10", "sets_per_s_10_no_persist", "restart_ms", "restart_empty_journal_ms")
     assert data["journal_changes"] == 2000
+
+
+ODD_NAMES = """\
+/odd:
+  ros__parameters:
+    a: 1
+    $(var p)joint:
+      goal: 0.1
+    c:
+      ok: 2
+      b$d: 3
+    e:
+      $x: 1
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(400)
+def test_ros2_drops_names_paramdds_refuses_from_both_systems(domain_id: int, tmp_path: Path) -> None:
+    """A real file may hold a name paramdds refuses (``$(var tf_prefix)…``, a launch
+    substitution left in it): both systems get the set without it, and paramdds serves it."""
+    from tests.ros2.conftest import require_ros2
+
+    require_ros2()
+    (tmp_path / "odd.yaml").write_text(ODD_NAMES)
+    cmd = [sys.executable, "-m", "paramdds.cli", "bench", "ros2", "--quick", "--nodes", "2", "--servers", "1"]
+    cmd += ["--requests", "10", "-o", "json", "--localhost", "-d", str(domain_id)]
+    env = dict(os.environ, PARAMDDS_LOCALHOST="1", PARAMDDS_REALWORLD=str(tmp_path))
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=360, env=env)
+    assert done.returncode == 0, done.stderr
+    data = json.loads(done.stdout)
+    assert data["parameter_sets"] == 1
+    (row,) = data["rows"]
+    assert row["ros_complete"] == row["dds_complete"] == 2  # a refused name would stop the server
