@@ -42,6 +42,7 @@ else:
 
 __all__ = [
     "NATIVE",
+    "FilteredTopic",
     "NativeFilter",
     "disable_native",
     "filter_tag",
@@ -201,15 +202,32 @@ class NativeFilter:
         return int(accepted), int(rejected), int(unparsed)
 
 
+class FilteredTopic(Topic[Any]):
+    """A Topic entity that holds the native filter installed on it, for as long as it lives.
+
+    Cyclone calls the filter, which reads the filter table's C memory, for every sample
+    delivered to a reader of this topic, so the table must outlive every reader of it.
+    A reader's Python object holds its topic and this topic holds the filter: the filter
+    is released only once every reader of the topic has been collected, and a reader
+    deletes its DDS entity when collected (its finalizer). A cyclic collection runs every
+    finalizer before it clears any reference, so the order holds there too. (A weak map
+    keyed by the topic would not: the collector clears weak references, and would free
+    the table, before it runs the finalizers that delete the readers.)
+    """
+
+    def __init__(self, participant: DomainParticipant, name: str, data_type: type, flt: NativeFilter) -> None:
+        super().__init__(participant, name, data_type)
+        self.native_filter = flt
+
+
 def filtered_topic(participant: DomainParticipant, name: str, data_type: type, flt: NativeFilter) -> Any:
     """A Topic entity of its own for one reader, with ``flt`` installed when native.
 
-    Create the reader on it right away; the topic keeps ``flt`` alive.
+    Create the reader on it right away; the topic keeps ``flt`` alive (:class:`FilteredTopic`).
     """
-    topic: Any = Topic(participant, name, data_type)
     if flt._c is None:
         _warn_once()
-        return topic
+        return Topic(participant, name, data_type)
+    topic = FilteredTopic(participant, name, data_type, flt)
     install_native_filter(topic, flt._c.function(), flt._c.argument())
-    topic._paramdds_filter = flt  # the C filter reads flt's memory while the topic has readers
     return topic

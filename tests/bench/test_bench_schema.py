@@ -11,7 +11,9 @@ from typing import Any
 
 import pytest
 
-from paramdds.bench.ros2 import find_realworld
+from tests.support.realworld import find_realworld
+
+pytestmark = pytest.mark.slow
 
 
 def bench(scenario: str, domain_id: int) -> dict[str, Any]:

@@ -11,6 +11,7 @@ import json
 import os
 import subprocess
 import sys
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -47,6 +48,7 @@ def positive(data: dict[str, Any], *keys: str) -> None:
         assert isinstance(data[key], (int, float)) and data[key] > 0, f"{key} = {data[key]!r}"
 
 
+@pytest.mark.slow
 def test_latency(domain_id: int) -> None:
     data = bench("latency", domain_id, "--viewers", "2")
     assert data["viewers"] == 2
@@ -65,6 +67,7 @@ def test_latency(domain_id: int) -> None:
     assert data["raw_p99_us"] >= data["raw_p50_us"]
 
 
+@pytest.mark.slow
 def test_scaling(domain_id: int) -> None:
     data = bench("scaling", domain_id, "--nodes", "3,6")
     rows = data["rows"]
@@ -89,17 +92,20 @@ def test_scaling(domain_id: int) -> None:
     assert rows[1]["baseline_topics"] > rows[0]["baseline_topics"]
 
 
+@pytest.mark.slow
 def test_throughput(domain_id: int) -> None:
     data = bench("throughput", domain_id, "--seconds", "0.5")
     positive(data, "gets_per_s", "raw_per_s")
 
 
+@pytest.mark.slow
 def test_hosting(domain_id: int) -> None:
     data = bench("hosting", domain_id, "--nodes", "50")
     positive(data, "nodes", "rss_mb", "start_ms", "full_state_ms")
     assert data["nodes"] == 50
 
 
+@pytest.mark.slow
 def test_startup(domain_id: int) -> None:
     data = bench("startup", domain_id, "--rounds", "2")
     positive(data, "cli_get_ms", "import_floor_ms", "participant_floor_ms")
@@ -121,6 +127,7 @@ def test_bad_arguments_are_usage_errors(argv: list[str]) -> None:
     assert done.returncode == 2, done.stderr
 
 
+@pytest.mark.slow
 def test_fleet(domain_id: int) -> None:
     data = bench("fleet", domain_id, "--servers", "2", "--nodes", "20", "--params", "4", "--rounds", "1")
     positive(data, "synced_ms", "get_fleet_ms", "get_empty_ms", "get_ratio", "foreign_rate")
@@ -135,7 +142,42 @@ def test_fleet(domain_id: int) -> None:
     assert set(data["lo_bytes_per_request_by_servers"]) == {"1", "2"}  # measured with 1, then 2 readers
 
 
+@pytest.mark.slow
 def test_persist(domain_id: int) -> None:
     data = bench("persist", domain_id, "--seconds", "0.3", "--params", "10", "--requests", "2000")
     positive(data, "sets_per_s_10", "sets_per_s_10_no_persist", "restart_ms", "restart_empty_journal_ms")
     assert data["journal_changes"] == 2000
+
+
+ODD_NAMES = """\
+/odd:
+  ros__parameters:
+    a: 1
+    $(var p)joint:
+      goal: 0.1
+    c:
+      ok: 2
+      b$d: 3
+    e:
+      $x: 1
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(400)
+def test_ros2_drops_names_paramdds_refuses_from_both_systems(domain_id: int, tmp_path: Path) -> None:
+    """A real file may hold a name paramdds refuses (``$(var tf_prefix)…``, a launch
+    substitution left in it): both systems get the set without it, and paramdds serves it."""
+    from tests.ros2.conftest import require_ros2
+
+    require_ros2()
+    (tmp_path / "odd.yaml").write_text(ODD_NAMES)
+    cmd = [sys.executable, "-m", "paramdds.cli", "bench", "ros2", "--quick", "--nodes", "2", "--servers", "1"]
+    cmd += ["--requests", "10", "-o", "json", "--localhost", "-d", str(domain_id)]
+    env = dict(os.environ, PARAMDDS_LOCALHOST="1", PARAMDDS_REALWORLD=str(tmp_path))
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=360, env=env)
+    assert done.returncode == 0, done.stderr
+    data = json.loads(done.stdout)
+    assert data["parameter_sets"] == 1
+    (row,) = data["rows"]
+    assert row["ros_complete"] == row["dds_complete"] == 2  # a refused name would stop the server

@@ -32,6 +32,7 @@ def _timed(domain: int, *args: str) -> tuple[float, int, str]:
     return time.monotonic() - started, out.returncode, out.stderr
 
 
+@pytest.mark.slow
 def test_an_absent_node_is_reported_not_present_quickly(served: int) -> None:
     _, code, _ = _timed(served, "list", "present", "--timeout", "1")
     assert code == 0  # positive control: the same path reaches a node that is there
@@ -49,6 +50,7 @@ def test_a_long_timeout_does_not_slow_the_absent_answer(served: int) -> None:
     assert took < 10.0
 
 
+@pytest.mark.slow
 def test_with_nothing_running_the_answer_is_a_timeout_that_says_so() -> None:
     took, code, err = _timed(next_domain(), "get", "ghost", "x", "--timeout", "1")
     assert code == 3

@@ -7,6 +7,8 @@ import json
 import signal
 from pathlib import Path
 
+import pytest
+
 from ._support import Proc, next_domain, start_server
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -14,6 +16,7 @@ SPEC = str(ROOT / "examples" / "robot_spec.yaml")
 PARAMS = str(ROOT / "examples" / "params.yaml")
 
 
+@pytest.mark.slow
 def test_assign_prints_refusals_with_the_reason() -> None:
     domain = next_domain()
     server = start_server(domain, "-n", "robot1", "--spec", SPEC, "-p", PARAMS)
@@ -29,6 +32,7 @@ def test_assign_prints_refusals_with_the_reason() -> None:
         assign.stop(signal.SIGINT)
 
 
+@pytest.mark.slow
 def test_assign_json_reports_each_start_of_the_node() -> None:
     domain = next_domain()
     assign = Proc(domain, ["assign", "robot1", "robot.max_velocity=9.0", "-o", "json"])

@@ -7,6 +7,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from ._support import ROOT, cli_env, next_domain, run_cli, start_server
 
 EXAMPLE = ROOT / "examples" / "params.yaml"
@@ -45,6 +47,7 @@ def check_demo_output(out: str, node: str) -> None:
     assert lines[r + 2] == f"  Result[0]: FAILED: {reason}"
 
 
+@pytest.mark.slow
 def test_client_once_prints_the_seed_demo(tmp_path: Path) -> None:
     domain = next_domain()
     server = start_server(domain, "-n", "robot1", "-p", str(EXAMPLE))
@@ -74,6 +77,7 @@ def test_client_exits_3_when_the_target_never_appears() -> None:
     assert "nobody" in out.stderr and out.stderr.count("\n") == 1
 
 
+@pytest.mark.slow
 def test_run_sh_demo() -> None:
     env = cli_env(next_domain())
     env["PARAMDDS_VENV"] = str(Path(sys.executable).parent.parent)

@@ -10,9 +10,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from ._support import Proc, cli_env, next_domain, run_cli, start_server
 
 
+@pytest.mark.slow
 def test_set_takes_ros2_param_forms(params_file: Path) -> None:
     domain = next_domain()
     server = start_server(domain, "-n", "robot1", "-p", str(params_file))
@@ -31,6 +34,7 @@ def test_set_takes_ros2_param_forms(params_file: Path) -> None:
         server.stop()
 
 
+@pytest.mark.slow
 def test_a_bad_parameter_name_is_a_usage_error_without_a_node() -> None:
     domain = next_domain()  # no server: the name is refused before anything is sent
     for verb in ("get", "describe", "delete"):

@@ -6,9 +6,12 @@ import json
 import signal
 import time
 
+import pytest
+
 from ._support import Proc, next_domain, run_cli, start_server
 
 
+@pytest.mark.slow
 def test_watch_json_then_ctrl_c(params_file: object) -> None:
     domain = next_domain()
     server = start_server(domain, "-n", "robot1", "-p", str(params_file))
@@ -54,6 +57,7 @@ def test_watch_json_then_ctrl_c(params_file: object) -> None:
     assert "Traceback" not in watch.stderr()
 
 
+@pytest.mark.slow
 def test_server_assign_and_client_end_with_130_on_ctrl_c(params_file: object) -> None:
     domain = next_domain()
     assign = Proc(domain, ["assign", "robot1", "robot.wheel_count=8"])

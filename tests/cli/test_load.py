@@ -38,6 +38,7 @@ def at(domain: int) -> str:
     return str(node["at"])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("atomic", [False, True], ids=["each", "atomic"])
 def test_a_dump_loads_back_unchanged_sending_nothing(tmp_path: Path, atomic: bool) -> None:
     domain = next_domain()
@@ -68,6 +69,7 @@ def test_a_dump_loads_back_unchanged_sending_nothing(tmp_path: Path, atomic: boo
         watch.stop(signal.SIGINT)
 
 
+@pytest.mark.slow
 def test_load_sends_only_what_changes(tmp_path: Path) -> None:
     domain = next_domain()
     server = start_server(domain, "-n", "robot1", "--spec", SPEC, "-p", PARAMS)

@@ -21,6 +21,7 @@ def _persisted(state: Path) -> tuple[dict[str, ParameterValue], list[str]]:
     return {name: value for name, value, _ in store.read("robot1")}, store.deleted("robot1")
 
 
+@pytest.mark.slow
 def test_a_restart_restores_every_acknowledged_change(params_file: Path, tmp_path: Path) -> None:
     domain = next_domain()
     state = tmp_path / "state.yaml"
@@ -88,6 +89,7 @@ def test_a_damaged_file_refuses_the_start_and_is_left_untouched(
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
 
 
+@pytest.mark.slow
 def test_a_parameter_deleted_at_runtime_stays_deleted_after_a_restart(tmp_path: Path) -> None:
     params = tmp_path / "params.yaml"
     params.write_text(

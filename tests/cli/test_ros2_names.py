@@ -34,6 +34,7 @@ def mirror(tmp_path: object) -> Iterator[tuple[int, DdsSession]]:
             server.close()
 
 
+@pytest.mark.slow
 def test_a_ros2_node_is_shown_with_its_slash(mirror: tuple[int, DdsSession], tmp_path: object) -> None:
     domain, _ = mirror
     from pathlib import Path

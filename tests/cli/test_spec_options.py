@@ -53,6 +53,7 @@ def files(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     return tmp_path
 
 
+@pytest.mark.slow
 def test_validators_module_is_enforced_and_an_unknown_one_is_logged_not_enforced(files: Path) -> None:
     domain = next_domain()
     server = start_server(
@@ -71,6 +72,7 @@ def test_validators_module_is_enforced_and_an_unknown_one_is_logged_not_enforced
     assert "acme_cli::unknown" in server.stderr() and "NOT be enforced" in server.stderr()
 
 
+@pytest.mark.slow
 def test_strict_spec_and_a_bad_validators_module_exit_2_before_serving(files: Path) -> None:
     domain = next_domain()
     strict = run_cli(
@@ -91,6 +93,7 @@ def test_strict_spec_and_a_bad_validators_module_exit_2_before_serving(files: Pa
     assert missing.returncode == 2 and "--validators no_such_module_here: cannot import it" in missing.stderr
 
 
+@pytest.mark.slow
 def test_a_declared_but_unset_parameter_travels_the_wire_and_can_be_set(files: Path) -> None:
     domain = next_domain()
     server = start_server(domain, "-n", "arm", "-p", str(files / "unset.yaml"))

@@ -103,6 +103,7 @@ def one_error_line(err: str) -> str:
 # -- exit 0 and the JSON shapes --------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_get_json_maps_each_name_to_its_value(c: Cluster) -> None:
     assert c.json(
         "get",
@@ -123,11 +124,13 @@ def test_get_json_maps_each_name_to_its_value(c: Cluster) -> None:
     }
 
 
+@pytest.mark.slow
 def test_get_table_prints_type_and_value(c: Cluster) -> None:
     out = c.cli("get", "robot1", "robot.max_velocity")
     assert (out.returncode, out.stdout) == (0, "robot.max_velocity = double 1.5\n")
 
 
+@pytest.mark.slow
 def test_list_json_is_an_array_of_names(c: Cluster) -> None:
     names = c.json("list", "robot1")
     assert isinstance(names, list) and "robot.max_velocity" in names and "limits.speed" in names
@@ -177,6 +180,7 @@ def test_byte_arrays_and_empty_lists_take_the_nodes_type(c: Cluster) -> None:
     assert c.json("get", "robot2", "blob", "weights") == {"blob": [7, 255], "weights": []}
 
 
+@pytest.mark.slow
 def test_set_if_revision_compares_the_incarnation_too(c: Cluster) -> None:
     (row,) = [r for r in c.json("nodes") if r["node"] == "robot2"]
     at = str(row["at"])
@@ -222,6 +226,7 @@ def test_nodes_json_lists_every_live_node(c: Cluster) -> None:
     assert by_name["robot1"]["pid"] == by_name["robot2"]["pid"] == c.procs[0].popen.pid
 
 
+@pytest.mark.slow
 def test_nodes_and_dump_take_several_nodes_and_globs(c: Cluster) -> None:
     assert [r["node"] for r in c.json("nodes", "robot?", "frozen")] == ["frozen", "robot1", "robot2"]
     dump = c.cli("dump", "robot*", "strict")
@@ -234,6 +239,7 @@ def test_nodes_and_dump_take_several_nodes_and_globs(c: Cluster) -> None:
     assert bad.returncode == 2 and "invalid node glob" in bad.stderr, bad
 
 
+@pytest.mark.slow
 def test_dump_then_load_round_trips(c: Cluster, tmp_path: Path) -> None:
     dump = c.cli("dump", "robot1")
     assert dump.returncode == 0, dump.stderr
@@ -254,6 +260,7 @@ def test_dump_then_load_round_trips(c: Cluster, tmp_path: Path) -> None:
     assert c.json("get", "robot2", "robot.max_velocity") == {"robot.max_velocity": 2.5}
 
 
+@pytest.mark.slow
 def test_delete_a_dynamic_parameter(c: Cluster) -> None:
     assert c.cli("delete", "robot2", "dyn").returncode == 0
     assert c.cli("get", "robot2", "dyn").returncode == 1
@@ -294,12 +301,14 @@ def test_partial_non_atomic_set_keeps_the_good_ones(c: Cluster) -> None:
     assert c.json("get", "robot2", "scratch.d") == {"scratch.d": 4.0}
 
 
+@pytest.mark.slow
 def test_atomic_set_applies_nothing_on_failure(c: Cluster) -> None:
     out = c.cli("set", "robot2", "--atomic", "limits.ratio=0.9", "limits.fixed=1")
     assert out.returncode == 1
     assert c.json("get", "robot2", "limits.ratio") == {"limits.ratio": 0.5}
 
 
+@pytest.mark.slow
 def test_compare_and_set_conflict(c: Cluster) -> None:
     revision = c.json("set", "robot2", "special=1.5")["revision"]  # type: ignore[index]
     assert c.cli("set", "robot2", "special=2.5", "--if-revision", str(revision)).returncode == 0
@@ -309,6 +318,7 @@ def test_compare_and_set_conflict(c: Cluster) -> None:
     assert c.json("get", "robot2", "special") == {"special": 2.5}
 
 
+@pytest.mark.slow
 def test_read_only_server_refuses_sets_and_deletes(c: Cluster) -> None:
     assert c.cli("set", "frozen", "robot.max_velocity=2.0").returncode == 1
     assert c.cli("delete", "frozen", "dyn").returncode == 1
@@ -364,6 +374,7 @@ def test_absent_node_exits_3_naming_it(c: Cluster) -> None:
     assert "ghost" in one_error_line(out.stderr)
 
 
+@pytest.mark.slow
 def test_no_answer_within_the_timeout_exits_3(c: Cluster) -> None:
     frozen = c.procs[1].popen
     frozen.send_signal(signal.SIGSTOP)

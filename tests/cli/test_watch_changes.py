@@ -12,6 +12,8 @@ import os
 import signal
 from pathlib import Path
 
+import pytest
+
 from ._support import Proc, next_domain, run_cli, start_server
 
 
@@ -35,6 +37,7 @@ def no_lower_revision(lines: list[dict[str, object]]) -> None:
             shown[node] = revision
 
 
+@pytest.mark.slow
 def test_after_a_stall_and_a_restart_watch_shows_only_changes(params_file: Path, tmp_path: Path) -> None:
     domain = next_domain()
     server = start_server(domain, "-n", "robot1", "-p", str(params_file))
@@ -74,6 +77,7 @@ def test_after_a_stall_and_a_restart_watch_shows_only_changes(params_file: Path,
     no_lower_revision([json.loads(line) for line in watch.lines])
 
 
+@pytest.mark.slow
 def test_a_deleted_event_carries_the_delete_revision(params_file: Path) -> None:
     domain = next_domain()
     server = start_server(domain, "-n", "robot1", "-p", str(params_file), "--allow-undeclared")

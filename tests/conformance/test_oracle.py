@@ -21,6 +21,8 @@ from . import ros_oracle as ro
 from .test_conformance import SEMANTICS_PAGE, _flat
 from .test_realworld import REALWORLD
 
+pytestmark = pytest.mark.slow
+
 SEQUENCES = 3000
 LENGTH = 12
 

@@ -35,6 +35,7 @@ def _value(monitor: object, name: str) -> object:
     return state.parameters[name][0].value
 
 
+@pytest.mark.slow
 def test_assignment_reaches_a_node_started_later_validated(dds: DdsSession) -> None:
     assigner = Assigner(dds.participant("paramdds-test-assigner"))
     assigner.assign("/late", {"speed": 7, "limit": 99, "label": "assigned"})  # limit is out of range

@@ -40,6 +40,7 @@ def _user_topics(reader: Any, into: set[str]) -> set[str]:
     return into
 
 
+@pytest.mark.slow
 def test_200_nodes_in_one_process_use_seven_topics_and_answer_their_own_requests(dds: DdsSession) -> None:
     nodes = [{"id": n, "params": {"whoami": n, "index": i}} for i, n in enumerate(NODES)]
     with ServerProc(dds.domain_id, nodes, topic_discovery=True):

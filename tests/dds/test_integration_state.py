@@ -181,6 +181,7 @@ def test_sigterm_server_is_offline_and_keeps_values(dds: DdsSession) -> None:
 # -- stopped, then resumed: offline, then online again without a change ------------------------------
 
 
+@pytest.mark.slow
 def test_a_server_stopped_past_its_lease_comes_back_online_when_it_resumes(dds: DdsSession) -> None:
     node = {"id": "sleeper", "params": {"speed": 3}}
     recorder = Recorder()
@@ -203,6 +204,7 @@ def test_a_server_stopped_past_its_lease_comes_back_online_when_it_resumes(dds: 
 # -- killed server: offline fast, calls fail fast, restart seen online --------------------------------
 
 
+@pytest.mark.slow
 def test_killed_server_offline_fast_calls_fail_fast_and_restart_online(dds: DdsSession) -> None:
     node = {"id": "victim", "params": {"speed": 3, "label": "v1"}}
     recorder = Recorder()

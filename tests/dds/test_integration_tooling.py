@@ -83,6 +83,7 @@ def _subscribe_until(proc: subprocess.Popen[str], wanted: list[str], timeout: fl
     return "".join(seen)
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(shutil.which(CYCLONEDDS) is None, reason="the cyclonedds CLI is not installed")
 def test_cyclonedds_cli_sees_types_samples_and_process(domain_id: int) -> None:
     node = {"id": "tool_node", "params": {"robot.speed": 1.5, "robot.name": "rx-42"}}

@@ -17,7 +17,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from paramdds.bench.worker import make_table
 from paramdds.core.descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
 from paramdds.core.values import NOT_SET, ParameterType, ParameterValue
 from paramdds.dds._binding import Endianness
@@ -327,16 +326,16 @@ def test_what_the_state_encoder_leaves_to_the_generated_one() -> None:
 _REPO = Path(__file__).resolve().parents[2]
 _PLACES = (_REPO.parent / "shared" / "realworld", _REPO.parent.parent / "shared" / "realworld")
 REALWORLD = next((p for p in _PLACES if p.is_dir()), _PLACES[0])
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 
-def test_the_benchmark_parameter_set_takes_both_fast_paths() -> None:
-    """The bench's 20 parameters (descriptions, ranges, validators, arrays, read-only)."""
-    table = make_table("robot_7", 20)
+def test_the_example_spec_takes_both_fast_paths() -> None:
+    """The parameters of ``examples/robot_spec.yaml`` (descriptions, ranges, validators, arrays,
+    read-only)."""
     kinds = set()
-    for j, name in enumerate(table.names()):
-        value, descriptor = table.get(name), table.describe_one(name)
-        kinds.add(value.type)
-        _check_encoding(StateArgs("robot_7", name, j, 1_700_000_000, j, value, descriptor))
+    for j, e in enumerate(load_spec(EXAMPLES / "robot_spec.yaml")):
+        kinds.add(e.default.type)
+        _check_encoding(StateArgs("robot_7", e.name, j, 1_700_000_000, j, e.default, e.descriptor))
     assert {ParameterType.STRING_ARRAY, ParameterType.DOUBLE_ARRAY, ParameterType.BOOL} <= kinds
 
 

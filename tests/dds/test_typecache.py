@@ -4,13 +4,13 @@ from __future__ import annotations
 
 from cyclonedds.idl._main import IDL
 
-from paramdds.dds.wire import _typeobjects, typecache
+from paramdds.dds.wire import _typeobjects, regen_typecache, typecache
 from paramdds.dds.wire import types as wire
 
 
 def test_the_cache_matches_types_py_and_this_binding() -> None:
-    # fails after a change to types.py: run `python -m paramdds.dds.wire.typecache` and commit the result
-    assert typecache.compute(list(wire.TOPICS.values())) == _typeobjects.TYPE_DATA
+    # fails after a change to types.py: run `python -m paramdds.dds.wire.regen_typecache`, commit the result
+    assert regen_typecache.compute(list(wire.TOPICS.values())) == _typeobjects.TYPE_DATA
 
 
 def test_topics_get_the_cached_bytes_and_the_objects_still_build() -> None:

@@ -11,6 +11,7 @@ import os
 import sys
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -25,6 +26,15 @@ from .examples import parse, run_page, unmarked_sessions
 ROOT = Path(__file__).resolve().parents[2]
 PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
 WITH_EXAMPLES = [p for p in PAGES if any(ex.skip is None for ex in parse(p))]
+LONG_PAGES = {"docs/cli.md", "docs/schema.md"}  # sessions of many servers and commands
+
+
+def _marked(page: Path) -> Any:
+    """A page, marked slow when its examples need ROS 2, a secure or a C/C++ build, or run long."""
+    needs_env = any(ex.env for ex in parse(page) if ex.skip is None)
+    if needs_env or page.relative_to(ROOT).as_posix() in LONG_PAGES:
+        return pytest.param(page, marks=pytest.mark.slow)
+    return page
 
 
 def _page_env(domain_id: int) -> dict[str, str]:
@@ -70,7 +80,7 @@ def _interop_env(tmp_path: Path) -> Callable[[dict[str, str]], dict[str, str]]:
 
 
 @pytest.mark.timeout(180)
-@pytest.mark.parametrize("page", WITH_EXAMPLES, ids=lambda p: str(p.relative_to(ROOT)))
+@pytest.mark.parametrize("page", [_marked(p) for p in WITH_EXAMPLES], ids=lambda p: str(p.relative_to(ROOT)))
 def test_page_examples_print_what_the_page_shows(page: Path, domain_id: int, tmp_path: Path) -> None:
     (tmp_path / "examples").symlink_to(ROOT / "examples")
     environments = {"secure": _secure_env, "ros2": _ros2_env(tmp_path), "interop": _interop_env(tmp_path)}

@@ -41,7 +41,7 @@ from paramdds.dds.participant import domain_config
 from ..dds.helpers import DdsSession, wait_until
 from .conftest import Vendor
 
-pytestmark = pytest.mark.timeout(120)
+pytestmark = [pytest.mark.slow, pytest.mark.timeout(120)]
 
 PARAMDDS = str(Path(sys.executable).with_name("paramdds"))
 

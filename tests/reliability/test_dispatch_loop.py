@@ -126,6 +126,7 @@ class _LoopKilled(BaseException):
     """What ends a dispatch loop in the test below (stands for anything uncaught)."""
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(60)
 def test_a_dispatch_loop_that_ends_takes_the_process_offline_and_says_why(
     domain_id: int, dds: DDS, caplog: pytest.LogCaptureFixture

@@ -149,6 +149,7 @@ def same_tables(a: ParameterTable, b: ParameterTable) -> bool:
     )
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(120)
 def test_fuzzed_set_requests_keep_server_alive_and_equal_to_the_model(domain_id: int, dds: DDS) -> None:
     server = ParameterServer(dds.participant(domain_id))

@@ -67,6 +67,7 @@ def _result(proc: subprocess.Popen[str]) -> dict[str, Any]:
     return result
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(180)
 def test_every_call_ends_within_a_second_and_a_half_of_a_kill_during_discovery(
     domain_id: int, params_file: Path, procs: list[Proc]

@@ -34,6 +34,7 @@ def _json_lines(proc: Proc) -> list[dict[str, Any]]:
     return [json.loads(line) for _, line in proc.lines if line.startswith("{")]
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(60)
 def test_sigkill_with_pipelined_requests_no_hang_and_offline_seen(
     domain_id: int, params_file: Path, dds: DDS, procs: list[Proc]
@@ -139,6 +140,7 @@ def _retry_until_ok(client: Any, failures: list[BaseException], results: list[An
             time.sleep(0.1)
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(90)
 def test_restart_with_persist_restores_values_and_waiting_client_succeeds(
     domain_id: int, params_file: Path, tmp_path: Path, dds: DDS, procs: list[Proc]

@@ -47,6 +47,7 @@ def test_the_rule(
     assert is_quiet(pending, burst, quiet_for, min_quiet=0.5) is quiet
 
 
+@pytest.mark.slow
 def test_a_state_writer_that_has_not_delivered_keeps_a_ghost_unknown(dds: DDS, domain_id: int) -> None:
     dds.server(domain_id, ParameterTable("present"))
     dp = dds.participant(domain_id)
@@ -72,6 +73,7 @@ def test_a_state_writer_that_has_not_delivered_keeps_a_ghost_unknown(dds: DDS, d
     assert time.monotonic() - started < 0.5
 
 
+@pytest.mark.slow
 def test_with_no_parameter_server_anywhere_a_ghost_is_a_timeout_not_absent(dds: DDS, domain_id: int) -> None:
     client = dds.client(domain_id)
     started = time.monotonic()
@@ -88,6 +90,7 @@ def test_with_no_parameter_server_anywhere_a_ghost_is_a_timeout_not_absent(dds: 
     assert wait(lambda: client.presence("ghost") is Presence.ABSENT, timeout=5.0)
 
 
+@pytest.mark.slow
 def test_waiting_for_a_node_asks_again_when_nobody_answered(dds: DDS, domain_id: int) -> None:
     """``wait_for_node`` keeps the discovery watch going, so it creates probes as calls do
     (a CI run at 30 % loss saw a fresh client wait 10 s for a node knowing nobody)."""
@@ -152,6 +155,7 @@ def test_a_busy_system_still_settles(dds: DDS, domain_id: int) -> None:
         thread.join(5)
 
 
+@pytest.mark.slow
 def test_a_long_lived_client_needs_only_a_short_quiet_after_a_late_change(dds: DDS, domain_id: int) -> None:
     dds.server(domain_id, ParameterTable("first"))
     client = dds.client(domain_id)
@@ -181,6 +185,7 @@ def test_presence_after_close_answers_without_touching_deleted_entities(dds: DDS
 SILENT_WRITER = str(Path(__file__).with_name("silent_state_writer.py"))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("lazy", [False, True], ids=["client", "lazy-client"])
 def test_a_silent_server_is_waited_for_while_alive_and_not_once_killed(
     dds: DDS, domain_id: int, procs: list[Proc], lazy: bool
@@ -217,6 +222,7 @@ def test_a_silent_server_is_waited_for_while_alive_and_not_once_killed(
     assert client.presence("present") is Presence.ONLINE
 
 
+@pytest.mark.slow
 def test_a_client_that_knows_only_other_clients_asks_again(
     dds: DDS, domain_id: int, procs: list[Proc]
 ) -> None:

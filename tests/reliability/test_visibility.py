@@ -70,6 +70,7 @@ def _nodes(domain: int) -> list[dict[str, object]]:
     return rows
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(90)
 def test_two_processes_hosting_one_node_are_reported(domain_id: int, procs: list[Proc]) -> None:
     first = start_server(domain_id, "-n", "twin")
@@ -90,6 +91,7 @@ def test_two_processes_hosting_one_node_are_reported(domain_id: int, procs: list
         assert wait(lambda: f"also hosted by pid {second.pid}" in said(), 5.0), said()
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(60)
 def test_watch_says_when_the_state_did_not_settle(domain_id: int, dds: DDS, procs: list[Proc]) -> None:
     table = ParameterTable("whole")

@@ -96,6 +96,7 @@ CLI_WRITES = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("write", list(CLI_WRITES))
 def test_cli_write_stalled_on_the_node_is_outcome_unknown_and_never_applied_later(
     write: str, domain_id: int, stalling: Stalling, dds: DDS, tmp_path: Path
@@ -126,6 +127,7 @@ def _api_write(kind: str, client: Any) -> Any:
     raise AssertionError(kind)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["set", "atomic set", "delete"])
 def test_api_write_stalled_on_the_node_is_outcome_unknown_and_never_applied_later(
     kind: str, domain_id: int, stalling: Stalling, dds: DDS
@@ -142,6 +144,7 @@ def test_api_write_stalled_on_the_node_is_outcome_unknown_and_never_applied_late
     assert values == START and revision == before
 
 
+@pytest.mark.slow
 def test_async_api_set_stalled_is_outcome_unknown(domain_id: int, stalling: Stalling, dds: DDS) -> None:
     client = AsyncParameterClient(dds.client(domain_id))
     before = client.sync.get(NODE, list(START), timeout=10).revision
@@ -156,6 +159,7 @@ def test_async_api_set_stalled_is_outcome_unknown(domain_id: int, stalling: Stal
     assert values == START and revision == before
 
 
+@pytest.mark.slow
 def test_a_stall_that_ends_before_the_wait_does_is_expired(
     domain_id: int, stalling: Stalling, dds: DDS
 ) -> None:
@@ -202,6 +206,7 @@ def test_a_write_to_a_node_known_offline_is_not_sent(domain_id: int, stalling: S
 # -- the web console: POST /api/set answers 504 OUTCOME_UNKNOWN --------------------------------------
 
 
+@pytest.mark.slow
 def test_web_set_stalled_on_the_node_is_504_outcome_unknown(
     domain_id: int, stalling: Stalling, dds: DDS
 ) -> None:
@@ -231,6 +236,7 @@ def test_web_set_stalled_on_the_node_is_504_outcome_unknown(
 # -- a success is never reported failed; a refusal is never applied -----------------------------------
 
 
+@pytest.mark.slow
 def test_the_verdict_is_never_contradicted_by_the_node(domain_id: int, stalling: Stalling, dds: DDS) -> None:
     """Callbacks that take from well before to well after the deadline (timeout 1.5 s: deadline at
     1.35 s): a success is applied, an EXPIRED is not, and a late success still counts."""

@@ -22,10 +22,10 @@ from typing import Any
 
 import pytest
 
-from paramdds.bench.ros2 import find_realworld
 from paramdds.dds.participant import close_participant, make_participant
 from paramdds.ros2 import missing
 from tests.conftest import make_dds_env
+from tests.support.realworld import find_realworld
 
 REALWORLD = find_realworld()
 ORACLE = Path(__file__).with_name("ros_oracle.py")

@@ -20,7 +20,7 @@ from ..web import conftest as web
 from ..web._support import Console
 from ..web.test_browser import open_node, row
 
-pytestmark = pytest.mark.timeout(180)
+pytestmark = [pytest.mark.slow, pytest.mark.timeout(180)]
 
 # the web tests' headless Chromium (a tab: "web_page")
 browser, web_page = web.browser, web.page

@@ -6,7 +6,6 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from paramdds.bench.ros2 import _valid
 from paramdds.core.descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor
 from paramdds.core.values import ParameterType, ParameterValue
 from paramdds.errors import ErrorCode
@@ -44,11 +43,6 @@ def test_globs_match_fully_qualified_names_with_or_without_the_slash() -> None:
     assert matches("/arm/driver", ["arm/*"], [])
     assert not matches("/arm/driver", ["*"], ["/arm/*"])
     assert not matches("/base/driver", ["/arm/*"], [])
-
-
-def test_the_bench_drops_names_paramdds_refuses_from_both_systems() -> None:
-    params = {"a": 1, "$(var p)joint": {"goal": 0.1}, "c": {"ok": 2, "b$d": 3}, "e": {"$x": 1}}
-    assert _valid(params) == {"a": 1, "c": {"ok": 2}}
 
 
 def _values() -> st.SearchStrategy[ParameterValue]:
@@ -94,13 +88,11 @@ def test_descriptors_survive_the_rcl_interfaces_message() -> None:
 def test_bench_ros2_skips_with_the_reason_without_the_extra(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    import argparse
-
     import paramdds.ros2
-    from paramdds.bench import ros2 as bench
+    from paramdds.cli import main
 
     monkeypatch.setattr(paramdds.ros2, "missing", lambda: "the ros2 extra is not installed (rclpy missing)")
-    assert bench.run(argparse.Namespace(output="json")) == 0
+    assert main(["bench", "ros2", "-o", "json"]) == 0
     out = capsys.readouterr()
     assert '"skipped": "the ros2 extra is not installed (rclpy missing)"' in out.out
     assert "skipped" in out.err

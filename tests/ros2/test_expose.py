@@ -22,7 +22,7 @@ from paramdds.dds.server import ParameterServer
 from .conftest import ORACLE, oracle
 from .test_mirror import wait_for
 
-pytestmark = pytest.mark.timeout(180)
+pytestmark = [pytest.mark.slow, pytest.mark.timeout(180)]
 
 
 def twin_table(node_id: str) -> ParameterTable:

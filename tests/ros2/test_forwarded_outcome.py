@@ -31,6 +31,8 @@ from paramdds.ros2.rosside import Unanswered
 from .conftest import RosHost
 from .test_mirror import paramdds_side, wait_for
 
+pytestmark = pytest.mark.slow
+
 __all__ = ["paramdds_side"]  # the fixture, used by name below
 
 

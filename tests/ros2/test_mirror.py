@@ -22,7 +22,7 @@ from paramdds.ros2.mirror import RESYNC_SPREAD, START_WINDOW, next_resync
 
 from .conftest import REALWORLD, RosHost, oracle, paramdds_cli
 
-pytestmark = pytest.mark.timeout(180)
+pytestmark = [pytest.mark.slow, pytest.mark.timeout(180)]
 
 
 @pytest.fixture

@@ -6,7 +6,7 @@ bridge starts came up with nodes missing and ROS 2's own tools could not reach s
 nodes (docs/ros2.md, "One domain id"). Here every paramdds process and every ROS 2
 process share the test's domain id, without the run's Cyclone discovery tag (Fast DDS
 knows none; with it Cyclone would not meet ROS 2 at all). The steps are those of
-``python -m paramdds.bench.ros2_shared``, which measures them.
+``python -m tests.support.ros2_shared``, which measures them.
 """
 
 from __future__ import annotations
@@ -20,7 +20,10 @@ from typing import Any
 
 import pytest
 
-from paramdds.bench.ros2_shared import (
+from paramdds.dds.monitor import ParameterMonitor
+from paramdds.dds.participant import close_participant, make_participant
+from tests.conftest import next_domain_id
+from tests.support.ros2_shared import (
     bridge_start,
     diagnosis,
     mirrored,
@@ -29,13 +32,10 @@ from paramdds.bench.ros2_shared import (
     stop_bridge,
     tool,
 )
-from paramdds.dds.monitor import ParameterMonitor
-from paramdds.dds.participant import close_participant, make_participant
-from tests.conftest import next_domain_id
 
 from .conftest import REALWORLD, RosHost, paramdds_cli, require_ros2
 
-pytestmark = pytest.mark.timeout(240)
+pytestmark = [pytest.mark.slow, pytest.mark.timeout(240)]
 
 START = 30.0  # seconds a start may take (about 4-7 s here; generous for a loaded CI machine)
 

@@ -30,6 +30,7 @@ def check_jsonschema(schema: Path, *files: Path) -> subprocess.CompletedProcess[
     )
 
 
+@pytest.mark.slow
 @needs_realworld
 @pytest.mark.parametrize(("schema_path", "params"), PASSING, ids=lambda x: x.name)
 def test_a_passing_pair_is_served_and_its_exported_schema_validates_its_dump(
@@ -60,6 +61,7 @@ def test_a_passing_pair_is_served_and_its_exported_schema_validates_its_dump(
         server.stop()
 
 
+@pytest.mark.slow
 @needs_realworld
 def test_a_set_the_schema_refuses_is_refused_with_its_reason_over_dds(domain_id: int) -> None:
     pkg = AUTOWARE / "autoware_joy_controller"
@@ -175,6 +177,7 @@ def test_check_against_a_spec_with_its_real_configuration(tmp_path: Path) -> Non
     assert "diffbot_base_controller: left_wheel_names:" in got.stdout
 
 
+@pytest.mark.slow
 @needs_realworld
 def test_check_speaks_json_and_schema_derives_from_a_spec_with_mapped_parameters(tmp_path: Path) -> None:
     pkg = AUTOWARE / "behavior_velocity_planner"

@@ -9,6 +9,7 @@ from __future__ import annotations
 from typing import Any
 
 import httpx
+import pytest
 
 from ..cli._support import ROOT, run_cli, start_server
 from ..web._support import Console
@@ -25,6 +26,7 @@ def _post(console: Console, route: str, body: dict[str, Any]) -> list[dict[str, 
     return rows
 
 
+@pytest.mark.slow
 def test_console_refuses_what_the_schema_refuses_before_sending(domain_id: int) -> None:
     server = start_server(domain_id, "-n", "cruise", "-p", str(EXAMPLE / "config" / "cruise.param.yaml"))
     console = Console(domain_id, "--schema", f"cruise={SCHEMA}")

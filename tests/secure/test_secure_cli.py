@@ -6,7 +6,11 @@ import subprocess
 import time
 from pathlib import Path
 
+import pytest
+
 from .conftest import SecureSystem, stop, wait_line
+
+pytestmark = pytest.mark.slow
 
 
 def test_full_rights_identity_runs_the_ordinary_flows(system: SecureSystem) -> None:

@@ -13,7 +13,7 @@ import httpx
 import pytest
 from playwright.sync_api import expect
 
-from paramdds.bench.web import CHROMIUM_FLAGS
+from tests.support.browser import CHROMIUM_FLAGS
 
 from ..cli._support import Proc, next_domain, start_server
 from ._support import CONSOLE_PARAMS, Console

@@ -42,6 +42,7 @@ def kill(proc: Proc) -> None:
     proc.stop()
 
 
+@pytest.mark.slow
 def test_compare_and_set_follows_a_restart_and_never_matches_the_old_start(
     domain: int, console: Console
 ) -> None:
@@ -171,6 +172,7 @@ def test_favicon_is_served(console: Console) -> None:
     assert b"<svg" in r.content
 
 
+@pytest.mark.slow
 def test_a_console_reachable_from_other_machines_checks_host_and_needs_the_token_to_read(
     domain: int, servers: Proc, tmp_path: Path
 ) -> None:
@@ -214,6 +216,7 @@ def test_a_console_reachable_from_other_machines_checks_host_and_needs_the_token
         remote.stop()
 
 
+@pytest.mark.slow
 def test_when_one_of_two_hosts_of_a_node_stops_the_summary_shows_the_other(
     domain: int, console: Console
 ) -> None:

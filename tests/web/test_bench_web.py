@@ -11,7 +11,11 @@ import os
 import subprocess
 import sys
 
+import pytest
+
 from .conftest import chromium_path
+
+pytestmark = pytest.mark.slow
 
 
 def test_bench_web_quick_reports_every_figure(domain: int) -> None:

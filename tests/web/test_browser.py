@@ -19,6 +19,8 @@ from ..cli._support import run_cli, start_server
 from ._support import CONSOLE_PARAMS, Console, write_token
 from .conftest import wait_for_nodes
 
+pytestmark = pytest.mark.slow
+
 
 def row(page: Page, name: str) -> Locator:
     return page.locator(f'#params tbody tr[data-name="{name}"]')

@@ -14,6 +14,8 @@ from ._support import Console
 from .conftest import wait_for_nodes
 from .test_browser import cli_value, current, open_node, row
 
+pytestmark = pytest.mark.slow
+
 OPEN = """\
 /**:
   ros__parameters:

@@ -11,6 +11,8 @@ from ..cli._support import start_server
 from ._support import CONSOLE_PARAMS, Console
 from .conftest import wait_for_nodes
 
+pytestmark = pytest.mark.slow
+
 NODES = [f"fleet{i:03d}" for i in range(120)]
 
 

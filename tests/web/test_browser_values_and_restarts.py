@@ -19,6 +19,8 @@ from .conftest import wait_for_nodes
 from .test_api import post, value_of
 from .test_browser import cli_value, current, open_node, row
 
+pytestmark = pytest.mark.slow
+
 BIG = 2**53 + 1  # the first integer a JavaScript number cannot hold
 
 

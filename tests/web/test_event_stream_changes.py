@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 
 import httpx
+import pytest
 
 from ..cli._support import SEED_PARAMS, next_domain, start_server
 from ._support import Console
@@ -50,6 +51,7 @@ def collect(
     return got
 
 
+@pytest.mark.slow
 def test_the_stream_shows_only_changes_after_a_stall_and_a_restart(tmp_path: Path) -> None:
     domain = next_domain()
     params = tmp_path / "p.yaml"

@@ -26,6 +26,7 @@ from .conftest import Fleet, free_port, holds_online, wait_for
 pytestmark = pytest.mark.timeout(90)
 
 
+@pytest.mark.slow
 def test_a_late_remote_monitor_holds_every_site_exactly_and_calls_reach_every_node(fleet: Fleet) -> None:
     fleet.server("s1", "robot1", "ns/robot2")
     fleet.server("s2", "robot1")
@@ -114,6 +115,7 @@ def test_a_late_remote_monitor_holds_every_site_exactly_and_calls_reach_every_no
     monitor.close()
 
 
+@pytest.mark.slow
 def test_a_killed_gateway_takes_its_sites_nodes_offline_and_a_standby_takes_over(fleet: Fleet) -> None:
     fleet.server("s1", "robot1", "robot2")
     first = fleet.gateway("s1")
@@ -155,6 +157,7 @@ def test_a_killed_gateway_takes_its_sites_nodes_offline_and_a_standby_takes_over
     monitor.close()
 
 
+@pytest.mark.slow
 def test_the_cli_reaches_remote_nodes_with_zenoh(fleet: Fleet) -> None:
     fleet.server("s1", "robot1", "robot2")
     fleet.server("s2", "robot1")
@@ -204,6 +207,7 @@ def test_the_cli_reaches_remote_nodes_with_zenoh(fleet: Fleet) -> None:
     assert shown == {"s1/robot1", "s1/robot2"}, shown
 
 
+@pytest.mark.slow
 def test_bad_input_is_a_clear_error_never_a_hang(tmp_path: Path) -> None:
     env = make_dds_env(1)
     nobody = f"tcp/127.0.0.1:{free_port()}"
@@ -237,6 +241,7 @@ def test_bad_input_is_a_clear_error_never_a_hang(tmp_path: Path) -> None:
     assert "Traceback" not in r.stderr
 
 
+@pytest.mark.slow
 def test_the_web_console_in_the_cloud_shows_every_sites_nodes_live(fleet: Fleet) -> None:
     pytest.importorskip("uvicorn", reason="the web extra is not installed")
     import json

@@ -31,6 +31,7 @@ def _tls_args(d: Path) -> list[str]:
     return ["--tls-ca", str(d / "ca.pem"), "--tls-cert", str(d / "cert.pem"), "--tls-key", str(d / "key.pem")]
 
 
+@pytest.mark.slow
 def test_mutual_tls_and_access_by_certificate_name(tmp_path: Path, procs: list[Proc]) -> None:
     env = make_dds_env(next_domain_id())
     ks = tmp_path / "ks"

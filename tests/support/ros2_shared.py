@@ -1,4 +1,4 @@
-"""ROS 2 and paramdds on one domain id: ``python -m paramdds.bench.ros2_shared``.
+"""ROS 2 and paramdds on one domain id: ``python -m tests.support.ros2_shared`` (from the checkout).
 
 Real processes on one domain id (ROS 2's ``ROS_DOMAIN_ID`` and paramdds's the same number),
 loopback only: one rclpy host process (the nodes of ``--params-file``, default the nav2
@@ -15,7 +15,10 @@ file of ``realworld/``, or ``--nodes N`` synthetic nodes), a ``paramdds server``
 Prints the time from each start to all nodes mirrored (min / median / max) and how many
 nodes each tool reached. No Cyclone discovery tag may be set (``CYCLONEDDS_URI`` is
 dropped): Fast DDS knows no tags, and with one Cyclone would not meet ROS 2 at all.
-``tests/ros2/test_shared_domain.py`` runs the same steps.
+``tests/ros2/test_shared_domain.py`` runs the same steps; this measures them (docs/ros2.md,
+"One domain id"). A harness of the tests, not a benchmark of ``paramdds bench``: it needs the
+``ros2`` extra and a checkout (it runs ``python -m paramdds.bench.ros2_host``, the rclpy host
+that ``paramdds bench ros2`` also runs).
 """
 
 from __future__ import annotations
@@ -32,9 +35,10 @@ import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
+from statistics import median
 from typing import Any
 
-from ._common import median
+from tests.support.realworld import ROOT, find_realworld
 
 START_TIMEOUT = 60.0  # seconds a bridge start may take to mirror every node before it counts as failed
 TOOL_TIMEOUT = 30.0
@@ -225,8 +229,9 @@ def stop_bridge(bridge: _Proc, monitor: Any, nodes: Sequence[str]) -> None:
 def tool(env: dict[str, str], nodes: Sequence[str], timeout: float = TOOL_TIMEOUT) -> dict[str, Any]:
     """A fresh rclpy process that lists every node's parameters as ``ros2 param list`` does."""
     out = subprocess.run(
-        _python("-m", "paramdds.bench.ros2_shared", "tool", "--timeout", str(timeout), *nodes),
+        _python("-m", "tests.support.ros2_shared", "tool", "--timeout", str(timeout), *nodes),
         env=env,
+        cwd=ROOT,
         capture_output=True,
         text=True,
         timeout=timeout + 30,
@@ -284,9 +289,8 @@ def _tool_main(nodes: Sequence[str], timeout: float) -> dict[str, Any]:
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
-    from ..dds.monitor import ParameterMonitor
-    from ..dds.participant import close_participant, make_participant
-    from .ros2 import find_realworld
+    from paramdds.dds.monitor import ParameterMonitor
+    from paramdds.dds.participant import close_participant, make_participant
 
     host_args: list[str] = []
     if args.nodes:
@@ -339,7 +343,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(
-        prog="python -m paramdds.bench.ros2_shared", description="ROS 2 and paramdds on one domain id"
+        prog="python -m tests.support.ros2_shared", description="ROS 2 and paramdds on one domain id"
     )
     sub = ap.add_subparsers(dest="mode")
     t = sub.add_parser("tool", help="(internal) one fresh rclpy tool process")

@@ -1,8 +1,12 @@
-"""What a failed shared-domain start says about a bridge that crashed (faulthandler's report)."""
+"""What a failed shared-domain start says about a bridge that crashed (faulthandler's report).
+
+The report is made by the shared-domain harness (tests/support/ros2_shared.py) that
+test_shared_domain.py uses; it needs no ROS 2.
+"""
 
 from __future__ import annotations
 
-from paramdds.bench.ros2_shared import CRASH_CHARS, crash_report
+from tests.support.ros2_shared import CRASH_CHARS, crash_report
 
 DUMP = """paramdds: INFO: paramdds.ros2.bridge: the ROS 2 graph has 101 nodes
 Fatal Python error: Segmentation fault

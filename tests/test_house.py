@@ -1,0 +1,47 @@
+"""House rules of the test tree: test support lives under ``tests/``, never in the benchmarks."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+TESTS = Path(__file__).resolve().parent
+BENCH = "paramdds.bench"
+
+
+def bench_imports(source: str) -> list[int]:
+    """The lines of ``source`` that import ``paramdds.bench`` or anything in it, however spelled."""
+    lines = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names = [node.module, *(f"{node.module}.{a.name}" for a in node.names)]
+        else:
+            continue
+        if any(n == BENCH or n.startswith(BENCH + ".") for n in names):
+            lines.append(node.lineno)
+    return lines
+
+
+def test_no_test_imports_the_benchmarks() -> None:
+    # a test runs a benchmark as a user does (`paramdds bench ... --quick`); what it needs
+    # besides lives in tests/support
+    found = [
+        f"{path.relative_to(TESTS.parent)}:{line}"
+        for path in sorted(TESTS.rglob("*.py"))
+        for line in bench_imports(path.read_text())
+    ]
+    assert found == []
+
+
+def test_the_check_sees_every_spelling() -> None:
+    spellings = [
+        "import paramdds.bench",
+        "import paramdds.bench.worker as w",
+        "from paramdds.bench.ros2 import find_realworld",
+        "from paramdds import bench",
+        "def f():\n    from paramdds.bench import ros2\n",
+    ]
+    assert [bench_imports(s) for s in spellings] == [[1], [1], [1], [1], [2]]
+    assert bench_imports("import paramdds.benchmarks\nfrom paramdds import cli\nx = 'paramdds.bench'") == []
