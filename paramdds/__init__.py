@@ -46,6 +46,7 @@ if TYPE_CHECKING:
     from .secure.identity import load_identity
 
 from .errors import (
+    CallTimeoutError,
     ErrorCode,
     ExpiredError,
     FileFormatError,
@@ -57,7 +58,6 @@ from .errors import (
     ParamddsError,
     ParameterError,
     RemoteError,
-    TimeoutError_,
     TransportError,
     UnavailableError,
 )
@@ -83,6 +83,7 @@ __all__ = [
     "NOT_SET",
     "Assigner",
     "AsyncParameterClient",
+    "CallTimeoutError",
     "ChangeKind",
     "ChangeSet",
     "ErrorCode",
@@ -118,7 +119,6 @@ __all__ = [
     "SetOutcome",
     "SetResult",
     "SetVeto",
-    "TimeoutError_",
     "TransportError",
     "UnavailableError",
     "Validator",

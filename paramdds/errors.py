@@ -26,7 +26,7 @@ map errors without matching on message text::
     │                                  have been applied; never a failure, see docs/reliability.md)
     ├── RemoteError                    UNKNOWN (a code this version does not know; ``remote_code``)
     └── TransportError                 the node could not be reached
-        ├── TimeoutError_              TIMEOUT (no answer within the timeout)
+        ├── CallTimeoutError           TIMEOUT (no answer within the timeout)
         └── UnavailableError           UNAVAILABLE (the node is not present)
 
 Lower-level errors (PyYAML, Cyclone) are mapped to these at exactly one boundary,
@@ -183,8 +183,13 @@ class TransportError(ParamddsError):
     """The node could not be reached."""
 
 
-class TimeoutError_(TransportError):
+class CallTimeoutError(TransportError):
+    """No answer came within the call's timeout (the node may be slow, or gone)."""
+
     code = ErrorCode.TIMEOUT
+
+
+TimeoutError_ = CallTimeoutError  # the name of 0.1.0's first releases, kept for their users
 
 
 class UnavailableError(TransportError):
@@ -210,7 +215,7 @@ _BY_CODE: dict[ErrorCode, type[ParamddsError]] = {
         NotPermittedError,
         ExpiredError,
         OutcomeUnknownError,
-        TimeoutError_,
+        CallTimeoutError,
         UnavailableError,
     )
 }

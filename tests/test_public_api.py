@@ -23,7 +23,7 @@ def test_a_client_does_not_load_the_table() -> None:
     # `paramdds get` pays for every import: the table, its validation and YAML stay out
     code = (
         "import sys, paramdds.cli, paramdds.cli._output, paramdds.cli._values, paramdds.cli.verbs.get, "
-        "paramdds.frontend.session, paramdds.frontend.shapes, paramdds.dds.client; "
+        "paramdds.session, paramdds.dds.client; "
         "print(sorted(m for m in sys.modules if m.startswith(('paramdds.core.table', 'yaml'))))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
@@ -40,8 +40,8 @@ NOT_IMPORTED = (
     "paramdds.ros2",
     "paramdds.formats",
     "paramdds.core.table",
-    "paramdds.journal",
-    "paramdds.runtime",
+    "paramdds.persist",
+    "paramdds.server_process",
     "paramdds.bench",
     "yaml",
     "jsonschema",

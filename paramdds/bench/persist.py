@@ -144,7 +144,7 @@ def _journal_of(directory: Path, changes: int) -> Path:
     from ..core.results import ChangeKind, ChangeSet, ParameterChange
     from ..core.table import ParameterTable
     from ..core.values import ParameterType, ParameterValue
-    from ..runtime import persist_store
+    from ..server_process import persist_store
 
     state = directory / "restart.yaml"
     table = ParameterTable(NODE)

@@ -27,7 +27,7 @@ from .worker import param_name
 NODE = node_names(1)[0]
 GET_IMPORTS = (
     "import paramdds.cli, paramdds.cli.verbs.get, paramdds.cli._output, paramdds.cli._values, "
-    "paramdds.frontend.session, paramdds.frontend.shapes, paramdds.dds.client"
+    "paramdds.session, paramdds.dds.client"
 )
 
 

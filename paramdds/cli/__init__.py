@@ -8,7 +8,7 @@ their top), and a verb imports Cyclone and the DDS layer when it runs, so
 
 Every verb is a module of :mod:`paramdds.cli.verbs` whose ``run(args) -> int``
 returns the exit code; errors end up in :func:`main`, which maps them to the exit
-codes of :mod:`paramdds.frontend.exits` and prints them as one line on stderr (with
+codes of :mod:`paramdds.exits` and prints them as one line on stderr (with
 a traceback only under ``--log-level debug``).
 """
 
@@ -21,7 +21,7 @@ import sys
 from collections.abc import Sequence
 from types import FrameType
 
-from ..frontend.exits import Exit, Refused, Terminated, UsageError, exit_code, is_dds_failure, one_line
+from ..exits import Exit, Refused, Terminated, UsageError, exit_code, is_dds_failure, one_line
 from ._parser import build_parser, resolve_globals
 from .verbs import verb
 

@@ -9,8 +9,8 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 from ..core.jsonform import json_value
-from ..frontend.shapes import dumps_json, shown_node
-from ._output import typed
+from ..core.names import shown_node
+from ._output import dumps_json, typed
 
 if TYPE_CHECKING:
     from ..dds.monitor import MonitorEvent

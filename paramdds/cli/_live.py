@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from ..dds.monitor import NodeState, ParameterMonitor
-    from ..frontend.session import Session
+    from ..session import Session
 
 SETTLE = 0.5  # seconds a fresh watcher gives discovery before it calls the state complete
 QUIET = 0.1  # seconds without events before the state counts as received

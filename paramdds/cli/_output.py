@@ -1,4 +1,4 @@
-"""What the CLI prints: the JSON shapes (:mod:`paramdds.frontend.shapes`) rendered as
+"""What the CLI prints: the JSON shapes (:mod:`paramdds.core.jsonform`) rendered as
 tables, YAML or JSON, and one line on stderr per problem.
 
 Pure functions; no DDS here.
@@ -6,17 +6,22 @@ Pure functions; no DDS here.
 
 from __future__ import annotations
 
+import json
 import sys
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 from ..core.values import ParameterType, ParameterValue
-from ..frontend.exits import one_line
-from ..frontend.shapes import dumps_json
+from ..exits import one_line
 
 if TYPE_CHECKING:
     from ..dds.client import SetReply
 
+
+
+def dumps_json(obj: object, *, pretty: bool = True) -> str:
+    """JSON text; refuses NaN (values must go through :func:`paramdds.core.jsonform.json_value` first)."""
+    return json.dumps(obj, indent=2 if pretty else None, ensure_ascii=False, allow_nan=False)
 
 def dumps_yaml(obj: object) -> str:
     import yaml
@@ -78,7 +83,7 @@ def problem(message: str) -> None:
 
 def report_missing(node: str, missing: Sequence[object]) -> int:
     """One line on stderr per name the node lacks; the exit code (1 if any)."""
-    from ..frontend.exits import Exit
+    from ..exits import Exit
 
     for r in missing:
         problem(getattr(r, "reason", "") or f"{getattr(r, 'name', '?')}: not found on {node!r}")
@@ -87,7 +92,7 @@ def report_missing(node: str, missing: Sequence[object]) -> int:
 
 def report_set(output: str, node: str, reply: SetReply) -> int:
     """Print a set/delete/load reply; exit 1 when any parameter failed."""
-    from ..frontend.exits import Exit
+    from ..exits import Exit
 
     results: dict[str, dict[str, object]] = {
         r.name: {"successful": r.successful, "reason": r.reason} for r in reply.results

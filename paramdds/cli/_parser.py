@@ -17,7 +17,7 @@ import sys
 from collections.abc import Sequence
 from typing import NoReturn
 
-from ..frontend.exits import UsageError
+from ..exits import UsageError
 
 OUTPUTS = ("table", "yaml", "json")
 LOG_LEVELS = ("debug", "info", "warning", "error", "critical")

@@ -18,7 +18,7 @@ def node_snapshot(args: argparse.Namespace, node: str) -> tuple[Snapshot, list[G
     """Every parameter of ``node`` (list, then one get with descriptors): (name, value,
     descriptor) for each one that has a value, and the results of the names that vanished
     between the two calls."""
-    from ..frontend.session import Session
+    from ..session import Session
 
     with Session(args) as session:
         return snapshot_of(session.client(), node)

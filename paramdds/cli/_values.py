@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 from ..core.values import ParameterType, ParameterValue
 from ..errors import NotFoundError, ParamddsError
-from ..frontend.exits import UsageError
+from ..exits import UsageError
 
 _EMPTY_LIST = re.compile(r"^\s*\[\s*\]\s*$")
 

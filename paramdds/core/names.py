@@ -143,3 +143,10 @@ class NodeFilter:
 
     def patterns(self) -> list[str]:
         return sorted(self.exact) + self.globs
+
+
+def shown_node(node: str, origin: str | None) -> str:
+    """A node id as an operator knows it: a ROS 2 node (mirrored by the bridge, origin
+    ``ros2``) with its leading slash (``/arm/driver``), a paramdds node without
+    (``robot1``). Both forms are accepted wherever a node is given."""
+    return "/" + node if origin == "ros2" else node

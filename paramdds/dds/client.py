@@ -178,7 +178,7 @@ class ParameterClient:
         """Block until ``node`` is online, for up to ``timeout`` seconds.
 
         A node that does not come online in time raises UnavailableError when it is
-        offline or absent, and TimeoutError_ (saying how far discovery got) while DDS
+        offline or absent, and CallTimeoutError (saying how far discovery got) while DDS
         discovery is still in progress.
         """
         return self.transport.wait_for_node(node, self.timeout if timeout is None else timeout)

@@ -123,7 +123,7 @@ class ClientTransport(Protocol):
     def nodes(self) -> list[NodeInfo]: ...
 
     def wait_for_node(self, node: str, timeout: float) -> NodeInfo:
-        """``node`` once online; UnavailableError (or TimeoutError_) after ``timeout`` seconds."""
+        """``node`` once online; UnavailableError (or CallTimeoutError) after ``timeout`` seconds."""
         ...
 
     def close(self) -> None:

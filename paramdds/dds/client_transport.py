@@ -42,9 +42,9 @@ from ..core.request import to_parameters
 from ..core.results import GetResult, ListResult, SetResult
 from ..core.revision import Revision
 from ..errors import (
+    CallTimeoutError,
     OutcomeUnknownError,
     ParamddsError,
-    TimeoutError_,
     UnavailableError,
     code_of,
     error_for,
@@ -277,7 +277,7 @@ class DdsClientTransport:
         if failure is Failure.OUTCOME_UNKNOWN:
             return self._outcome_unknown(node, waited)
         if failure is Failure.TIMEOUT:
-            return TimeoutError_(f"no answer from node {node!r} within {waited:g} s{self._mismatched()}")
+            return CallTimeoutError(f"no answer from node {node!r} within {waited:g} s{self._mismatched()}")
         if failure is Failure.CLOSED:
             return closed_error(pending.call)
         return self._not_seen(node, waited)
@@ -320,7 +320,7 @@ class DdsClientTransport:
         also = self._mismatched()
         if state is Presence.ABSENT:
             return UnavailableError(f"node {node!r} is not present ({why}; waited {waited:.2g} s){also}")
-        return TimeoutError_(f"node {node!r} not seen within {waited:.2g} s: {why}{also}")
+        return CallTimeoutError(f"node {node!r} not seen within {waited:.2g} s: {why}{also}")
 
     def _outcome_unknown(self, node: str, waited: float) -> OutcomeUnknownError:
         """The error for a write sent and not answered within its caller's ``waited`` seconds."""

@@ -47,7 +47,7 @@ from ..core.names import validate_name
 from ..core.revision import Revision, incarnation_text
 from ..core.values import NOT_SET, Parameter
 from ..errors import ErrorCode, FileFormatError, ParamddsError
-from ..frontend.load import unchanged as unchanged_value
+from ..file_load import unchanged as unchanged_value
 from .guard import LOOPBACK_NAMES, Guard, error_response
 from .hub import Hub, sse
 from .inputs import bool_field, file_entries, int_arg, node_arg, read_body, revision_field

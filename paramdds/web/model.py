@@ -5,7 +5,7 @@ Shapes (documented in docs/web.md):
 * a node summary: ``{"node", "online", "host", "pid", "revision", "parameters",
   "request_filter", "incarnation", "origin", "status"}`` (the incarnation in 16 hex digits);
 * a parameter row: ``{"name", "value", "type", "descriptor"}`` with the value and
-  descriptor in the CLI's JSON shapes (:mod:`paramdds.frontend.shapes`: byte arrays as
+  descriptor in the CLI's JSON shapes (:mod:`paramdds.core.jsonform`: byte arrays as
   lists of ints, non-finite doubles as ``"nan"``/``"inf"``/``"-inf"``);
 * a set result: ``{"name", "successful", "reason", "code"}``.
 

@@ -23,8 +23,8 @@ import h11
 import uvicorn
 from uvicorn.protocols.http.h11_impl import H11Protocol
 
-from ..frontend.exits import Exit, UsageError
-from ..frontend.session import Session
+from ..exits import Exit, UsageError
+from ..session import Session
 from .app import WebOptions, build_app
 from .guard import LOOPBACK_NAMES, SECURITY_HEADERS
 from .hub import Hub

@@ -28,7 +28,7 @@ from ..core.revision import Revision
 from ..dds.client import DEFAULT_TIMEOUT, ParameterClient
 from ..dds.client_protocol import PendingCall
 from ..dds.discovery import Presence
-from ..errors import OutcomeUnknownError, ParamddsError, TimeoutError_, UnavailableError
+from ..errors import CallTimeoutError, OutcomeUnknownError, ParamddsError, UnavailableError
 from . import codec, keys
 from .states import REPLY_MARGIN, ask_states, sites_of
 
@@ -218,7 +218,7 @@ class ZenohClientTransport:
             return closed_error(pending.call)
         if failure is Failure.NOT_SEEN:
             return UnavailableError(f"node {node!r} is not present on any site reached ({waited:.2g} s)")
-        return TimeoutError_(f"no answer from node {node!r} within {timeout:g} s")
+        return CallTimeoutError(f"no answer from node {node!r} within {timeout:g} s")
 
     def finish(self, pending: PendingCall) -> None:
         self._pending.pop(pending.call.request_id, None)

@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from paramdds.cli import main
+from paramdds.cli._output import dumps_json
 from paramdds.cli._parser import build_parser, resolve_globals
 from paramdds.cli._values import fit_to_type, parse_assignment, parse_assignments
 from paramdds.cli.verbs import VERBS, verb
@@ -20,17 +21,16 @@ from paramdds.core.descriptors import FloatingPointRange, ParameterDescriptor, V
 from paramdds.core.jsonform import json_descriptor, json_value
 from paramdds.core.values import ParameterType, ParameterValue
 from paramdds.errors import (
+    CallTimeoutError,
     ConflictError,
     FileFormatError,
     NotFoundError,
     ReadOnlyError,
-    TimeoutError_,
     TypeMismatchError,
     UnavailableError,
 )
-from paramdds.frontend.exits import Exit, UsageError, exit_code
-from paramdds.frontend.shapes import dumps_json
-from paramdds.journal import HEADER, PersistError, atomic_write, frame, unframe
+from paramdds.exits import Exit, UsageError, exit_code
+from paramdds.persist import HEADER, PersistError, atomic_write, frame, unframe
 
 PV = ParameterValue
 T = ParameterType
@@ -136,8 +136,7 @@ def test_help_imports_the_verbs_and_nothing_they_run() -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=30)
     assert out.returncode == 0, out.stderr
     loaded = set(ast.literal_eval(out.stdout.strip().splitlines()[-1]))
-    light = {"paramdds._lazy", "paramdds.core", "paramdds.errors", "paramdds.frontend"}
-    light.add("paramdds.frontend.exits")
+    light = {"paramdds._lazy", "paramdds.core", "paramdds.errors", "paramdds.exits"}
     assert {m for m in loaded if not m.startswith("paramdds.cli")} <= light
 
 
@@ -229,7 +228,7 @@ def test_json_descriptor_shape() -> None:
 
 
 def test_exit_codes_are_mapped_by_error_code() -> None:
-    assert exit_code(TimeoutError_("x")) == 3
+    assert exit_code(CallTimeoutError("x")) == 3
     assert exit_code(UnavailableError("x")) == 3
     assert exit_code(FileFormatError("x", file="f", line=2)) == 2
     for exc in (NotFoundError("x"), ReadOnlyError("x"), ConflictError("x"), TypeMismatchError("x")):

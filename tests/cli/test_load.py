@@ -21,8 +21,8 @@ from paramdds.core.table import ParameterTable
 from paramdds.core.values import Parameter
 from paramdds.core.values import ParameterType as T
 from paramdds.core.values import ParameterValue as PV
+from paramdds.file_load import load, plan_load
 from paramdds.formats.files import dump_text, parse_ros_text
-from paramdds.frontend.load import load, plan_load
 
 from ..core.test_yaml_dump import _VALUES  # every value type, with the YAML-tricky strings
 from ..dds.helpers import DdsSession

@@ -10,7 +10,7 @@ import pytest
 
 from paramdds.core.values import ParameterValue
 from paramdds.formats.files import dump_text, parse_ros_text
-from paramdds.journal import HEADER, TRAILER_PREFIX, PersistStore, frame
+from paramdds.persist import HEADER, TRAILER_PREFIX, PersistStore, frame
 
 from ._support import next_domain, run_cli, start_server
 

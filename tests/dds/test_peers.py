@@ -23,7 +23,7 @@ from paramdds.core.table import ParameterTable
 from paramdds.dds.participant import peer_mismatches
 from paramdds.dds.qos import QosProfiles
 from paramdds.dds.wire import types as wire
-from paramdds.errors import TimeoutError_
+from paramdds.errors import CallTimeoutError
 
 from ..conftest import make_dds_env
 from .helpers import DdsSession, wait_until
@@ -166,7 +166,7 @@ def test_a_call_that_times_out_names_the_mismatched_peer(domain_id: int) -> None
         replies = Topic(peer, "GetParametersResponse", wire.GetParametersResponse)
         best_effort = DataWriter(peer, replies, Qos(Policy.Reliability.BestEffort))
         client.wait_for_node("odd")  # present: the call waits for a reply instead of UNAVAILABLE
-        with pytest.raises(TimeoutError_) as failure:
+        with pytest.raises(CallTimeoutError) as failure:
             client.get("odd", ["x"], timeout=1.5)
         message = str(failure.value)
         assert "no answer from node 'odd'" in message

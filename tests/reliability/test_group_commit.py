@@ -25,7 +25,7 @@ import pytest
 
 from paramdds.core.table import ParameterTable
 from paramdds.formats.files import dump_text, parse_ros_text
-from paramdds.journal import PersistStore
+from paramdds.persist import PersistStore
 
 from .conftest import DDS
 

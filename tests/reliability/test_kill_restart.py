@@ -19,7 +19,7 @@ import pytest
 
 from paramdds.core.values import ParameterValue
 from paramdds.dds.client import AsyncParameterClient
-from paramdds.errors import ErrorCode, OutcomeUnknownError, TimeoutError_, UnavailableError
+from paramdds.errors import CallTimeoutError, ErrorCode, OutcomeUnknownError, UnavailableError
 
 from .conftest import DDS, PARAM_NAMES, Proc, make_dds_env, paramdds_argv, start_server
 
@@ -95,7 +95,7 @@ def test_sigkill_with_pipelined_requests_no_hang_and_offline_seen(
             assert unsent or isinstance(result, OutcomeUnknownError), repr(result)
             failed += 1
         elif isinstance(result, Exception):
-            assert isinstance(result, (TimeoutError_, UnavailableError)), repr(result)
+            assert isinstance(result, (CallTimeoutError, UnavailableError)), repr(result)
             assert result.code in (ErrorCode.TIMEOUT, ErrorCode.UNAVAILABLE)
             failed += 1
         elif kind == "set":
@@ -135,7 +135,7 @@ def _retry_until_ok(client: Any, failures: list[BaseException], results: list[An
         try:
             results.append(client.set(NODE, {"robot.enabled": False}, timeout=1.0))
             return
-        except (TimeoutError_, UnavailableError, OutcomeUnknownError) as exc:
+        except (CallTimeoutError, UnavailableError, OutcomeUnknownError) as exc:
             failures.append(exc)
             time.sleep(0.1)
 
@@ -178,7 +178,7 @@ def test_restart_with_persist_restores_values_and_waiting_client_succeeds(
     procs.append(second)
     retrier.join(20)
     assert results and results[0].successful, (results, failures[-3:])
-    assert all(isinstance(f, (TimeoutError_, UnavailableError, OutcomeUnknownError)) for f in failures)
+    assert all(isinstance(f, (CallTimeoutError, UnavailableError, OutcomeUnknownError)) for f in failures)
 
     def restored(states: Any) -> bool:
         s = states.get(NODE)

@@ -30,7 +30,7 @@ from paramdds.core.values import Parameter, ParameterValue
 from paramdds.dds.client import ParameterClient
 from paramdds.errors import ErrorCode, ParamddsError
 from paramdds.formats.files import dump_text, parse_ros_text
-from paramdds.journal import HEADER, PersistStore, frame, unframe
+from paramdds.persist import HEADER, PersistStore, frame, unframe
 
 from .conftest import DDS, PARAMDDS, Proc, make_dds_env, other_domain, start_server
 

@@ -23,7 +23,7 @@ from paramdds.core.table import ParameterTable
 from paramdds.dds.discovery import PROBE_AFTER, Presence, is_quiet, is_settled
 from paramdds.dds.qos import QosProfiles
 from paramdds.dds.wire import types as wire
-from paramdds.errors import TimeoutError_, UnavailableError
+from paramdds.errors import CallTimeoutError, UnavailableError
 
 from .conftest import DDS, Proc, make_dds_env, wait
 
@@ -62,7 +62,7 @@ def test_a_state_writer_that_has_not_delivered_keeps_a_ghost_unknown(dds: DDS, d
     assert (state.state_writers, state.pending_writers) == (2, 1), state
     time.sleep(1.0)  # well past the quiet period: only the silent writer holds the answer back
     assert client.presence("ghost") is Presence.UNKNOWN
-    with pytest.raises(TimeoutError_, match="1 of 2 server"):
+    with pytest.raises(CallTimeoutError, match="1 of 2 server"):
         client.get("ghost", ["x"], timeout=0.8)
 
     Entity.__del__(silent)  # it goes without ever having delivered: nothing is owed any more
@@ -77,10 +77,10 @@ def test_a_state_writer_that_has_not_delivered_keeps_a_ghost_unknown(dds: DDS, d
 def test_with_no_parameter_server_anywhere_a_ghost_is_a_timeout_not_absent(dds: DDS, domain_id: int) -> None:
     client = dds.client(domain_id)
     started = time.monotonic()
-    with pytest.raises(TimeoutError_, match="no parameter server discovered"):
+    with pytest.raises(CallTimeoutError, match="no parameter server discovered"):
         client.get("ghost", ["x"], timeout=1.0)
     assert 1.0 <= time.monotonic() - started < 2.0  # the call's own timeout, no fixed grace
-    with pytest.raises(TimeoutError_, match="'late' not seen within"):
+    with pytest.raises(CallTimeoutError, match="'late' not seen within"):
         client.wait_for_node("late", timeout=0.5)
     assert client.presence("late") is Presence.UNKNOWN
 
@@ -100,7 +100,7 @@ def test_waiting_for_a_node_asks_again_when_nobody_answered(dds: DDS, domain_id:
     def waiting() -> None:
         try:
             client.wait_for_node("nobody", timeout=PROBE_AFTER + 2.0)
-        except TimeoutError_ as exc:
+        except CallTimeoutError as exc:
             failed.append(exc)
 
     waiter = threading.Thread(target=waiting)
@@ -207,7 +207,7 @@ def test_a_silent_server_is_waited_for_while_alive_and_not_once_killed(
         state = client.discovery()
         assert (state.pending_writers, state.dead_writers) == (1, 0), state
         assert client.presence("ghost") is Presence.UNKNOWN
-        with pytest.raises(TimeoutError_, match="1 of 2 server"):
+        with pytest.raises(CallTimeoutError, match="1 of 2 server"):
             client.get("ghost", ["x"], timeout=0.8)
     else:
         assert client._discovery is None  # no presence reader yet
@@ -234,7 +234,7 @@ def test_a_client_that_knows_only_other_clients_asks_again(
     peer.wait_for("ready", timeout=20)
     client = dds.client(domain_id)
     assert wait(lambda: client.discovery().participants >= 1, timeout=5.0)  # it knows the peer
-    with pytest.raises(TimeoutError_, match=r"no parameter server discovered yet \(1 remote"):
+    with pytest.raises(CallTimeoutError, match=r"no parameter server discovered yet \(1 remote"):
         client.wait_for_node("nobody", timeout=PROBE_AFTER + 1.0)
     watch = client._discovery
     assert watch is not None and watch.probes == 1

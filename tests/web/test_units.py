@@ -15,7 +15,7 @@ from paramdds.core.descriptors import FloatingPointRange, ParameterDescriptor
 from paramdds.core.values import ParameterType, ParameterValue
 from paramdds.dds.monitor import EventKind, MonitorEvent
 from paramdds.errors import ErrorCode, OutOfRangeError, TypeMismatchError
-from paramdds.frontend.exits import UsageError
+from paramdds.exits import UsageError
 from paramdds.web.hub import Hub
 from paramdds.web.model import typed_value
 from paramdds.web.serve import is_loopback, options_from, parse_bind

@@ -28,9 +28,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
 
     from ...core.values import Parameter
+    from ...exits import Exit, UsageError
     from ...formats.files import read_values
-    from ...frontend.exits import Exit, UsageError
-    from ...frontend.session import Session
+    from ...session import Session
     from .._live import wait_until_interrupted
     from .._values import node_arg, parse_assignments
 
@@ -63,7 +63,7 @@ class ReplyPrinter:
         self._lock = threading.Lock()
 
     def __call__(self, reply: SetReply, error: str) -> None:
-        from ...frontend.shapes import dumps_json
+        from .._output import dumps_json
 
         refused = [r for r in reply.results if not r.successful]
         if self._json:

@@ -34,9 +34,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ...errors import ParamddsError
+    from ...exits import Exit, UsageError
     from ...formats.schema import load_schema
     from ...formats.schema.check import Finding, autoware_pairs, check_with_schema, check_with_spec
-    from ...frontend.exits import Exit, UsageError
 
     report: list[dict[str, Any]] = []
     worst = Exit.OK

@@ -93,9 +93,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ...exits import Exit
     from ...formats.files import read_values
-    from ...frontend.exits import Exit
-    from ...frontend.session import Session
+    from ...session import Session
     from .._live import wait_until_interrupted
     from .._values import node_arg
 
@@ -141,7 +141,7 @@ def _demo(
     if not params:
         printer.section("=== SET PARAMETERS ===", "[SET] nothing to set (no --params-file)")
         return True
-    from ...frontend.load import UNCHANGED, load
+    from ...file_load import UNCHANGED, load
 
     values = {p.name: p.value for p in params}
     with printer.lock:  # the events of this set print after its section

@@ -13,7 +13,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ...frontend.session import Session
+    from ...session import Session
     from .._output import report_set
     from .._values import names_arg, node_arg
 

@@ -14,7 +14,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ...core.jsonform import json_descriptor
-    from ...frontend.session import Session
+    from ...session import Session
     from .._output import describe_table, emit, report_missing
     from .._values import names_arg, node_arg
 

@@ -24,7 +24,7 @@ def run(args: argparse.Namespace) -> int:
     from ...core.names import is_node_glob
     from ...errors import UnavailableError
     from ...formats.files import dump_text
-    from ...frontend.session import Session
+    from ...session import Session
     from .._live import current_states
     from .._output import report_missing
     from .._snapshot import Snapshot, snapshot_of

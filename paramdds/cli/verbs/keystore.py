@@ -31,7 +31,7 @@ def run(args: argparse.Namespace) -> int:
     import sys
     from pathlib import Path
 
-    from ...frontend.exits import Exit, UsageError
+    from ...exits import Exit, UsageError
 
     if args.action == "install":
         from ...secure.install import run as install

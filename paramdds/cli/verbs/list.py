@@ -14,8 +14,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ...frontend.exits import Exit, UsageError
-    from ...frontend.session import Session
+    from ...exits import Exit, UsageError
+    from ...session import Session
     from .._output import emit
     from .._values import node_arg
 

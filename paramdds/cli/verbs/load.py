@@ -1,6 +1,6 @@
 """``paramdds load``: set a node's parameters from a parameter file (a parameter list or a ROS 2 file).
 
-Only the values that differ from the node's are sent (:mod:`paramdds.frontend.load`): a
+Only the values that differ from the node's are sent (:mod:`paramdds.file_load`): a
 node's own dump loads back as a no-op, each value reported ``unchanged``.
 """
 
@@ -18,10 +18,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ...exits import UsageError
+    from ...file_load import load
     from ...formats.files import read_values
-    from ...frontend.exits import UsageError
-    from ...frontend.load import load
-    from ...frontend.session import Session
+    from ...session import Session
     from .._output import report_set
     from .._values import node_arg
 

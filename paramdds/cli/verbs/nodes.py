@@ -17,10 +17,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ...core.names import shown_node
     from ...core.revision import Revision, incarnation_text
-    from ...frontend.exits import Exit
-    from ...frontend.session import Session
-    from ...frontend.shapes import shown_node
+    from ...exits import Exit
+    from ...session import Session
     from .._live import current_states
     from .._output import emit
     from .._values import node_glob_arg

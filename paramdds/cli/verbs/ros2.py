@@ -56,10 +56,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     import sys
 
-    from ...frontend.exits import Exit, UsageError
-    from ...frontend.session import Session
+    from ...exits import Exit, UsageError
     from ...ros2 import missing
     from ...ros2.bridge import SECURE_REFUSED
+    from ...session import Session
     from .._live import wait_until_interrupted
 
     if args.identity:  # before the extra or the secure library are looked for

@@ -24,9 +24,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ...exits import UsageError
     from ...formats.ros import DESCRIPTORS_KEY
     from ...formats.schema.export import derive_schema
-    from ...frontend.exits import UsageError
 
     if bool(args.spec) == bool(args.node):
         raise UsageError("give a NODE or --spec FILE (one of them)")

@@ -75,9 +75,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     import sys
 
-    from ...frontend.exits import Exit, UsageError
-    from ...frontend.session import Session
-    from ...runtime import ServerOptions, ServerProcess, prepare
+    from ...exits import Exit, UsageError
+    from ...server_process import ServerOptions, ServerProcess, prepare
+    from ...session import Session
     from .._live import wait_until_interrupted
     from .._values import node_arg
 
@@ -122,7 +122,7 @@ def import_validators(module: str) -> None:
     """Import ``module``, which registers custom spec validators (``--validators``); exit 2 if it fails."""
     import importlib
 
-    from ...frontend.exits import UsageError
+    from ...exits import UsageError
 
     try:
         importlib.import_module(module)

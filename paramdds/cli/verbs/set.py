@@ -39,8 +39,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ...core.revision import Revision
     from ...errors import ParamddsError
-    from ...frontend.exits import UsageError
-    from ...frontend.session import Session
+    from ...exits import UsageError
+    from ...session import Session
     from .._output import report_set
     from .._values import node_arg, parse_assignments
 

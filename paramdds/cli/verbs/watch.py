@@ -27,8 +27,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     import time
 
-    from ...frontend.exits import Exit
-    from ...frontend.session import Session
+    from ...exits import Exit
+    from ...session import Session
     from .._events import EventPrinter
     from .._live import settle, wait_until_interrupted
     from .._values import node_glob_arg

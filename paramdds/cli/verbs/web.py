@@ -41,7 +41,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     import importlib.util
 
-    from ...frontend.exits import UsageError
+    from ...exits import UsageError
 
     missing = [name for name in WEB_PACKAGES if importlib.util.find_spec(name) is None]
     if missing:

@@ -116,8 +116,8 @@ def run(args: argparse.Namespace) -> int:
     import sys
 
     from ...errors import ParamddsError
-    from ...frontend.exits import Exit, UsageError
-    from ...frontend.session import Session
+    from ...exits import Exit, UsageError
+    from ...session import Session
     from ...zenoh.config import ZenohOptions, open_session
     from .._live import wait_until_interrupted
 

@@ -35,7 +35,7 @@ from .core.table import ParameterTable
 from .core.values import ParameterValue
 from .errors import FileFormatError, ParamddsError
 from .formats.files import Entry, dump_text, parse_ros_text, read_entries
-from .journal import PersistError, PersistStore
+from .persist import PersistError, PersistStore
 
 log = logging.getLogger(__name__)
 

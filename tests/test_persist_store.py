@@ -23,7 +23,7 @@ from paramdds.core.results import ChangeKind, ChangeSet, ParameterChange
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import NOT_SET, Parameter, ParameterValue
 from paramdds.formats.files import dump_text, parse_ros_text
-from paramdds.journal import (
+from paramdds.persist import (
     PREALLOCATE,
     PersistError,
     PersistStore,

@@ -13,10 +13,10 @@ import logging
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from ..dds.assign import Assigner, ReplyCallback
-    from ..dds.client import ParameterClient
-    from ..dds.monitor import EventCallback, ParameterMonitor
-    from ..dds.qos import QosProfiles
+    from .dds.assign import Assigner, ReplyCallback
+    from .dds.client import ParameterClient
+    from .dds.monitor import EventCallback, ParameterMonitor
+    from .dds.qos import QosProfiles
 
 log = logging.getLogger(__name__)
 
@@ -38,11 +38,11 @@ class Session:
     @property
     def participant(self) -> Any:
         if self._participant is None:
-            from ..dds.participant import make_participant
+            from .dds.participant import make_participant
 
             identity = None
             if getattr(self.args, "identity", None):  # secure mode (paramdds.secure)
-                from ..secure.identity import load_identity
+                from .secure.identity import load_identity
 
                 identity = load_identity(self.args.identity)
             self._participant = make_participant(
@@ -57,7 +57,7 @@ class Session:
     @property
     def qos(self) -> QosProfiles:
         if self._qos is None:
-            from ..dds.qos import QosProfiles
+            from .dds.qos import QosProfiles
 
             path = self.args.qos_file
             self._qos = QosProfiles.load(path) if path else QosProfiles.load()
@@ -66,20 +66,20 @@ class Session:
     @property
     def zenoh(self) -> Any:
         if self._zenoh is None:
-            from ..zenoh.config import remote_session
+            from .zenoh.config import remote_session
 
             self._zenoh = remote_session(self.args)
         return self._zenoh
 
     def client(self) -> ParameterClient:
         if getattr(self.args, "zenoh", None):  # every site's nodes, as SITE/NODE (paramdds.zenoh)
-            from ..zenoh.client import RemoteParameterClient
+            from .zenoh.client import RemoteParameterClient
 
             remote = RemoteParameterClient(self.zenoh, timeout=self.args.timeout)
             self._closers.append(remote)
             return remote
         participant = self.participant  # first: Cyclone discovers the system while Python imports
-        from ..dds.client import ParameterClient
+        from .dds.client import ParameterClient
 
         # a node never seen counts as absent (exit 3) only once discovery has settled
         # (paramdds.dds.discovery); until then the call waits, up to --timeout. The presence
@@ -93,21 +93,21 @@ class Session:
         self, nodes: list[str] | None = None, on_event: EventCallback | None = None
     ) -> ParameterMonitor:
         if getattr(self.args, "zenoh", None):
-            from ..zenoh.monitor import RemoteParameterMonitor, sites_from_env
+            from .zenoh.monitor import RemoteParameterMonitor, sites_from_env
 
             remote = RemoteParameterMonitor(
                 self.zenoh, sites=sites_from_env(), nodes=nodes, on_event=on_event, timeout=self.args.timeout
             )
             self._closers.append(remote)
             return remote
-        from ..dds.monitor import ParameterMonitor
+        from .dds.monitor import ParameterMonitor
 
         monitor = ParameterMonitor(self.participant, self.qos, nodes=nodes or None, on_event=on_event)
         self._closers.append(monitor)
         return monitor
 
     def assigner(self, on_reply: ReplyCallback | None = None) -> Assigner:
-        from ..dds.assign import Assigner
+        from .dds.assign import Assigner
 
         assigner = Assigner(self.participant, self.qos, on_reply=on_reply)
         self._closers.append(assigner)
@@ -125,7 +125,7 @@ class Session:
             self._zenoh.close()
             self._zenoh = None
         if self._participant is not None:
-            from ..dds.participant import close_participant
+            from .dds.participant import close_participant
 
             close_participant(self._participant)
             self._participant = None

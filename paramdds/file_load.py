@@ -17,13 +17,13 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from ..core.results import SetResult
+from .core.results import SetResult
 
 if TYPE_CHECKING:
-    from ..core.descriptors import ParameterDescriptor
-    from ..core.results import GetResult
-    from ..core.values import Parameter, ParameterValue
-    from ..dds.client import ParameterClient, SetReply
+    from .core.descriptors import ParameterDescriptor
+    from .core.results import GetResult
+    from .core.values import Parameter, ParameterValue
+    from .dds.client import ParameterClient, SetReply
 
 UNCHANGED = "unchanged"
 
@@ -42,8 +42,8 @@ def unchanged(
 ) -> bool:
     """Whether setting ``value`` on a parameter that holds ``held`` changes nothing (the
     one rule of ``load`` in the CLI, the web console and the demo client)."""
-    from ..core.fit import fit_value
-    from ..errors import ParamddsError
+    from .core.fit import fit_value
+    from .errors import ParamddsError
 
     try:
         fitted = fit_value(name, value, descriptor)
@@ -78,7 +78,7 @@ def load(
     reason ``"unchanged"``. When nothing differs no set is sent and the revision is the
     one the get read.
     """
-    from ..dds.client import SetReply
+    from .dds.client import SetReply
 
     current = client.get(node, [p.name for p in params], with_descriptors=True)
     plan = plan_load(params, current.results)

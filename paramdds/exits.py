@@ -26,7 +26,7 @@ from __future__ import annotations
 import sys
 from enum import IntEnum
 
-from ..errors import ErrorCode, ParamddsError
+from .errors import ErrorCode, ParamddsError
 
 
 class Exit(IntEnum):
