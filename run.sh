@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# paramdds launcher with the seed's interface: a parameter server (-s) or the demo client.
+# paramdds launcher with the original C++ example's interface: a parameter server (-s) or the demo client.
 # Creates (or reuses) the project's virtual environment .venv on first use.
 set -euo pipefail
 
@@ -88,12 +88,12 @@ case "$MODE" in
         exec "$PARAMDDS" server "${COMMON[@]}" --node-name "$NODE_NAME" --params-file "$PARAMS_FILE" "${EXTRA[@]}"
         ;;
     client)
-        exec "$PARAMDDS" client "${COMMON[@]}" --target "$TARGET" --params-file "$PARAMS_FILE" "${EXTRA[@]}"
+        exec "$PARAMDDS" demo "${COMMON[@]}" --target "$TARGET" --params-file "$PARAMS_FILE" "${EXTRA[@]}"
         ;;
     demo)
         "$PARAMDDS" server "${COMMON[@]}" --localhost --node-name "$NODE_NAME" --params-file "$PARAMS_FILE" &
         SERVER_PID=$!
         trap 'kill -TERM "$SERVER_PID" 2>/dev/null || true; wait "$SERVER_PID" 2>/dev/null || true' EXIT
-        "$PARAMDDS" client "${COMMON[@]}" --localhost --target "$NODE_NAME" --params-file "$PARAMS_FILE" --once "${EXTRA[@]}"
+        "$PARAMDDS" demo "${COMMON[@]}" --localhost --target "$NODE_NAME" --params-file "$PARAMS_FILE" --once "${EXTRA[@]}"
         ;;
 esac

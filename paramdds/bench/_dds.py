@@ -8,7 +8,7 @@
   written and taken raw (``write_serialized`` / ``take_serialized``); only the ids
   are patched in and read out at fixed offsets. No codec runs at all, so nothing
   paramdds does (encoding, decoding, the table, the filters) is in the floor.
-* :class:`PollingClient`: the seed's client design, a get request answered by the
+* :class:`PollingClient`: a polling client (the design paramdds replaced), a get request answered by the
   paramdds server, whose reply is found by taking from the reader and sleeping
   10 ms between attempts.
 * :class:`IndexedWaitSet`: a WaitSet that reports *which* attached entities
@@ -158,7 +158,7 @@ class EchoClient:
 
 
 class PollingClient:
-    """The seed's client: write a get, then take-and-sleep(10 ms) until the reply is there."""
+    """A polling client: write a get, then take-and-sleep(10 ms) until the reply is there."""
 
     def __init__(self, participant: Any, qos: QosProfiles, period: float = 0.010) -> None:
         name = "GetParametersRequest"

@@ -10,9 +10,9 @@ so that drift and noise from other load hit every system alike:
 * ``raw``     a raw echo over cyclonedds Python, request and reply of the same
               serialized size as the get, same QoS profiles, same wake-up (a WaitSet
               dispatcher thread completing a Future), separate process: the floor;
-* ``polling`` the seed's client: the same get to the same server, the reply found
-              by taking and sleeping 10 ms between attempts (fewer requests: each
-              costs ~10 ms).
+* ``polling`` a polling client (the design paramdds replaced): the same get to the same
+              server, the reply found by taking and sleeping 10 ms between attempts
+              (fewer requests: each costs ~10 ms).
 
 ``--viewers V`` starts V monitor processes that hold the node's state while it is
 measured (as a web console or ``paramdds watch`` would): every set's state samples then

@@ -123,14 +123,16 @@ def build_parser(argv: Sequence[str] | None = None) -> Parser:
     Building all nineteen costs every run 5-10 ms, and a run parses one verb. A top-level
     ``--help``, or arguments that name no verb, get every verb built.
     """
-    from .verbs import VERBS, verb
+    from .verbs import ALIASES, CANONICAL, VERBS, verb
 
-    chosen = None if argv is None else _named_verb(argv, VERBS)
+    chosen = None if argv is None else _named_verb(argv, [*VERBS, *CANONICAL])
+    chosen = CANONICAL.get(chosen, chosen) if chosen else None
     top = Parser(
         prog="paramdds",
         description="ROS 2 parameters over seven keyed DDS topics (Cyclone DDS).",
         epilog="Exit codes: 0 ok, 1 refused by the node, 2 usage or bad input, "
-        "3 node absent or timeout, 130 interrupted.",
+        "3 node absent or timeout, 4 a failure in this process (DDS, or an internal error), "
+        "5 outcome unknown (a write sent and not answered: it may have been applied), 130 interrupted.",
     )
     top.add_argument("--version", action=_Version, nargs=0, help="show the version and exit")
     _add_globals(top, top=True)
@@ -138,10 +140,12 @@ def build_parser(argv: Sequence[str] | None = None) -> Parser:
     sub.required = True
     for name in VERBS:
         if chosen is not None and name != chosen:
-            sub.add_parser(name)  # not this run's verb: its name is enough
+            sub.add_parser(name, aliases=ALIASES.get(name, ()))  # not this run's verb: its name is enough
             continue
         module = verb(name)
-        p: Parser = sub.add_parser(name, help=module.HELP, description=module.HELP)
+        p: Parser = sub.add_parser(
+            name, aliases=ALIASES.get(name, ()), help=module.HELP, description=module.HELP
+        )
         _add_globals(p, top=False)
         module.add_arguments(p)
     return top

@@ -16,7 +16,7 @@ from paramdds.cli import main
 from paramdds.cli._output import dumps_json
 from paramdds.cli._parser import build_parser, resolve_globals
 from paramdds.cli._values import fit_to_type, parse_assignment, parse_assignments
-from paramdds.cli.verbs import VERBS, verb
+from paramdds.cli.verbs import CANONICAL, VERBS, verb
 from paramdds.core.descriptors import FloatingPointRange, ParameterDescriptor, Validator
 from paramdds.core.jsonform import json_descriptor, json_value
 from paramdds.core.values import ParameterType, ParameterValue
@@ -119,7 +119,8 @@ def test_help_does_not_import_cyclonedds() -> None:
 def test_every_verb_is_one_module_with_its_help_arguments_and_run() -> None:
     parser = build_parser()
     verbs = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
-    assert list(verbs.choices) == list(VERBS)
+    assert [c for c in verbs.choices if c not in CANONICAL] == list(VERBS)
+    assert {c for c in verbs.choices if c in CANONICAL} == set(CANONICAL)  # aliases
     for name in VERBS:
         module = verb(name)
         assert isinstance(module.HELP, str) and module.HELP, name

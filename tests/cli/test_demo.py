@@ -1,4 +1,4 @@
-"""The seed scenario as a user runs it: ``run.sh --demo`` and ``paramdds client --once``."""
+"""The demo as a user runs it: ``run.sh --demo``, ``paramdds demo --once`` and its alias ``client``."""
 
 from __future__ import annotations
 
@@ -48,12 +48,12 @@ def check_demo_output(out: str, node: str) -> None:
 
 
 @pytest.mark.slow
-def test_client_once_prints_the_seed_demo(tmp_path: Path) -> None:
+def test_demo_once_prints_the_demo_and_client_is_its_alias(tmp_path: Path) -> None:
     domain = next_domain()
     server = start_server(domain, "-n", "robot1", "-p", str(EXAMPLE))
     try:
         assert server.lines[0] == f"[SERVER] Loaded 7 parameters from {EXAMPLE}"
-        out = run_cli(domain, "client", "--target", "robot1", "--params-file", str(EXAMPLE), "--once")
+        out = run_cli(domain, "demo", "--target", "robot1", "--params-file", str(EXAMPLE), "--once")
         assert out.returncode == 0, out.stderr
         check_demo_output(out.stdout, "robot1")
         failing = tmp_path / "bad.yaml"
@@ -71,8 +71,8 @@ def test_client_once_prints_the_seed_demo(tmp_path: Path) -> None:
         assert server.stop() == 0  # SIGTERM is a graceful stop
 
 
-def test_client_exits_3_when_the_target_never_appears() -> None:
-    out = run_cli(next_domain(), "client", "--target", "nobody", "--wait", "1", "--once")
+def test_demo_exits_3_when_the_target_never_appears() -> None:
+    out = run_cli(next_domain(), "demo", "--target", "nobody", "--wait", "1", "--once")
     assert out.returncode == 3
     assert "nobody" in out.stderr and out.stderr.count("\n") == 1
 

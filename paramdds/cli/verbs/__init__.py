@@ -23,7 +23,7 @@ from typing import Protocol, cast
 # the order of `paramdds --help`
 VERBS = (
     "server",
-    "client",
+    "demo",
     "nodes",
     "list",
     "get",
@@ -54,6 +54,11 @@ class Verb(Protocol):
     def run(self, args: argparse.Namespace) -> int: ...
 
 
+#: other names a verb answers to: ``client`` is what ``run.sh`` and the first releases called the demo
+ALIASES = {"demo": ("client",)}
+CANONICAL = {alias: name for name, aliases in ALIASES.items() for alias in aliases}
+
+
 def verb(name: str) -> Verb:
-    """The module of verb ``name`` (one of :data:`VERBS`)."""
-    return cast(Verb, importlib.import_module(f"{__name__}.{name}"))
+    """The module of verb ``name`` (one of :data:`VERBS`, or an alias of one)."""
+    return cast(Verb, importlib.import_module(f"{__name__}.{CANONICAL.get(name, name)}"))

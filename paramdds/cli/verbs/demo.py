@@ -1,4 +1,4 @@
-"""``paramdds client``: the seed's demo client, printing what the seed example's README shows.
+"""``paramdds demo`` (also ``paramdds client``): list, get and set on a target, printing its events.
 
 1. wait (bounded) until the target is present; exit 3 naming it if it never is;
 2. print the events of the target as they arrive, grouped per revision::
@@ -31,7 +31,7 @@ if TYPE_CHECKING:
     from ...dds.client import ParameterClient
     from ...dds.monitor import MonitorEvent, ParameterMonitor
 
-HELP = "the seed demo: list, get and set on a target, printing events"
+HELP = "the demo client: list, get and set on a target, printing events (alias: client)"
 
 SETTLE = 2.0  # seconds --once waits at most for the events of its own set
 
