@@ -154,7 +154,7 @@ def test_damaged_persistence_file_refuses_start_and_is_left_untouched(
 CRASH_BEFORE_RENAME = textwrap.dedent(
     """
     import os, sys
-    from paramdds import journal as persist
+    from paramdds import persist
     def crash(src, dst):  # the power goes out after the temp file is written and fsynced
         os._exit(9)
     os.replace = crash
