@@ -5,7 +5,8 @@ monitor that starts late receives each node's whole current table, not the last
 change (trap 1 of docs/wire.md). From the instance states it derives:
 
 * a parameter sample whose name is new to the node → ``added``, else ``modified``;
-* a parameter instance disposed → ``deleted``;
+* a parameter instance disposed → ``deleted`` (also when its value arrives with the
+  instance already disposed: a late joiner whose retained sample was disposed meanwhile);
 * the presence instance (name ``""``) alive → ``online``; no writers (graceful
   stop, or a killed server after its 1 s liveliness lease) → ``offline``. An
   offline node keeps its last values.
@@ -71,11 +72,14 @@ def apply_sample(book: StateBook, change: BookUpdate, s: StateSample | StateKey,
         if s.name == "":
             _flush_deleted(change, state, state.revision)
             change.set_online(state, False)
-        elif info.instance_state == InstanceState.NotAliveDisposed and s.name in state.parameters:
-            value, descriptor = state.parameters.pop(s.name)
-            if book.has_callbacks:  # emitted with the revision of the presence that follows
-                state.deleting.append((s.name, value, descriptor))
+        elif info.instance_state == InstanceState.NotAliveDisposed:
+            _delete(book, state, s.name)
         return  # "no writers" on a parameter: the node is offline, keep its value
+    if s.name != "" and info.instance_state == InstanceState.NotAliveDisposed:
+        # the value and its dispose both arrived before this take (a late joiner's retained
+        # sample, disposed meanwhile): the reader shows the data with the instance disposed
+        _delete(book, state, s.name)
+        return
     _check_incarnation(book, change, state, s, info)
     if s.kind == wire.EVENT_PRESENCE and s.name == "":
         _flush_deleted(change, state, s.revision)
@@ -106,6 +110,16 @@ def apply_sample(book: StateBook, change: BookUpdate, s: StateSample | StateKey,
         change.emit(event)
     else:
         state.early.append(event)
+
+
+def _delete(book: StateBook, state: NodeState, name: str) -> None:
+    """A parameter instance disposed: gone from the state; ``deleted`` is emitted with the
+    revision of the presence that follows (nothing for a name never held)."""
+    if name not in state.parameters:
+        return
+    value, descriptor = state.parameters.pop(name)
+    if book.has_callbacks:
+        state.deleting.append((name, value, descriptor))
 
 
 def _check_incarnation(

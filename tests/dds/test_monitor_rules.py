@@ -102,6 +102,18 @@ def test_a_deletion_carries_the_revision_of_the_presence_that_follows() -> None:
     assert m.feed((presence(5, 1), ALIVE)) == [("deleted", "b", 5)]
 
 
+def test_a_value_delivered_with_its_instance_disposed_is_a_deletion_not_an_addition() -> None:
+    # a late joiner whose retained sample was disposed before its take: Cyclone hands over
+    # the data with the instance already NOT_ALIVE_DISPOSED, and no separate dispose
+    m = Monitor()
+    told = m.feed((presence(4, 1), ALIVE), (param("a", 1, 1), ALIVE), (param("gone", 1, 2), DISPOSED))
+    assert told == [("online", "", 4), ("added", "a", 4)]  # shown at the presence's revision
+    assert set(m.book.snapshot()["n"].parameters) == {"a"}
+    m.feed((param("b", 1, 5), ALIVE), (presence(5, 2), ALIVE))
+    assert m.feed((param("b", 1, 5), DISPOSED), (presence(6, 1), ALIVE)) == [("deleted", "b", 6)]
+    assert set(m.book.snapshot()["n"].parameters) == {"a"}
+
+
 def test_no_writers_on_a_parameter_keeps_its_value_and_on_presence_is_offline() -> None:
     m = Monitor()
     m.feed((presence(1, 1), ALIVE), (param("a", 1, 1), ALIVE))
