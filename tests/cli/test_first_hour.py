@@ -5,13 +5,14 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
+import subprocess
 from pathlib import Path
 
 import pytest
 
 from paramdds.exits import UsageError
 
-ROOT = Path(__file__).resolve().parents[2]
+from ._support import PARAMDDS, ROOT
 
 
 def test_the_web_extras_hint_is_the_command_docs_web_md_gives(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -27,3 +28,51 @@ def test_the_web_extras_hint_is_the_command_docs_web_md_gives(monkeypatch: pytes
     command = message.rpartition("): ")[2].partition(" in ")[0]
     assert command.startswith("pip install ")
     assert f"{command}       # Starlette + uvicorn" in (ROOT / "docs" / "web.md").read_text()
+
+
+def check(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([PARAMDDS, "check", *args], capture_output=True, text=True, cwd=ROOT, timeout=60)
+
+
+def test_check_reads_a_parameter_list_as_server_p_does(tmp_path: Path) -> None:
+    out = check("examples/params.yaml", "--spec", "examples/robot_spec.yaml")
+    assert (out.returncode, out.stdout, out.stderr) == (0, "examples/params.yaml: ok\n", "")
+    schema = subprocess.run(
+        [PARAMDDS, "schema", "--spec", "examples/robot_spec.yaml"], capture_output=True, text=True, cwd=ROOT
+    )
+    (tmp_path / "robot.schema.json").write_text(schema.stdout)
+    out = check("examples/params.yaml", "--schema", str(tmp_path / "robot.schema.json"))
+    assert (out.returncode, out.stdout) == (0, "examples/params.yaml: ok\n")
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(
+        "parameters:\n"
+        "  - {name: robot.max_velocity, type: double, value: 7.5}\n"
+        "  - {name: robot.colour, type: string, value: red}\n"
+        "  - {name: sensor.frequencies, type: double_array, value: []}\n"
+    )
+    out = check(str(bad), "--spec", "examples/robot_spec.yaml")
+    assert out.returncode == 1
+    assert out.stdout.splitlines() == [  # the list's typed empty list stays a double_array
+        f"{bad}: /**: robot.colour: not declared by the spec",
+        f"{bad}: /**: robot.max_velocity: Parameter 'robot.max_velocity' with value 7.5 must be within "
+        "[0.0, 5.0]",
+        f"{bad}: /**: sensor.frequencies: Parameter 'sensor.frequencies' with value [] must have a size "
+        "greater than 0 (it has 0)",
+        f"{bad}: robot.name: required by the spec (no default) and given by no section",
+    ]
+    out = check(str(bad), "--schema", str(tmp_path / "robot.schema.json"))
+    assert out.returncode == 1
+    greater = f"{bad}: /**: robot.max_velocity: 7.5 is greater than the maximum of 5.0"
+    assert greater in out.stdout.splitlines()
+
+
+def test_a_check_finding_never_prints_placeholder_dashes(tmp_path: Path) -> None:
+    neither = tmp_path / "neither.yaml"
+    neither.write_text("robot1:\n  speed: 1.0\n")
+    out = check(str(neither), "--spec", "examples/robot_spec.yaml")
+    assert out.returncode == 1
+    assert out.stdout == (
+        f"{neither}: no 'ros__parameters' section (neither a ROS 2 parameter file nor a 'parameters:' list)\n"
+    )
+    cruise = "examples/autoware/schema/cruise.schema.json"
+    assert "-: -:" not in check(str(neither), "--schema", cruise).stdout
