@@ -76,3 +76,32 @@ def test_a_check_finding_never_prints_placeholder_dashes(tmp_path: Path) -> None
     )
     cruise = "examples/autoware/schema/cruise.schema.json"
     assert "-: -:" not in check(str(neither), "--schema", cruise).stdout
+
+
+@pytest.mark.parametrize(
+    ("key", "shape", "shown"),
+    [
+        ("floating_point_range", (0.0, 5.0, 0.0), "[0.0, 5.0]"),
+        ("floating_point_range", (1.0, 1.7976931348623157e308, 0.0), "≥ 1.0"),
+        ("floating_point_range", ("-inf", 2.5, 0.0), "≤ 2.5"),
+        ("floating_point_range", (0.0, "inf", 0.5), "≥ 0.0 step 0.5"),
+        ("integer_range", (10, 1000, 10), "[10, 1000] step 10"),
+        ("integer_range", (1, 2**63 - 1, 1), "≥ 1 step 1"),
+        ("integer_range", (-(2**63), 0, 0), "≤ 0"),
+    ],
+)
+def test_describe_shows_a_range_as_a_person_reads_it(
+    key: str, shape: tuple[object, object, object], shown: str
+) -> None:
+    from paramdds.cli._output import describe_table
+
+    r = dict(zip(("from_value", "to_value", "step"), shape, strict=True))
+    table = describe_table({"x": {"type": "double", "read_only": False, key: r}})
+    assert table.splitlines()[-1] == f"  {key}: {shown}"
+
+
+def test_a_range_that_bounds_nothing_is_not_shown() -> None:
+    from paramdds.cli._output import describe_table
+
+    r = {"from_value": "-inf", "to_value": 1.7976931348623157e308, "step": 0.0}
+    assert describe_table({"x": {"type": "double", "floating_point_range": r}}) == 'x:\n  type: "double"'
