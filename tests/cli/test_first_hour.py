@@ -105,3 +105,25 @@ def test_a_range_that_bounds_nothing_is_not_shown() -> None:
 
     r = {"from_value": "-inf", "to_value": 1.7976931348623157e308, "step": 0.0}
     assert describe_table({"x": {"type": "double", "floating_point_range": r}}) == 'x:\n  type: "double"'
+
+
+def test_a_node_the_files_declare_starts_at_revision_1_whatever_their_number(tmp_path: Path) -> None:
+    from paramdds.errors import FileFormatError
+    from paramdds.server_process import ServerOptions, prepare
+
+    robot_params = str(ROOT / "examples" / "robot_params.yaml")
+    for sim_time in (False, True):
+        options = ServerOptions(["robot1", "fleet/a"], [robot_params], use_sim_time=sim_time)
+        tables, _, _ = prepare(options)
+        shown = {node: (t.revision, len(t)) for node, t in tables.items()}
+        assert shown == {"robot1": (1, 9), "fleet/a": (1, 2)}
+    spec = str(ROOT / "examples" / "robot_spec.yaml")
+    tables, _, _ = prepare(ServerOptions(["robot1"], [str(ROOT / "examples" / "params.yaml")], spec=spec))
+    assert tables["robot1"].revision == 1
+    # declared in one commit, a value the node cannot take still names the file that gave it
+    good, bad = tmp_path / "good.yaml", tmp_path / "bad.yaml"
+    good.write_text("robot1:\n  ros__parameters:\n    a: 1\n")
+    bad.write_text("robot1:\n  ros__parameters:\n    big: " + "x" * (4 * 1024 * 1024 + 1) + "\n")
+    with pytest.raises(FileFormatError) as caught:
+        prepare(ServerOptions(["robot1"], [str(good), str(bad)]))
+    assert caught.value.file == str(bad) and "'big'" in str(caught.value)

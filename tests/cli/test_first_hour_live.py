@@ -39,3 +39,15 @@ def test_a_word_read_as_a_bool_refused_by_a_string_parameter_says_how_to_quote_i
     # a refusal that quoting would not cure has no hint
     out = run_cli(domain, "set", "robot1", "robot.enabled=fast", "robot.max_velocity=true")
     assert out.returncode == 1 and "quote it" not in out.stdout + out.stderr
+
+
+def test_watchers_see_a_node_loaded_from_a_ros_2_file_at_revision_1(domain: int) -> None:
+    server = start_server(domain, "-n", "robot1", "-p", str(ROOT / "examples" / "robot_params.yaml"))
+    watch = Proc(domain, ["watch", "robot1"])
+    try:
+        watch.wait_for("synced")
+        added = [line for line in watch.lines if line.startswith("added ")]
+        assert len(added) == 9 and all(line.endswith("  (rev 1)") for line in added), added
+    finally:
+        watch.stop()
+        server.stop()
