@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import json
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
@@ -51,3 +53,45 @@ def test_watchers_see_a_node_loaded_from_a_ros_2_file_at_revision_1(domain: int)
     finally:
         watch.stop()
         server.stop()
+
+
+def test_list_and_dump_without_a_node_cover_every_node(domain: int, tmp_path: Path) -> None:
+    robot_params = str(ROOT / "examples" / "robot_params.yaml")
+    servers = [
+        start_server(domain, "-n", "robot1", "-n", "fleet/a", "-p", robot_params),
+        start_server(domain, "-n", "robot2", "--spec", SPEC, "-p", PARAMS),
+    ]
+    try:
+        out = run_cli(domain, "list", "--prefix", "sensor")
+        assert (out.returncode, out.stderr) == (0, "")
+        assert out.stdout.splitlines() == [
+            "fleet/a:",
+            "robot1:",
+            "  sensor.frequencies",
+            "  sensor.topics",
+            "robot2:",
+            "  sensor.frequencies",
+            "  sensor.topics",
+        ]
+        out = run_cli(domain, "list", "--depth", "1", "-o", "json")
+        top = {"fleet/a": ["use_sim_time"], "robot1": ["use_sim_time"], "robot2": []}
+        assert json.loads(out.stdout) == top
+        # one file, every node, as `dump` of each node named in order writes it
+        for extra in ([], ["--descriptors"]):
+            every = run_cli(domain, "dump", *extra)
+            named = run_cli(domain, "dump", "fleet/a", "robot1", "robot2", *extra)
+            assert (every.returncode, every.stderr) == (0, "")
+            assert every.stdout == named.stdout and every.stdout.startswith("/fleet/a:\n")
+        (tmp_path / "all.yaml").write_text(every.stdout)
+    finally:
+        for server in servers:
+            server.stop()
+    # and a server reads it back, each node its own section
+    again = next_domain()
+    nodes = ("-n", "robot1", "-n", "fleet/a", "-n", "robot2")
+    server = start_server(again, *nodes, "-p", str(tmp_path / "all.yaml"))
+    try:
+        assert run_cli(again, "dump", "--descriptors").stdout == every.stdout
+    finally:
+        server.stop()
+    assert run_cli(again, "dump", "--timeout", "1").returncode == 3
