@@ -71,14 +71,17 @@ def with_quote_hints(
     from dataclasses import replace
 
     from ...core.values import ParameterType
-    from ...errors import ErrorCode
+    from ...errors import ErrorCode, ParamddsError
     from .._values import quote_hint, read_as_other_than_text
 
     given = {a.name: a for a in assignments if read_as_other_than_text(a)}
     refused = [r.name for r in reply.results if r.code is ErrorCode.TYPE_MISMATCH and r.name in given]
     if not refused:
         return reply
-    described = client.get(node, refused, with_descriptors=True).results
+    try:
+        described = client.get(node, refused, with_descriptors=True).results
+    except ParamddsError:  # the set's own report matters more than the hint
+        return reply
     strings = {
         d.name for d in described if d.descriptor is not None and d.descriptor.type is ParameterType.STRING
     }
