@@ -165,8 +165,9 @@ def _demo(
             else:
                 lines.append(f"  Result[{i}]: {shown}: {'UNCHANGED' if r.reason == UNCHANGED else 'SUCCESS'}")
         printer.section("=== SET PARAMETERS ===", *lines)
-    # the events the set caused, before the next section
-    printer.wait_printed(target, result.revision, min(timeout, SETTLE))
+    if any(r.successful and r.reason != UNCHANGED for r in result.results):
+        # the events the set caused (they carry its revision), before the next section
+        printer.wait_printed(target, result.revision, min(timeout, SETTLE))
     _refusal(client, printer, target)
     return result.successful
 
