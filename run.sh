@@ -14,7 +14,9 @@ Options:
   -d, --domain       <int>   Domain ID (default: 1)
   -v, --verbosity    <int>   Log verbosity 0-5 (default: 1)
   -q, --qos-file     <str>   QoS XML path (default: qos/DDS_QOS_PROFILES.xml)
-  -p, --params-file  <str>   YAML parameters file (default: examples/params.yaml)
+  -p, --params-file  <str>   YAML parameters file: what the server loads, what the client
+                             sets (default: examples/params.yaml for the server,
+                             examples/demo_set.yaml for the client: values that differ)
   -n, --node-name    <str>   Unique name for this server (default: parameter_server)
   -t, --target       <str>   Server name to send requests to (default: parameter_server)
   -s, --server               Run as parameter server
@@ -28,7 +30,9 @@ USAGE
 DOMAIN="${PARAMDDS_DOMAIN:-1}"
 VERBOSITY=1
 QOS_FILE="$HERE/qos/DDS_QOS_PROFILES.xml"
-PARAMS_FILE="$HERE/examples/params.yaml"
+PARAMS_FILE=""   # -p: the one file of both roles; by default each role has its own
+SERVER_FILE="$HERE/examples/params.yaml"
+CLIENT_FILE="$HERE/examples/demo_set.yaml"
 NODE_NAME="parameter_server"
 TARGET="parameter_server"
 MODE="client"
@@ -80,20 +84,21 @@ ensure_venv() {
     flock -u 9
 }
 ensure_venv
+if [ -n "$PARAMS_FILE" ]; then SERVER_FILE="$PARAMS_FILE"; CLIENT_FILE="$PARAMS_FILE"; fi
 PARAMDDS="$VENV/bin/paramdds"
 COMMON=(-d "$DOMAIN" -q "$QOS_FILE" --log-level "$LEVEL")
 
 case "$MODE" in
     server)
-        exec "$PARAMDDS" server "${COMMON[@]}" --node-name "$NODE_NAME" --params-file "$PARAMS_FILE" "${EXTRA[@]}"
+        exec "$PARAMDDS" server "${COMMON[@]}" --node-name "$NODE_NAME" --params-file "$SERVER_FILE" "${EXTRA[@]}"
         ;;
     client)
-        exec "$PARAMDDS" demo "${COMMON[@]}" --target "$TARGET" --params-file "$PARAMS_FILE" "${EXTRA[@]}"
+        exec "$PARAMDDS" demo "${COMMON[@]}" --target "$TARGET" --params-file "$CLIENT_FILE" "${EXTRA[@]}"
         ;;
     demo)
-        "$PARAMDDS" server "${COMMON[@]}" --localhost --node-name "$NODE_NAME" --params-file "$PARAMS_FILE" &
+        "$PARAMDDS" server "${COMMON[@]}" --localhost --node-name "$NODE_NAME" --params-file "$SERVER_FILE" &
         SERVER_PID=$!
         trap 'kill -TERM "$SERVER_PID" 2>/dev/null || true; wait "$SERVER_PID" 2>/dev/null || true' EXIT
-        "$PARAMDDS" demo "${COMMON[@]}" --localhost --target "$NODE_NAME" --params-file "$PARAMS_FILE" --once "${EXTRA[@]}"
+        "$PARAMDDS" demo "${COMMON[@]}" --localhost --target "$NODE_NAME" --params-file "$CLIENT_FILE" --once "${EXTRA[@]}"
         ;;
 esac

@@ -19,6 +19,11 @@ type of the value; a persisted descriptor is kept). With a spec, a value for a
 name the spec does not declare is declared only with ``--allow-undeclared``;
 otherwise it is skipped with a warning naming it and the file.
 
+A node's start is one commit: what the files (and ``--use-sim-time``) declare is revision
+1, as what a spec declares with the files' values is. With a spec, what the files add
+beyond it (``--allow-undeclared``) is one commit more, and so is each parameter deleted
+at runtime (``--persist``) that the spec declares again, and ``--use-sim-time``.
+
 A problem in a source is a :class:`~paramdds.errors.FileFormatError` naming the
 file (and the line when the format knows it); the server does not start.
 """
@@ -32,7 +37,7 @@ from typing import Any
 
 from .core.descriptors import ParameterDescriptor
 from .core.table import ParameterTable
-from .core.values import ParameterValue
+from .core.values import ParameterType, ParameterValue
 from .errors import FileFormatError, ParamddsError
 from .formats.files import Entry, dump_text, parse_ros_text, read_entries
 from .persist import PersistError, PersistStore
@@ -120,10 +125,13 @@ def build_table(
         allow_undeclared=options.allow_undeclared,
         strict_types=options.strict_types,
         read_only=options.read_only,
-        use_sim_time=options.use_sim_time,
+        use_sim_time=options.use_sim_time and spec is not None,  # else one commit with the files'
         overrides=values,
     )
     gone = set(sources.deleted) if with_persisted else set()
+    pending: list[Entry] = []
+    if options.use_sim_time and spec is None:
+        pending.append(("use_sim_time", ParameterValue.of(ParameterType.BOOL, False), None))
     if spec is not None:
         _declare_spec(table, spec, values, options)
         for name in sorted(gone & set(table.names())):
@@ -132,7 +140,7 @@ def build_table(
             except ParamddsError as exc:  # the spec changed since: it wins
                 log.warning("%s: %r was deleted at runtime, the spec keeps it: %s", options.spec, name, exc)
     for name, value in values.items():
-        if table.has(name) or name in gone:
+        if table.has(name) or name in gone or any(name == p[0] for p in pending):
             continue
         if spec is not None and not options.allow_undeclared:
             log.warning(
@@ -142,11 +150,25 @@ def build_table(
                 options.spec or options.schema,
             )
             continue
-        try:
-            table.declare(name, value, descriptors.get(name))
-        except ParamddsError as exc:
-            raise FileFormatError(f"parameter {name!r}: {exc.message}", file=origin[name]) from exc
+        pending.append((name, value, descriptors.get(name)))
+    _declare_all(table, pending, origin)
     return table
+
+
+def _declare_all(table: ParameterTable, pending: list[Entry], origin: Mapping[str, str]) -> None:
+    """Declare ``pending`` in one commit, so that a node the files declare starts at revision 1;
+    when that is refused (nothing is declared then), the parameter at fault is found and
+    raised as a FileFormatError naming the file that gave it."""
+    try:
+        table.declare_from(pending)
+    except ParamddsError as whole:
+        for name, value, descriptor in pending:
+            try:
+                table.declare(name, value, descriptor)
+            except ParamddsError as exc:
+                file = origin.get(name)
+                raise FileFormatError(f"parameter {name!r}: {exc.message}", file=file) from exc
+        raise whole
 
 
 def _retype(

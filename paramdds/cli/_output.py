@@ -50,15 +50,48 @@ def emit(output: str, data: object, table: str | None = None) -> None:
 
 
 def describe_table(descriptors: Mapping[str, Mapping[str, Any]]) -> str:
-    """Descriptors as indented ``key: value`` blocks, skipping empty fields."""
+    """Descriptors as indented ``key: value`` blocks, skipping empty fields; a range as
+    :func:`range_text` reads it (a range that bounds nothing is an empty field)."""
     lines: list[str] = []
     for name, d in descriptors.items():
         lines.append(f"{name}:")
         for key, value in d.items():
+            if key in _RANGES and isinstance(value, Mapping):
+                value = range_text(value, floating=key == "floating_point_range")
             if value in (None, "", [], False) and key not in ("type", "read_only"):
                 continue
-            lines.append(f"  {key}: {dumps_json(value, pretty=False)}")
+            lines.append(f"  {key}: {value if key in _RANGES else dumps_json(value, pretty=False)}")
     return "\n".join(lines)
+
+
+_RANGES = ("integer_range", "floating_point_range")
+_INT64 = (-(2**63), 2**63 - 1)
+
+
+def range_text(r: Mapping[str, Any], *, floating: bool) -> str:
+    """A range (its JSON shape) as a person reads it: ``[0.0, 5.0]``, ``[0, 10] step 2``, or
+    ``≥ 1.0`` / ``≤ 1.0`` when one end is the type's limit (±1.7976931348623157e+308 or an
+    infinity for a double, int64's for an integer), which bounds nothing; ``""`` when both are."""
+    lo, hi, step = r["from_value"], r["to_value"], r.get("step") or 0
+    lo_open, hi_open = _open_end(lo, floating, low=True), _open_end(hi, floating, low=False)
+    grid = f" step {dumps_json(step)}" if step else ""
+    if lo_open and hi_open:
+        return grid.strip()
+    if hi_open:
+        return f"≥ {dumps_json(lo)}{grid}"
+    if lo_open:
+        return f"≤ {dumps_json(hi)}{grid}"
+    return f"[{dumps_json(lo)}, {dumps_json(hi)}]{grid}"
+
+
+def _open_end(x: object, floating: bool, *, low: bool) -> bool:
+    """True when the end ``x`` of a range bounds nothing (see :func:`range_text`)."""
+    if isinstance(x, str):  # "inf", "-inf": JSON has no infinities
+        return x == ("-inf" if low else "inf")
+    if not isinstance(x, (int, float)):
+        return False
+    limit = (-sys.float_info.max, sys.float_info.max) if floating else _INT64
+    return x <= limit[0] if low else x >= limit[1]
 
 
 def results_table(results: Mapping[str, Mapping[str, object]], revision: int) -> str:

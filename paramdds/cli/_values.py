@@ -119,6 +119,21 @@ def parse_assignments(args: Sequence[str], *, pair: bool = False) -> list[Assign
     return parsed
 
 
+def read_as_other_than_text(a: Assignment) -> bool:
+    """True when an unquoted scalar was typed other than a string (``on`` is a bool, ``1.50``
+    a double, as in ROS 2): a string parameter refuses it, and quoting it sends the text."""
+    unquoted = a.text.strip()[:1] not in ("'", '"')
+    scalars = (ParameterType.BOOL, ParameterType.INTEGER, ParameterType.DOUBLE)
+    return unquoted and a.value is not None and a.value.type in scalars
+
+
+def quote_hint(a: Assignment) -> str:
+    """How to send ``a``'s text as a string (for :func:`read_as_other_than_text`)."""
+    text = a.text.strip()
+    label = a.value.type.label if a.value is not None else "value"
+    return f"{text!r} is read as a {label}; quote it to send the string: {a.name}='\"{text}\"'"
+
+
 def needs_descriptor(a: Assignment) -> bool:
     """True when the node's type decides this value (empty list, integer list)."""
     return a.value is None or a.value.type is ParameterType.INTEGER_ARRAY

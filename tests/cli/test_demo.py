@@ -91,7 +91,34 @@ def test_run_sh_demo() -> None:
     )
     assert out.returncode == 0, out.stderr
     assert f"[SERVER] Loaded 7 parameters from {EXAMPLE}" in out.stdout
-    check_demo_output(out.stdout, "robot1")
+    check_run_sh_demo_output(out.stdout, "robot1")
+
+
+def check_run_sh_demo_output(out: str, node: str) -> None:
+    """run.sh's client sets examples/demo_set.yaml: writes that succeed, the events they cause."""
+    lines = out.splitlines()
+    assert sorted(line[len("  NEW: ") :] for line in lines if line.startswith("  NEW: ")) == NAMES
+    g = lines.index("=== GET PARAMETERS ===")
+    assert "  robot.max_velocity = double 1.5" in lines[g + 2 : g + 9]
+    s = lines.index("=== SET PARAMETERS ===")
+    assert lines[s + 1 : s + 11] == [
+        f"[SET] Response from: {node}",
+        "  Result[0]: robot.max_velocity = double 2.5: SUCCESS",
+        "  Result[1]: robot.max_acceleration = double 0.8: UNCHANGED",
+        "  Result[2]: robot.name = string 'demo_robot': SUCCESS",
+        "  Result[3]: robot.enabled = bool true: UNCHANGED",
+        "  Result[4]: sensor.frequencies = double_array [10.0, 20.0, 100.0]: SUCCESS",
+        f"[PARAM_EVENT] From node: {node}",
+        "  CHANGED: robot.max_velocity",
+        "  CHANGED: robot.name",
+        "  CHANGED: sensor.frequencies",
+    ]
+    r = lines.index("=== A REFUSED SET ===")
+    assert r == s + 12 and lines[r - 1] == ""
+    assert lines[r + 1 :] == [
+        "[SET] robot.enabled = string 'fast'",
+        "  Result[0]: FAILED: Parameter 'robot.enabled' expects a bool but got string 'fast'",
+    ]
 
 
 def test_run_sh_rejects_bad_flags() -> None:

@@ -1,10 +1,12 @@
 """``paramdds check``: parameter files against a JSON Schema or a spec, offline (no DDS).
 
-Exit 0 when every file is valid, 1 when one is not (one line per error: file, node
-section, parameter path, reason), 2 for input that cannot be used (an unreadable
-file, a broken schema, a ``$ref`` that fails when it is needed). ``--autoware DIR``
-pairs ``<pkg>/schema/<name>.schema.json`` with ``<pkg>/config/<name>*.param.yaml``
-as Autoware's CI does and checks every pair.
+It reads what ``server -p`` reads: ROS 2 parameter files and parameter lists (a list
+applies to every node, so its findings are in section ``/**``). Exit 0 when every file
+is valid, 1 when one is not (one line per error: file, node section, parameter path,
+reason), 2 for input that cannot be used (an unreadable file, a broken schema, a
+``$ref`` that fails when it is needed). ``--autoware DIR`` pairs
+``<pkg>/schema/<name>.schema.json`` with ``<pkg>/config/<name>*.param.yaml`` as
+Autoware's CI does and checks every pair.
 """
 
 from __future__ import annotations

@@ -10,11 +10,14 @@
    file, ``=== SET PARAMETERS ===`` setting the parameters of the file on the
    target in file order, each shown with its value and outcome (``SUCCESS``,
    ``UNCHANGED`` for a value the node already holds, which is not sent, or
-   ``FAILED`` with the node's reason), then ``=== A REFUSED SET ===``: a value of
-   the wrong type for a parameter of a fixed type, which the node refuses with its
-   reason (nothing changes);
-4. keep printing events until Ctrl-C (exit 130), or with ``--once`` exit after
-   the events of the set have been printed (exit 0, or 1 if a set failed).
+   ``FAILED`` with the node's reason), then the events the set caused (``CHANGED``),
+   then ``=== A REFUSED SET ===``: a value of the wrong type for a parameter of a
+   fixed type, which the node refuses with its reason (nothing changes);
+4. keep printing events until Ctrl-C (exit 130), or with ``--once`` exit then
+   (exit 0, or 1 if a set failed).
+
+``run.sh`` gives it ``examples/demo_set.yaml``, whose values partly differ from the
+``examples/params.yaml`` its server loads, so that the demo shows writes succeed.
 """
 
 from __future__ import annotations
@@ -29,7 +32,7 @@ from .._parser import DEFAULT_NODE
 if TYPE_CHECKING:
     from ...core.values import Parameter
     from ...dds.client import ParameterClient
-    from ...dds.monitor import MonitorEvent, ParameterMonitor
+    from ...dds.monitor import MonitorEvent
 
 HELP = "the demo client: list, get and set on a target, printing events (alias: client)"
 
@@ -43,8 +46,10 @@ class DemoPrinter:
 
     def __init__(self) -> None:
         self.lock = threading.RLock()
+        self._printed = threading.Condition(self.lock)
         self._group: tuple[str, int] | None = None
         self._synced = False
+        self._revisions: dict[str, int] = {}  # the newest revision printed, per node
 
     def event(self, e: MonitorEvent) -> None:
         kind = e.event.value
@@ -61,6 +66,13 @@ class DemoPrinter:
                 self._group = (e.node, e.revision)
                 self._lines(f"[PARAM_EVENT] From node: {e.node}")
             self._lines(f"  {self.LABELS.get(kind, kind.upper())}: {e.name}")
+            self._revisions[e.node] = max(e.revision, self._revisions.get(e.node, 0))
+            self._printed.notify_all()
+
+    def wait_printed(self, node: str, revision: int, timeout: float) -> bool:
+        """Wait until the events of ``node`` up to ``revision`` have been printed."""
+        with self._printed:
+            return self._printed.wait_for(lambda: self._revisions.get(node, 0) >= revision, timeout)
 
     def section(self, *lines: str) -> None:
         with self.lock:
@@ -107,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
         monitor = session.monitor([target], on_event=printer.event)
         client.wait_for_node(target, timeout=args.wait)
         monitor.wait_complete([target], timeout=args.timeout)
-        ok = _demo(client, monitor, printer, target, params, args.timeout)
+        ok = _demo(client, printer, target, params, args.timeout)
         if args.once:
             return Exit.OK if ok else Exit.REFUSED
         wait_until_interrupted()
@@ -116,7 +128,6 @@ def run(args: argparse.Namespace) -> int:
 
 def _demo(
     client: ParameterClient,
-    monitor: ParameterMonitor,
     printer: DemoPrinter,
     target: str,
     params: list[Parameter],
@@ -154,10 +165,10 @@ def _demo(
             else:
                 lines.append(f"  Result[{i}]: {shown}: {'UNCHANGED' if r.reason == UNCHANGED else 'SUCCESS'}")
         printer.section("=== SET PARAMETERS ===", *lines)
+    if any(r.successful and r.reason != UNCHANGED for r in result.results):
+        # the events the set caused (they carry its revision), before the next section
+        printer.wait_printed(target, result.revision, min(timeout, SETTLE))
     _refusal(client, printer, target)
-    # the monitor's dispatcher prints a batch's events before it can be closed
-    revision = result.revision
-    monitor.wait_until(lambda s: target in s and s[target].revision >= revision, min(timeout, SETTLE))
     return result.successful
 
 

@@ -1,18 +1,30 @@
 """``paramdds dump``: nodes' parameters as a ROS 2 parameter file on stdout (what ``load`` reads).
 
 Several nodes, and globs (``fleet/*``; ``s1/*`` over Zenoh), give one file with a section
-per node; a glob stands for the nodes online now that match it (none: exit 3).
+per node; a glob stands for the nodes online now that match it (none: exit 3). Without a
+node it dumps every node online, from one monitor's state (no request per node), as
+``ros2 param dump`` does; a file ``server -p`` and ``load`` read back.
 """
 
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from ...session import Session
+    from .._snapshot import Snapshot
 
 HELP = "nodes' parameters as a ROS 2 parameter file on stdout"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("nodes", nargs="+", metavar="NODE", help="nodes, globs allowed: 'fleet/*', 's1/*'")
+    p.add_argument(
+        "nodes",
+        nargs="*",
+        metavar="NODE",
+        help="nodes, globs allowed: 'fleet/*', 's1/*' (default: every node online)",
+    )
     p.add_argument("--descriptors", action="store_true", help="add the descriptors (a map ROS 2 cannot read)")
     # the default; still accepted, so scripts that pass it keep working
     p.add_argument("--no-descriptors", action="store_true", help=argparse.SUPPRESS)
@@ -27,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
     from ...session import Session
     from .._live import current_states
     from .._output import report_missing
-    from .._snapshot import Snapshot, snapshot_of
+    from .._snapshot import snapshot_of
     from .._values import node_glob_arg
 
     patterns = [node_glob_arg(n) for n in args.nodes]
@@ -35,16 +47,38 @@ def run(args: argparse.Namespace) -> int:
     snapshots: dict[str, Snapshot] = {}
     code = 0
     with Session(args) as session:
+        if not patterns:
+            snapshots = every_snapshot(session)
+            if not snapshots:
+                raise UnavailableError("no node is online")
         targets = [p for p in patterns if not is_node_glob(p)]
         if globs:
             online = sorted(n for n, st in current_states(session, globs).items() if st.online)
             if not online:
                 raise UnavailableError(f"no online node matches {' '.join(globs)}")
             targets += online
-        client = session.client()
-        for node in dict.fromkeys(targets):  # each node once, in order
-            snapshots[node], missing = snapshot_of(client, node)
-            code = max(code, report_missing(node, missing))
+        if targets:
+            client = session.client()
+            for node in dict.fromkeys(targets):  # each node once, in order
+                snapshots[node], missing = snapshot_of(client, node)
+                code = max(code, report_missing(node, missing))
     sys.stdout.write(dump_text(snapshots, with_descriptors=args.descriptors))
     sys.stdout.flush()
     return code
+
+
+def every_snapshot(session: Session) -> dict[str, Snapshot]:
+    """Every online node's parameters with a value, by node in order, from one monitor's state."""
+    from ...core.values import ParameterType
+    from .._live import current_states
+
+    states = current_states(session)
+    return {
+        st.node: [
+            (name, value, descriptor)
+            for name, (value, descriptor) in sorted(st.parameters.items())
+            if value.type is not ParameterType.NOT_SET  # no value: left out, as a get leaves it
+        ]
+        for st in sorted(states.values(), key=lambda st: st.node)
+        if st.online
+    }

@@ -12,6 +12,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    from ...core.replies import SetReply
     from ...core.values import Parameter
     from ...dds.client import ParameterClient
     from .._values import Assignment
@@ -58,7 +59,37 @@ def run(args: argparse.Namespace) -> int:
         # a bare revision compares the revision alone (incarnation 0 on the wire)
         expected = if_revision.revision if if_revision and not if_revision.incarnation else if_revision
         reply = client.set(node, params, atomic=args.atomic, if_revision=expected)
+        reply = with_quote_hints(client, node, assignments, reply)
     return report_set(args.output, node, reply)
+
+
+def with_quote_hints(
+    client: ParameterClient, node: str, assignments: Sequence[Assignment], reply: SetReply
+) -> SetReply:
+    """``reply`` with a hint on how to quote each unquoted word (``on``, ``yes``, ``1.50``) that
+    a string parameter refused for its type; the node's descriptors are asked only then."""
+    from dataclasses import replace
+
+    from ...core.values import ParameterType
+    from ...errors import ErrorCode, ParamddsError
+    from .._values import quote_hint, read_as_other_than_text
+
+    given = {a.name: a for a in assignments if read_as_other_than_text(a)}
+    refused = [r.name for r in reply.results if r.code is ErrorCode.TYPE_MISMATCH and r.name in given]
+    if not refused:
+        return reply
+    try:
+        described = client.get(node, refused, with_descriptors=True).results
+    except ParamddsError:  # the set's own report matters more than the hint
+        return reply
+    strings = {
+        d.name for d in described if d.descriptor is not None and d.descriptor.type is ParameterType.STRING
+    }
+    results = tuple(
+        replace(r, reason=f"{r.reason}; {quote_hint(given[r.name])}") if r.name in strings else r
+        for r in reply.results
+    )
+    return replace(reply, results=results)
 
 
 def typed_parameters(

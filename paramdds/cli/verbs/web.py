@@ -7,6 +7,7 @@ import argparse
 HELP = "a live browser console for every node's parameters (needs the web extra)"
 
 WEB_PACKAGES = ("starlette", "uvicorn")
+WEB_INSTALL = "pip install -e '.[web]'"  # as docs/web.md says it, run in the paramdds checkout
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -47,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
     if missing:
         raise UsageError(
             f"'paramdds web' needs the web extra ({', '.join(missing)} not installed): "
-            "pip install 'paramdds[web]'"
+            f"{WEB_INSTALL} in the paramdds checkout"
         )
     if args.port is not None:
         host = args.bind.rpartition(":")[0] or "127.0.0.1"

@@ -6,7 +6,9 @@ A parameter file is read as plain data with ROS 2's scalar rules (:mod:`..scalar
 text a string; an empty value null) and the whole document is validated, envelope
 included, so the verdict is check-jsonschema's. (check-jsonschema reads YAML 1.2,
 where ``yes``/``on``/``y`` are strings and ``010`` is ten; ROS 2 reads them as bools
-and eight, and so does this check: it judges what the node will get.)
+and eight, and so does this check: it judges what the node will get.) A parameter list
+(a top-level ``parameters:`` list, which applies to every node) is checked as the ROS 2
+file that says the same: its parameters in the section ``/**``, dotted names nested.
 
 Autoware's convention (:func:`autoware_pairs`): ``<pkg>/schema/<name>.schema.json``
 describes ``<pkg>/config/<name>*.param.yaml``.
@@ -14,7 +16,7 @@ describes ``<pkg>/config/<name>*.param.yaml``.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -25,6 +27,7 @@ from ...core.validation import validate
 from ...core.values import ParameterType, ParameterValue
 from ...errors import FileFormatError, ParamddsError
 from ..base import NONPLAIN_TAG, PLAIN_TAG, Source, compose, read_file
+from ..files import is_param_list
 from ..scalar import resolve_plain
 from .enforce import NodeSchema
 from .resolve import PARAMS_KEY
@@ -42,15 +45,45 @@ class Finding:
     reason: str
 
     def __str__(self) -> str:
-        return f"{self.file}: {self.section or '-'}: {self.path or '-'}: {self.reason}"
+        return ": ".join(part for part in (self.file, self.section, self.path, self.reason) if part)
 
 
-def read_document(path: str | Path) -> Any:
-    """A YAML parameter file as plain data, scalars typed as ROS 2 types them."""
+def read_document(path: str | Path, *, typed: bool = False) -> Any:
+    """A YAML parameter file as plain data, scalars typed as ROS 2 types them; a parameter
+    list as the ROS 2 file that says the same. ``typed`` keeps a parameter list's values as
+    :class:`ParameterValue` (an empty list or a byte array keeps the type the file gives)."""
     name = str(path)
     source = Source(name)
-    node = compose(read_file(path), source)
-    return None if node is None else _plain(node, source)
+    text = read_file(path)
+    node = compose(text, source)
+    if node is None:
+        return None
+    if is_param_list(text, name):
+        from ..paramlist import load_param_list_str
+
+        params = load_param_list_str(text, source=name)
+        values = ((p.name, p.value if typed else _json_like(p.value)) for p in params)
+        return {"/**": {PARAMS_KEY: _nested(values)}}
+    return _plain(node, source)
+
+
+def _json_like(value: ParameterValue) -> Any:
+    """A value as plain data (a byte array as its list of integers)."""
+    v = value.to_python()
+    return list(v) if isinstance(v, bytes) else v
+
+
+def _nested(items: Iterable[tuple[str, Any]]) -> dict[str, Any]:
+    """Dotted names as nested maps, as a ROS 2 file writes them; a name that is also the
+    prefix of another (``a`` and ``a.b``) keeps the longer one as a dotted key beside it."""
+    root: dict[str, Any] = {}
+    for name, value in sorted(items, key=lambda item: item[0]):
+        at, parts = root, name.split(".")
+        while len(parts) > 1 and all(parts) and isinstance(at.get(parts[0], {}), dict):
+            at = at.setdefault(parts[0], {})
+            parts = parts[1:]
+        at[".".join(parts)] = value
+    return root
 
 
 def _plain(node: yaml.Node, source: Source) -> Any:
@@ -105,14 +138,21 @@ def check_with_spec(spec: Any, path: str | Path) -> list[Finding]:
     parameters without a value."""
     from ...core.values import NOT_SET
 
-    document = read_document(path)
+    document = read_document(path, typed=True)
     entries = {e.name: e for e in spec}
     mapped = [m.entry.name for m in getattr(spec, "mapped", ())]
     found: list[Finding] = []
     sections = list(_sections(document))
     given: dict[str, Any] = {}
     if not sections:
-        found.append(Finding(str(path), "", "", f"no '{PARAMS_KEY}' section"))
+        found.append(
+            Finding(
+                str(path),
+                "",
+                "",
+                f"no '{PARAMS_KEY}' section (neither a ROS 2 parameter file nor a 'parameters:' list)",
+            )
+        )
     for section, params in sections:
         values = dict(_flatten(params)) if isinstance(params, dict) else {}
         for name, raw in values.items():
