@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import asdict
 
 from ..core.descriptors import ParameterDescriptor
@@ -32,9 +32,10 @@ from ..core.names import validate_name
 from ..core.results import SetResult
 from ..core.revision import incarnation_text
 from ..core.validation import validate
-from ..core.values import ParameterType, ParameterValue
+from ..core.values import Parameter, ParameterType, ParameterValue
 from ..dds.client import NodeInfo
-from ..errors import InvalidValueError, TypeMismatchError
+from ..errors import ErrorCode, InvalidValueError, ParamddsError, TypeMismatchError
+from .status import code_of
 
 Row = dict[str, object]
 _HEX = re.compile(r"^(?:0x)?((?:[0-9a-fA-F]{2})*)$")
@@ -166,12 +167,31 @@ def checked(
     return typed
 
 
-def typed_values(
+def typed_parameters(
     raw: Mapping[str, object], described: Mapping[str, tuple[ParameterValue, ParameterDescriptor]]
-) -> dict[str, ParameterValue]:
-    """Every value of a set request, typed by the node's descriptors (first error raises)."""
-    out: dict[str, ParameterValue] = {}
+) -> tuple[list[Parameter], list[Row]]:
+    """Every value of a request typed by the node's descriptors: (the parameters that pass,
+    a refused result row for each of the rest, with the reason and code the node would give)."""
+    params: list[Parameter] = []
+    refused: list[Row] = []
     for name, v in raw.items():
         entry = described.get(name)
-        out[name] = typed_value(name, v, entry[1] if entry else None)
-    return out
+        try:
+            params.append(Parameter(name, typed_value(name, v, entry[1] if entry else None)))
+        except ParamddsError as exc:
+            refused.append(refused_row(name, exc.message, code_of(exc)))
+    return params, refused
+
+
+def refused_row(name: str, reason: str, code: str) -> Row:
+    return {"name": name, "successful": False, "reason": reason, "code": code}
+
+
+def atomic_refusal(names: Iterable[str], rows: Sequence[Row]) -> list[Row]:
+    """The rows of an atomic write refused before it was sent, one per name of ``names``: the
+    rows given (the first refusal among them is the cause), every other name not applied, in
+    the node's words for an atomic failure."""
+    given = {str(r["name"]): r for r in rows}
+    cause = next(r["name"] for r in rows if not r["successful"])
+    other = f"not applied: the atomic set failed on {cause!r}"
+    return [given.get(n) or refused_row(n, other, ErrorCode.INVALID_VALUE.value) for n in names]

@@ -172,6 +172,43 @@ def test_bad_values_are_422_and_never_sent(console: Console, values: dict[str, o
     assert revision(console, "base") == before
 
 
+REFUSALS = [
+    pytest.param({"speed": 9.5}, "OUT_OF_RANGE", 422, id="out-of-range"),
+    pytest.param({"speed": "fast"}, "TYPE_MISMATCH", 422, id="wrong-type"),
+    pytest.param({"serial": "x"}, "READ_ONLY", 403, id="read-only"),
+    pytest.param({"nothing.here": 1}, "NOT_FOUND", 404, id="unknown-parameter"),
+]
+
+
+@pytest.mark.parametrize("atomic", [False, True], ids=["plain", "atomic"])
+@pytest.mark.parametrize(("values", "code", "status"), REFUSALS)
+def test_every_refused_set_answers_each_parameters_result_as_the_node_does(
+    domain: int, console: Console, values: dict[str, object], code: str, status: int, atomic: bool
+) -> None:
+    """The console's own refusal (before sending) and the node's have one shape: the error,
+    and ``results`` with one row per parameter, the reason and code the node gives."""
+    before = revision(console, "arm")
+    body = {"node": "arm", "values": {"gain": 3, **values}, "atomic": atomic}
+    r = post(console, "set", body)
+    assert error(r) == (status, code), r.text
+    got = r.json()
+    [(name, raw)] = values.items()
+    cli = ["--atomic"] if atomic else []
+    direct = run_cli(domain, "set", "-o", "json", *cli, "arm", "gain=3", f"{name}={json.dumps(raw)}")
+    assert direct.returncode == 1
+    node_said = json.loads(direct.stdout)
+    assert [(x["name"], x["successful"]) for x in got["results"]] == [
+        (n, node_said[n]["successful"]) for n in ("gain", name)
+    ]
+    assert [x["code"] for x in got["results"]] == [None if not atomic else "INVALID_VALUE", code]
+    assert got["node"] == "arm" and got["revision"] >= before
+    if code != "TYPE_MISMATCH":  # the console words a JSON value's kind, the CLI its text's
+        assert [x["reason"] for x in got["results"]] == [node_said[n]["reason"] for n in ("gain", name)]
+        assert got["error"]["message"] in direct.stderr  # the CLI's words for the same refusal
+    if atomic:
+        assert revision(console, "arm") == before
+
+
 def test_good_values_of_every_editor_type_are_accepted(console: Console) -> None:
     values = {"key": "0a ff", "limits": [1, 2.5], "tags": ["x", "y"], "mode": "off", "enabled": False}
     r = post(console, "set", {"node": "base", "values": values, "atomic": True})

@@ -17,7 +17,7 @@ from paramdds.dds.monitor import EventKind, MonitorEvent
 from paramdds.errors import ErrorCode, OutOfRangeError, TypeMismatchError
 from paramdds.exits import UsageError
 from paramdds.web.hub import Hub
-from paramdds.web.model import typed_value
+from paramdds.web.model import atomic_refusal, typed_parameters, typed_value
 from paramdds.web.serve import is_loopback, options_from, parse_bind
 from paramdds.web.status import STATUS, WebCode, status_of
 from paramdds.web.view import StateView
@@ -48,6 +48,24 @@ def test_bytes_from_hex_or_ints() -> None:
     assert typed_value("key", [1, 2], key).value == b"\x01\x02"
     with pytest.raises(TypeMismatchError, match="hex"):
         typed_value("key", "abc", key)
+
+
+def test_each_value_of_a_request_is_typed_or_refused_with_its_code() -> None:
+    described = {"speed": (ParameterValue(ParameterType.DOUBLE, 1.0), SPEED)}
+    params, refused = typed_parameters({"speed": 9.5, "other": 1, "bad name!": 2}, described)
+    assert [p.name for p in params] == ["other"]
+    assert [(r["name"], r["successful"], r["code"]) for r in refused] == [
+        ("speed", False, "OUT_OF_RANGE"),
+        ("bad name!", False, "INVALID_NAME"),
+    ]
+
+
+def test_an_atomic_refusal_has_a_row_per_name_in_the_nodes_words() -> None:
+    cause = {"name": "b", "successful": False, "reason": "too big", "code": "OUT_OF_RANGE"}
+    same = {"name": "c", "successful": True, "reason": "unchanged", "code": None}
+    rows = atomic_refusal(["a", "b", "c"], [cause, same])
+    other = "not applied: the atomic set failed on 'b'"
+    assert rows == [{"name": "a", "successful": False, "reason": other, "code": "INVALID_VALUE"}, cause, same]
 
 
 @given(st.floats(min_value=0.0, max_value=5.0))
