@@ -124,6 +124,28 @@ def test_read_only_parameter_has_a_lock_and_no_editor(page: Page, console: Conso
     expect(row(page, "serial").locator("button")).to_have_count(0)
 
 
+def test_apply_atomically_is_disabled_while_an_edit_shows_an_error(page: Page, console: Console) -> None:
+    """Apply atomically is held back, with the reason in its title, while a pending edit shows
+    an error (the notation's, or the console's verdict), and comes back once it is fixed."""
+    open_node(page, console, "arm")
+    apply = page.locator("#apply")
+    row(page, "speed").locator('[data-role="input"]').fill("3.0")
+    expect(apply).to_be_enabled()
+    gain = row(page, "gain").locator('[data-role="input"]')
+    gain.fill("11")  # integer_range [0, 10, 1]: refused by the console's check
+    expect(row(page, "gain").locator(".error")).to_contain_text("must be within")
+    expect(apply).to_be_disabled()
+    expect(apply).to_have_attribute("title", re.compile(r"gain shows an error"))
+    gain.fill("x")  # the notation's error
+    expect(row(page, "gain").locator(".error")).to_contain_text("expected an integer")
+    expect(apply).to_be_disabled()
+    gain.fill("7")
+    expect(row(page, "gain").locator(".error")).to_have_text("")
+    expect(apply).to_be_enabled()
+    expect(apply).to_have_attribute("title", re.compile(r"all or none"))
+    page.click("#discard")
+
+
 def test_typed_editors(page: Page, console: Console) -> None:
     open_node(page, console, "arm")
     expect(row(page, "enabled").locator('input[type="checkbox"]')).to_have_count(1)

@@ -340,7 +340,13 @@ function editorFor(row) {
 }
 
 function rowOf(name) { return $(`#params tbody tr[data-name="${CSS.escape(name)}"]`); }
-function setError(name, text) { const tr = rowOf(name); if (tr) $(".error", tr).textContent = text || ""; }
+function setError(name, text) {
+  const tr = rowOf(name);
+  if (tr) $(".error", tr).textContent = text || "";
+  updateApply();  // an edit showing an error holds Apply back
+}
+// The pending edits whose field shows an error (the notation's, the console's or the node's).
+function editsInError() { return [...S.dirty.keys()].filter((n) => rowOf(n)?.querySelector(".error")?.textContent); }
 
 // The editor's value, parsed; shows the notation's error and returns undefined when it is not one.
 function editorValue(name) {
@@ -408,11 +414,13 @@ function clearDirty(names) {
   updateApply();
 }
 function updateApply() {
-  const n = S.dirty.size;
-  $("#apply").disabled = n === 0 || S.info.read_only;
+  const n = S.dirty.size, bad = editsInError();
+  $("#apply").disabled = n === 0 || S.info.read_only || bad.length > 0;
   $("#discard").disabled = n === 0;
   $("#apply").textContent = n ? `Apply ${n} change${n === 1 ? "" : "s"} atomically` : "Apply atomically";
-  $("#apply").title = S.summary && S.summary.origin
+  $("#apply").title = bad.length
+    ? `not while ${bad.join(", ")} ${bad.length === 1 ? "shows an error" : "show errors"}: correct ${bad.length === 1 ? "it" : "them"} or discard`
+    : S.summary && S.summary.origin
     ? `all or none, by the node itself; not compared with the values you started from (a node mirrored from ${S.summary.origin} has no revisions)`
     : "all or none, and only if the node has not changed since you started editing";
 }
@@ -551,6 +559,7 @@ function openStream() {
     const keep = new Map([...S.dirty.keys()].map((n) => [n, rowOf(n)]));
     renderRows(d.rows);
     for (const [n, tr] of keep) if (tr && rowOf(n)) rowOf(n).replaceWith(tr);
+    updateApply();  // the edits kept may show errors
   });
   es.addEventListener("params", (m) => {
     const d = parseJSON(m.data);
