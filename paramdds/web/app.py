@@ -201,7 +201,7 @@ class Console:
         parameters:
           - {name: node, in: query, required: true, schema: {type: string}}
         responses:
-          200: {description: '{"summary", "rows": [{"name", "value", "type", "descriptor"}]}'}
+          200: {description: '{"summary", "rows": [{"name", "value", "type", "descriptor", "choices"}]}'}
           404: {description: NOT_FOUND (unknown node)}
         """
         self._check_read(request)

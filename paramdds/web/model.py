@@ -4,9 +4,10 @@ Shapes (documented in docs/web.md):
 
 * a node summary: ``{"node", "online", "host", "pid", "revision", "parameters",
   "request_filter", "incarnation", "origin", "status"}`` (the incarnation in 16 hex digits);
-* a parameter row: ``{"name", "value", "type", "descriptor"}`` with the value and
-  descriptor in the CLI's JSON shapes (:mod:`paramdds.core.jsonform`: byte arrays as
-  lists of ints, non-finite doubles as ``"nan"``/``"inf"``/``"-inf"``);
+* a parameter row: ``{"name", "value", "type", "descriptor", "choices"}`` with the value
+  and descriptor in the CLI's JSON shapes (:mod:`paramdds.core.jsonform`: byte arrays as
+  lists of ints, non-finite doubles as ``"nan"``/``"inf"``/``"-inf"``) and the choices its
+  editor offers (:func:`choices`: a ``one_of`` or a schema ``enum``), or null;
 * a set result: ``{"name", "successful", "reason", "code"}``.
 
 Values sent by a browser are typed by the parameter's descriptor
@@ -19,6 +20,7 @@ process and the reason shown is the node's own wording.
 
 from __future__ import annotations
 
+import json
 import math
 import re
 from collections.abc import Iterable, Mapping, Sequence
@@ -40,6 +42,19 @@ from .status import code_of
 Row = dict[str, object]
 _HEX = re.compile(r"^(?:0x)?((?:[0-9a-fA-F]{2})*)$")
 _NON_FINITE = {"nan": math.nan, "inf": math.inf, "-inf": -math.inf}
+_ENUM = re.compile(r"(?:^|; |, )one of ")  # a schema enum as formats.schema.describe writes it
+_JSON = json.JSONDecoder()
+
+
+def _is_int(x: object) -> bool:
+    return isinstance(x, int) and not isinstance(x, bool)
+
+
+def _is_double(x: object) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
+_ENUM_TYPES = {"string": lambda x: isinstance(x, str), "integer": _is_int, "double": _is_double}
 
 
 def summary_json(info: NodeInfo) -> Row:
@@ -51,13 +66,46 @@ def summary_json(info: NodeInfo) -> Row:
 
 
 def parameter_row(name: str, value: ParameterValue, descriptor: ParameterDescriptor | None) -> Row:
-    described = descriptor or ParameterDescriptor(name, value.type)
+    described = json_descriptor(descriptor or ParameterDescriptor(name, value.type))
     return {
         "name": name,
         "value": json_value(value),
         "type": value.type.label,
-        "descriptor": json_descriptor(described),
+        "descriptor": described,
+        "choices": choices(described, value.type),
     }
+
+
+def choices(descriptor: Mapping[str, object], value_type: ParameterType) -> list[object] | None:
+    """The values a parameter's editor offers as a choice list, or None for a free editor.
+
+    ``descriptor`` is in its JSON shape. The choices are a ``one_of`` validator's (a
+    generate_parameter_library spec's ``one_of<>``, a parameter file's ``validators``), on
+    any parameter that is not an array; else, on a string, integer or double parameter, a
+    JSON Schema ``enum``, which reaches the descriptor only as the text
+    ``one of [...]`` (JSON) among its additional constraints
+    (:mod:`paramdds.formats.schema.describe`: nothing new travels on the wire), when every
+    value it lists is of the parameter's type.
+    """
+    label = str(descriptor.get("type"))
+    if (value_type.label if label == "not_set" else label).endswith("_array"):
+        return None
+    validators = descriptor.get("validators")
+    for v in validators if isinstance(validators, list) else []:
+        if v["kind"] == "one_of" and v["args"] and isinstance(v["args"][0], list):
+            return list(v["args"][0])
+    fits = _ENUM_TYPES.get(label)
+    text = descriptor.get("additional_constraints")
+    if fits is None or not isinstance(text, str):
+        return None
+    for m in reversed(list(_ENUM.finditer(text))):  # the parameter's own keywords come last
+        try:
+            found, _ = _JSON.raw_decode(text, m.end())
+        except ValueError:
+            continue
+        if isinstance(found, list) and found and all(fits(x) for x in found):
+            return found
+    return None
 
 
 def result_row(r: SetResult) -> Row:

@@ -81,6 +81,12 @@ def test_node_rows_carry_descriptors(console: Console) -> None:
     ]
 
 
+def test_node_rows_carry_the_choices_their_editor_offers(console: Console) -> None:
+    rows = {r["name"]: r for r in node(console, "arm")["rows"]}  # type: ignore[union-attr]
+    assert rows["mode"]["choices"] == ["auto", "manual", "off"]  # its one_of validator
+    assert rows["speed"]["choices"] is None and rows["tags"]["choices"] is None
+
+
 @pytest.mark.parametrize(
     ("query", "status", "code"),
     [

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 from playwright.sync_api import Locator, Page, expect
 
-from ..cli._support import run_cli, start_server
+from ..cli._support import ROOT, run_cli, start_server
 from ._support import CONSOLE_PARAMS, Console, write_token
 from .conftest import wait_for_nodes
 
@@ -114,6 +114,28 @@ def test_a_refusal_by_the_node_is_shown_under_the_field(page: Page, console: Con
         expect(current(page, "gain")).to_have_text("4")
     finally:
         frozen.stop()
+
+
+def test_a_json_schema_enum_is_edited_with_a_choice_list(page: Page, console: Console, domain: int) -> None:
+    """A node declared by a JSON Schema: its ``enum`` (``mode``: eco or sport) reaches the
+    descriptor as the text ``one of [...]``; the editor offers those values as a ``one_of`` is
+    offered, instead of a text field that takes anything."""
+    cruise = ROOT / "examples" / "autoware"
+    schema, values = cruise / "schema" / "cruise.schema.json", cruise / "config" / "cruise.param.yaml"
+    server = start_server(domain, "-n", "cruise", "--schema", str(schema), "-p", str(values))
+    try:
+        wait_for_nodes(console.url, {"cruise"}, params=6)
+        open_node(page, console, "cruise")
+        mode = row(page, "mode").locator('[data-role="input"]')
+        expect(row(page, "mode").locator("select option")).to_have_text(["eco", "sport"])
+        expect(mode).to_have_value("eco")
+        mode.select_option("sport")
+        row(page, "mode").locator("button.set").click()
+        expect(current(page, "mode")).to_have_text("'sport'")
+        assert cli_value(domain, "cruise", "mode") == "'sport'"
+        expect(row(page, "max_speed").locator("select")).to_have_count(0)  # no enum: a text field
+    finally:
+        server.stop()
 
 
 def test_read_only_parameter_has_a_lock_and_no_editor(page: Page, console: Console) -> None:

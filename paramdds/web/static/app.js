@@ -302,14 +302,14 @@ function editorText(row) {
 function editorFor(row) {
   const d = row.descriptor, type = d.type !== "not_set" ? d.type : row.type;
   const box = el("div", { class: "editor" });
-  const oneOf = d.validators.find((v) => v.kind === "one_of");
+  const choices = row.choices;  // the server's: a one_of validator's, or a JSON Schema enum's
   let input, read;
   if (type === "bool") {
     input = el("input", { type: "checkbox", checked: !!row.value, "data-role": "input" });
     read = () => input.checked;
-  } else if (oneOf && !type.endsWith("_array")) {
-    input = el("select", { "data-role": "input" }, ...oneOf.args[0].map((c) => el("option", { value: String(c), text: String(c), selected: c === row.value })));
-    read = () => { const c = oneOf.args[0].find((x) => String(x) === input.value); return type === "string" ? c : String(c); };
+  } else if (choices) {
+    input = el("select", { "data-role": "input" }, ...choices.map((c) => el("option", { value: String(c), text: String(c), selected: c === row.value })));
+    read = () => { const c = choices.find((x) => String(x) === input.value); return type === "string" ? c : String(c); };
   } else if (type === "string" && typeof row.value === "string" && /[\n\r]/.test(row.value)) {
     // a multi-line string: a one-line field would drop its line breaks (Enter adds a line here,
     // Ctrl+Enter or Set applies)
