@@ -116,26 +116,60 @@ def test_a_refusal_by_the_node_is_shown_under_the_field(page: Page, console: Con
         frozen.stop()
 
 
-def test_a_json_schema_enum_is_edited_with_a_choice_list(page: Page, console: Console, domain: int) -> None:
-    """A node declared by a JSON Schema: its ``enum`` (``mode``: eco or sport) reaches the
-    descriptor as the text ``one of [...]``; the editor offers those values as a ``one_of`` is
-    offered, instead of a text field that takes anything."""
-    cruise = ROOT / "examples" / "autoware"
-    schema, values = cruise / "schema" / "cruise.schema.json", cruise / "config" / "cruise.param.yaml"
+@pytest.fixture(scope="module")
+def cruise(domain: int, console: Console) -> Iterator[None]:
+    """A node ``cruise`` declared by a JSON Schema (examples/autoware), which its server enforces."""
+    example = ROOT / "examples" / "autoware"
+    schema, values = example / "schema" / "cruise.schema.json", example / "config" / "cruise.param.yaml"
     server = start_server(domain, "-n", "cruise", "--schema", str(schema), "-p", str(values))
     try:
         wait_for_nodes(console.url, {"cruise"}, params=6)
-        open_node(page, console, "cruise")
-        mode = row(page, "mode").locator('[data-role="input"]')
-        expect(row(page, "mode").locator("select option")).to_have_text(["eco", "sport"])
-        expect(mode).to_have_value("eco")
-        mode.select_option("sport")
-        row(page, "mode").locator("button.set").click()
-        expect(current(page, "mode")).to_have_text("'sport'")
-        assert cli_value(domain, "cruise", "mode") == "'sport'"
-        expect(row(page, "max_speed").locator("select")).to_have_count(0)  # no enum: a text field
+        yield
     finally:
         server.stop()
+
+
+def test_a_json_schema_enum_is_edited_with_a_choice_list(
+    page: Page, console: Console, domain: int, cruise: None
+) -> None:
+    """The schema's ``enum`` (``mode``: eco or sport) reaches the descriptor as the text
+    ``one of [...]``; the editor offers those values as a ``one_of``'s are offered, instead of
+    a text field that takes anything."""
+    open_node(page, console, "cruise")
+    mode = row(page, "mode").locator('[data-role="input"]')
+    expect(row(page, "mode").locator("select option")).to_have_text(["eco", "sport"])
+    expect(mode).to_have_value("eco")
+    mode.select_option("sport")
+    row(page, "mode").locator("button.set").click()
+    expect(current(page, "mode")).to_have_text("'sport'")
+    assert cli_value(domain, "cruise", "mode") == "'sport'"
+    expect(row(page, "max_speed").locator("select")).to_have_count(0)  # no enum: a text field
+
+
+def test_apply_comes_back_once_an_atomic_set_the_node_refused_is_corrected(
+    page: Page, console: Console, domain: int, cruise: None
+) -> None:
+    """The node (not the console, which has no --schema here) refuses the combination: each
+    field shows its part (the cause, and "not applied" on the other), Apply is held back, and
+    correcting the cause brings it back: the other's "not applied" was about the old one."""
+    open_node(page, console, "cruise")
+    apply = page.locator("#apply")
+    row(page, "max_speed").locator('[data-role="input"]').fill("20.0")
+    rate = row(page, "update_rate").locator('[data-role="input"]')
+    rate.fill("0.0")  # in the descriptor's range; the schema's exclusiveMinimum refuses it
+    expect(apply).to_be_enabled()
+    apply.click()
+    expect(row(page, "update_rate").locator(".error")).to_contain_text("minimum")
+    expect(row(page, "max_speed").locator(".error")).to_contain_text("not applied")
+    expect(apply).to_be_disabled()
+    rate.fill("5.0")
+    expect(row(page, "max_speed").locator(".error")).to_have_text("")
+    expect(row(page, "update_rate").locator(".error")).to_have_text("")
+    expect(apply).to_be_enabled()
+    apply.click()
+    expect(page.locator("#banner")).to_contain_text("Applied 2 changes atomically")
+    assert cli_value(domain, "cruise", "update_rate") == "5.0"
+    assert cli_value(domain, "cruise", "max_speed") == "20.0"
 
 
 def test_read_only_parameter_has_a_lock_and_no_editor(page: Page, console: Console) -> None:

@@ -18,6 +18,7 @@ const S = {
   es: null, listTimer: null,
   checkTimers: new Map(),  // name -> the timer of its pending validation (debounced edits)
   checks: new Map(),       // name -> sequence number of its newest validation (older answers are dropped)
+  refusedTogether: null,   // the names of an atomic apply the node refused: its verdict on their combination
 };
 const $ = (sel, root = document) => root.querySelector(sel);
 
@@ -213,7 +214,7 @@ function shownNode(node, origin) { return origin === "ros2" ? "/" + node : node;
 
 function select(node) {
   node = node.replace(/^\/+/, "");
-  if (S.selected !== node) { S.dirty.clear(); S.baseRevision = null; banner(null); }
+  if (S.selected !== node) { S.dirty.clear(); S.baseRevision = null; S.refusedTogether = null; banner(null); }
   checkNode(node);
   S.selected = node;
   if (location.hash !== "#node=" + encodeURIComponent(node)) history.replaceState(null, "", "#node=" + encodeURIComponent(node));
@@ -398,6 +399,9 @@ function checkSoon(name) {
 }
 
 function markDirty(name) {
+  // a changed combination is no longer the one refused: the others' "not applied" goes (the
+  // console checks this edit again; the node has the last word on the next apply)
+  if (S.refusedTogether) { for (const n of S.refusedTogether) if (n !== name) setError(n, ""); S.refusedTogether = null; }
   if (S.dirty.size === 0) S.baseRevision = S.summary ? { incarnation: S.summary.incarnation, revision: S.summary.revision } : null;
   S.dirty.set(name, true);
   rowOf(name)?.classList.add("dirty");
@@ -410,7 +414,7 @@ function clearDirty(names) {
     clearTimeout(S.checkTimers.get(n)); S.checkTimers.delete(n);
     S.checks.set(n, (S.checks.get(n) || 0) + 1);  // an answer still on its way is not shown
   }
-  if (S.dirty.size === 0) S.baseRevision = null;
+  if (S.dirty.size === 0) { S.baseRevision = null; S.refusedTogether = null; }
   updateApply();
 }
 function updateApply() {
@@ -494,6 +498,7 @@ async function applyAll() {
     return;
   }
   showResults(data, names);
+  if (data.results) S.refusedTogether = names;
   banner((data.error && data.error.message) || "The node refused the changes.", "error");
 }
 
