@@ -146,6 +146,26 @@ def test_a_json_schema_enum_is_edited_with_a_choice_list(
     expect(row(page, "max_speed").locator("select")).to_have_count(0)  # no enum: a text field
 
 
+def test_a_choice_list_shows_a_value_held_outside_it(
+    page: Page, console: Console, domain: int, tmp_path: Path
+) -> None:
+    """``one of [...]`` written by hand among a descriptor's constraints is text the node does
+    not enforce: the value it holds outside the list is shown and kept, not the first choice."""
+    params = tmp_path / "loose.yaml"
+    params.write_text(
+        "/**:\n  ros__parameters:\n    level: c\n  paramdds__descriptors:\n    level:\n"
+        "      type: string\n      additional_constraints: 'one of [\"a\", \"b\"]'\n"
+    )
+    server = start_server(domain, "-n", "loose", "-p", str(params))
+    try:
+        wait_for_nodes(console.url, {"loose"}, params=1)
+        open_node(page, console, "loose")
+        expect(row(page, "level").locator("select option")).to_have_text(["c", "a", "b"])
+        expect(row(page, "level").locator('[data-role="input"]')).to_have_value("c")
+    finally:
+        server.stop()
+
+
 def test_apply_comes_back_once_an_atomic_set_the_node_refused_is_corrected(
     page: Page, console: Console, domain: int, cruise: None
 ) -> None:

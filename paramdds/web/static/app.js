@@ -309,8 +309,11 @@ function editorFor(row) {
     input = el("input", { type: "checkbox", checked: !!row.value, "data-role": "input" });
     read = () => input.checked;
   } else if (choices) {
-    input = el("select", { "data-role": "input" }, ...choices.map((c) => el("option", { value: String(c), text: String(c), selected: c === row.value })));
-    read = () => { const c = choices.find((x) => String(x) === input.value); return type === "string" ? c : String(c); };
+    // the value held is offered too when it is none of them (a constraint the node does not
+    // enforce, written as text): the editor shows what the node holds, never another value
+    const offered = row.value == null || choices.some((c) => c === row.value) ? choices : [row.value, ...choices];
+    input = el("select", { "data-role": "input" }, ...offered.map((c) => el("option", { value: String(c), text: String(c), selected: c === row.value })));
+    read = () => { const c = offered.find((x) => String(x) === input.value); return type === "string" ? c : String(c); };
   } else if (type === "string" && typeof row.value === "string" && /[\n\r]/.test(row.value)) {
     // a multi-line string: a one-line field would drop its line breaks (Enter adds a line here,
     // Ctrl+Enter or Set applies)
