@@ -56,6 +56,7 @@ from .model import (
     atomic_refusal,
     checked,
     parameter_row,
+    refused_row,
     result_row,
     summary_json,
     typed_parameters,
@@ -392,13 +393,19 @@ class Console:
         names = body.get("names")
         if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
             raise WebError(WebCode.BAD_REQUEST, "'names' must be a non-empty list of strings")
-        for n in names:
-            validate_name(n)
         detail = self._online(node)
         asked = dict.fromkeys(names)
-        deletes, refused = self._precheck(node, detail, [Parameter(n, NOT_SET) for n in asked], False)
+        refused: list[Row] = []
+        for n in asked:
+            try:
+                validate_name(n)
+            except ParamddsError as exc:
+                refused.append(refused_row(n, exc.message, code_of(exc)))
+        named = [Parameter(n, NOT_SET) for n in asked if all(r["name"] != n for r in refused)]
+        deletes, unfit = self._precheck(node, detail, named, False)
+        refused += unfit
         if not deletes:
-            return self._set_response(node, detail.summary.at, refused)
+            return self._set_response(node, detail.summary.at, _in_order(asked, refused))
         reply = await self.client.delete(node, [p.name for p in deletes], timeout=self.options.timeout)
         return self._set_response(
             node, reply.at, _in_order(asked, [result_row(r) for r in reply.results] + refused)
@@ -434,9 +441,7 @@ class Console:
             try:
                 sendable.append(Parameter(name, checked(name, value, described[1] if described else None)))
             except ParamddsError as exc:
-                refused.append(
-                    {"name": name, "successful": False, "reason": exc.message, "code": code_of(exc)}
-                )
+                refused.append(refused_row(name, exc.message, code_of(exc)))
         sendable, unfit = self._precheck(node, detail, sendable, atomic)
         refused += unfit
         if refused and atomic:

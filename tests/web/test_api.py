@@ -331,6 +331,17 @@ def test_delete_removes_a_parameter(console: Console) -> None:
     assert _gone(console, "base", "note")
 
 
+def test_a_refused_delete_answers_each_names_result(console: Console) -> None:
+    before = revision(console, "arm")
+    r = post(console, "delete", {"node": "arm", "names": ["bad name!", "nothing.here"]})
+    assert error(r) == (422, "INVALID_NAME"), r.text
+    assert [(x["name"], x["successful"], x["code"]) for x in r.json()["results"]] == [
+        ("bad name!", False, "INVALID_NAME"),
+        ("nothing.here", False, "NOT_FOUND"),  # asked of the node, which has no such parameter
+    ]
+    assert revision(console, "arm") == before
+
+
 def _gone(console: Console, node_name: str, param: str) -> bool:
     import time
 
