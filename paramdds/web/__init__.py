@@ -10,7 +10,8 @@ server-sent events, coalesced per subscriber, and only for what it shows.
 Modules:
 
 * :mod:`.status`  the one table from error codes to HTTP statuses;
-* :mod:`.model`   JSON shapes of nodes, parameters and events; typing of values sent by a browser;
+* :mod:`.model`   JSON shapes of nodes, parameters (with their editor's choices) and events;
+  typing of values sent by a browser;
 * :mod:`.view`    the monitor's live state read under its lock, one page or one node at a time;
 * :mod:`.hub`     monitor events → per-subscriber coalesced SSE batches;
 * :mod:`.inputs`  query arguments and JSON bodies, read with a size cap;
@@ -18,5 +19,6 @@ Modules:
 * :mod:`.app`     the Starlette application (routes, the write checks);
 * :mod:`.serve`   wiring monitor, client and uvicorn together (the CLI verb).
 
-Needs the ``web`` extra (``pip install 'paramdds[web]'``): Starlette and uvicorn.
+Needs the ``web`` extra (``pip install -e '.[web]'`` in the checkout, as docs/web.md says):
+Starlette and uvicorn.
 """

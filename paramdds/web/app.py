@@ -53,12 +53,13 @@ from .hub import Hub, sse
 from .inputs import bool_field, file_entries, int_arg, node_arg, read_body, revision_field
 from .model import (
     Row,
+    atomic_refusal,
     checked,
     parameter_row,
+    refused_row,
     result_row,
     summary_json,
-    typed_value,
-    typed_values,
+    typed_parameters,
 )
 from .status import WebCode, WebError, code_of, error_body, status_of
 from .view import NodeDetail, StateView
@@ -201,7 +202,7 @@ class Console:
         parameters:
           - {name: node, in: query, required: true, schema: {type: string}}
         responses:
-          200: {description: '{"summary", "rows": [{"name", "value", "type", "descriptor"}]}'}
+          200: {description: '{"summary", "rows": [{"name", "value", "type", "descriptor", "choices"}]}'}
           404: {description: NOT_FOUND (unknown node)}
         """
         self._check_read(request)
@@ -298,16 +299,9 @@ class Console:
         if not isinstance(values, dict) or not values:
             raise WebError(WebCode.BAD_REQUEST, "'values' must be a non-empty object of name: value")
         detail = self._detail(node)
-        refused: dict[str, Row] = {}
-        typed: list[Parameter] = []
-        for name, raw in values.items():
-            entry = detail.parameters.get(name)
-            try:
-                typed.append(Parameter(name, typed_value(name, raw, entry[1] if entry else None)))
-            except ParamddsError as exc:
-                refused[name] = {"reason": exc.message, "code": code_of(exc)}
-        for row in self._precheck(node, detail, typed, False)[1]:  # --schema NODE=FILE
-            refused[str(row["name"])] = {"reason": row["reason"], "code": row["code"]}
+        typed, unfit = typed_parameters(values, detail.parameters)
+        unfit += self._precheck(node, detail, typed, False)[1]  # --schema NODE=FILE
+        refused: dict[str, Row] = {str(r["name"]): {"reason": r["reason"], "code": r["code"]} for r in unfit}
         valid: Row = {"reason": "", "code": None}
         results = [{"name": n, "valid": n not in refused, **refused.get(n, valid)} for n in values]
         return JSONResponse({"node": node, "results": results})
@@ -356,10 +350,15 @@ class Console:
         atomic = bool_field(body, "atomic")
         if_revision = revision_field(body)
         detail = self._online(node)
-        typed = typed_values(values, detail.parameters)
-        params, refused = self._precheck(node, detail, [Parameter(n, v) for n, v in typed.items()], atomic)
+        params, refused = typed_parameters(values, detail.parameters)
+        if not (refused and atomic):
+            params, unfit = self._precheck(node, detail, params, atomic)
+            refused += unfit
+        if refused and atomic:  # nothing is sent: each row says why, as the node's would
+            rows = atomic_refusal(values, _in_order(values, refused))
+            return self._set_response(node, detail.summary.at, rows, atomic)
         if not params:
-            return self._set_response(node, detail.summary.at, refused)
+            return self._set_response(node, detail.summary.at, _in_order(values, refused))
         reply = await self.client.set(
             node,
             params,
@@ -368,7 +367,7 @@ class Console:
             timeout=self.options.timeout,
         )
         return self._set_response(
-            node, reply.at, _in_order(typed, [result_row(r) for r in reply.results] + refused)
+            node, reply.at, _in_order(values, [result_row(r) for r in reply.results] + refused), atomic
         )
 
     def _precheck(
@@ -394,13 +393,19 @@ class Console:
         names = body.get("names")
         if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
             raise WebError(WebCode.BAD_REQUEST, "'names' must be a non-empty list of strings")
-        for n in names:
-            validate_name(n)
         detail = self._online(node)
         asked = dict.fromkeys(names)
-        deletes, refused = self._precheck(node, detail, [Parameter(n, NOT_SET) for n in asked], False)
+        refused: list[Row] = []
+        for n in asked:
+            try:
+                validate_name(n)
+            except ParamddsError as exc:
+                refused.append(refused_row(n, exc.message, code_of(exc)))
+        named = [Parameter(n, NOT_SET) for n in asked if all(r["name"] != n for r in refused)]
+        deletes, unfit = self._precheck(node, detail, named, False)
+        refused += unfit
         if not deletes:
-            return self._set_response(node, detail.summary.at, refused)
+            return self._set_response(node, detail.summary.at, _in_order(asked, refused))
         reply = await self.client.delete(node, [p.name for p in deletes], timeout=self.options.timeout)
         return self._set_response(
             node, reply.at, _in_order(asked, [result_row(r) for r in reply.results] + refused)
@@ -436,22 +441,23 @@ class Console:
             try:
                 sendable.append(Parameter(name, checked(name, value, described[1] if described else None)))
             except ParamddsError as exc:
-                refused.append(
-                    {"name": name, "successful": False, "reason": exc.message, "code": code_of(exc)}
-                )
+                refused.append(refused_row(name, exc.message, code_of(exc)))
         sendable, unfit = self._precheck(node, detail, sendable, atomic)
         refused += unfit
         if refused and atomic:
-            return self._set_response(node, detail.summary.at, refused + unchanged)
+            rows = atomic_refusal([name for name, _, _ in entries], refused + unchanged)
+            return self._set_response(node, detail.summary.at, rows, atomic)
         results: list[Row] = refused + unchanged
         at = detail.summary.at
         if sendable:
             reply = await self.client.set(node, sendable, atomic=atomic, timeout=self.options.timeout)
             results = [result_row(r) for r in reply.results] + results
             at = reply.at
-        return self._set_response(node, at, results)
+        return self._set_response(node, at, results, atomic)
 
-    def _set_response(self, node: str, at: Revision, results: list[Row]) -> Response:
+    def _set_response(self, node: str, at: Revision, results: list[Row], atomic: bool = False) -> Response:
+        """A write's answer; refused, its status is the first refusal's code, or for an atomic
+        write its cause's (the first code other than the INVALID_VALUE of "not applied")."""
         body: dict[str, object] = {
             "node": node,
             "revision": at.revision,
@@ -461,11 +467,12 @@ class Console:
         failed = [r for r in results if not r["successful"]]
         if not failed:
             return JSONResponse(body)
-        first = failed[0]
-        code = str(first["code"] or ErrorCode.INVALID_VALUE.value)
-        body.update(
-            error_body(code, f"{len(failed)} of {len(results)} refused: {first['name']}: {first['reason']}")
-        )
+        invalid = ErrorCode.INVALID_VALUE.value
+        codes = [str(r["code"] or invalid) for r in failed]
+        code = next((c for c in codes if c != invalid), invalid) if atomic else codes[0]
+        why = "; ".join(f"{r['name']}: {r['reason']}" for r in failed)  # as the CLI words it
+        message = f"{len(failed)} of {len(results)} parameters refused by node {node!r}: {why}"
+        body.update(error_body(code, message))
         if code == ErrorCode.CONFLICT.value:
             detail = self.view.detail(node)  # the newer values the page shows instead of overwriting
             if detail is not None:

@@ -4,9 +4,10 @@ Shapes (documented in docs/web.md):
 
 * a node summary: ``{"node", "online", "host", "pid", "revision", "parameters",
   "request_filter", "incarnation", "origin", "status"}`` (the incarnation in 16 hex digits);
-* a parameter row: ``{"name", "value", "type", "descriptor"}`` with the value and
-  descriptor in the CLI's JSON shapes (:mod:`paramdds.core.jsonform`: byte arrays as
-  lists of ints, non-finite doubles as ``"nan"``/``"inf"``/``"-inf"``);
+* a parameter row: ``{"name", "value", "type", "descriptor", "choices"}`` with the value
+  and descriptor in the CLI's JSON shapes (:mod:`paramdds.core.jsonform`: byte arrays as
+  lists of ints, non-finite doubles as ``"nan"``/``"inf"``/``"-inf"``) and the choices its
+  editor offers (:func:`choices`: a ``one_of`` or a schema ``enum``), or null;
 * a set result: ``{"name", "successful", "reason", "code"}``.
 
 Values sent by a browser are typed by the parameter's descriptor
@@ -19,9 +20,10 @@ process and the reason shown is the node's own wording.
 
 from __future__ import annotations
 
+import json
 import math
 import re
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import asdict
 
 from ..core.descriptors import ParameterDescriptor
@@ -32,13 +34,27 @@ from ..core.names import validate_name
 from ..core.results import SetResult
 from ..core.revision import incarnation_text
 from ..core.validation import validate
-from ..core.values import ParameterType, ParameterValue
+from ..core.values import Parameter, ParameterType, ParameterValue
 from ..dds.client import NodeInfo
-from ..errors import InvalidValueError, TypeMismatchError
+from ..errors import ErrorCode, InvalidValueError, ParamddsError, TypeMismatchError
+from .status import code_of
 
 Row = dict[str, object]
 _HEX = re.compile(r"^(?:0x)?((?:[0-9a-fA-F]{2})*)$")
 _NON_FINITE = {"nan": math.nan, "inf": math.inf, "-inf": -math.inf}
+_ENUM = re.compile(r"(?:^|; |, )one of ")  # a schema enum as formats.schema.describe writes it
+_JSON = json.JSONDecoder()
+
+
+def _is_int(x: object) -> bool:
+    return isinstance(x, int) and not isinstance(x, bool)
+
+
+def _is_double(x: object) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
+_ENUM_TYPES = {"string": lambda x: isinstance(x, str), "integer": _is_int, "double": _is_double}
 
 
 def summary_json(info: NodeInfo) -> Row:
@@ -50,13 +66,46 @@ def summary_json(info: NodeInfo) -> Row:
 
 
 def parameter_row(name: str, value: ParameterValue, descriptor: ParameterDescriptor | None) -> Row:
-    described = descriptor or ParameterDescriptor(name, value.type)
+    described = json_descriptor(descriptor or ParameterDescriptor(name, value.type))
     return {
         "name": name,
         "value": json_value(value),
         "type": value.type.label,
-        "descriptor": json_descriptor(described),
+        "descriptor": described,
+        "choices": choices(described, value.type),
     }
+
+
+def choices(descriptor: Mapping[str, object], value_type: ParameterType) -> list[object] | None:
+    """The values a parameter's editor offers as a choice list, or None for a free editor.
+
+    ``descriptor`` is in its JSON shape. The choices are a ``one_of`` validator's (a
+    generate_parameter_library spec's ``one_of<>``, a parameter file's ``validators``), on
+    any parameter that is not an array; else, on a string, integer or double parameter, a
+    JSON Schema ``enum``, which reaches the descriptor only as the text
+    ``one of [...]`` (JSON) among its additional constraints
+    (:mod:`paramdds.formats.schema.describe`: nothing new travels on the wire), when every
+    value it lists is of the parameter's type.
+    """
+    label = str(descriptor.get("type"))
+    if (value_type.label if label == "not_set" else label).endswith("_array"):
+        return None
+    validators = descriptor.get("validators")
+    for v in validators if isinstance(validators, list) else []:
+        if v["kind"] == "one_of" and v["args"] and isinstance(v["args"][0], list):
+            return list(v["args"][0])
+    fits = _ENUM_TYPES.get(label)
+    text = descriptor.get("additional_constraints")
+    if fits is None or not isinstance(text, str):
+        return None
+    for m in reversed(list(_ENUM.finditer(text))):  # the parameter's own keywords come last
+        try:
+            found, _ = _JSON.raw_decode(text, m.end())
+        except ValueError:
+            continue
+        if isinstance(found, list) and found and all(fits(x) for x in found):
+            return found
+    return None
 
 
 def result_row(r: SetResult) -> Row:
@@ -166,12 +215,31 @@ def checked(
     return typed
 
 
-def typed_values(
+def typed_parameters(
     raw: Mapping[str, object], described: Mapping[str, tuple[ParameterValue, ParameterDescriptor]]
-) -> dict[str, ParameterValue]:
-    """Every value of a set request, typed by the node's descriptors (first error raises)."""
-    out: dict[str, ParameterValue] = {}
+) -> tuple[list[Parameter], list[Row]]:
+    """Every value of a request typed by the node's descriptors: (the parameters that pass,
+    a refused result row for each of the rest, with the reason and code the node would give)."""
+    params: list[Parameter] = []
+    refused: list[Row] = []
     for name, v in raw.items():
         entry = described.get(name)
-        out[name] = typed_value(name, v, entry[1] if entry else None)
-    return out
+        try:
+            params.append(Parameter(name, typed_value(name, v, entry[1] if entry else None)))
+        except ParamddsError as exc:
+            refused.append(refused_row(name, exc.message, code_of(exc)))
+    return params, refused
+
+
+def refused_row(name: str, reason: str, code: str) -> Row:
+    return {"name": name, "successful": False, "reason": reason, "code": code}
+
+
+def atomic_refusal(names: Iterable[str], rows: Sequence[Row]) -> list[Row]:
+    """The rows of an atomic write refused before it was sent, one per name of ``names``: the
+    rows given (the first refusal among them is the cause), every other name not applied, in
+    the node's words for an atomic failure."""
+    given = {str(r["name"]): r for r in rows}
+    cause = next(r["name"] for r in rows if not r["successful"])
+    other = f"not applied: the atomic set failed on {cause!r}"
+    return [given.get(n) or refused_row(n, other, ErrorCode.INVALID_VALUE.value) for n in names]

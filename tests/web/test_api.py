@@ -81,6 +81,12 @@ def test_node_rows_carry_descriptors(console: Console) -> None:
     ]
 
 
+def test_node_rows_carry_the_choices_their_editor_offers(console: Console) -> None:
+    rows = {r["name"]: r for r in node(console, "arm")["rows"]}  # type: ignore[union-attr]
+    assert rows["mode"]["choices"] == ["auto", "manual", "off"]  # its one_of validator
+    assert rows["speed"]["choices"] is None and rows["tags"]["choices"] is None
+
+
 @pytest.mark.parametrize(
     ("query", "status", "code"),
     [
@@ -170,6 +176,43 @@ def test_bad_values_are_422_and_never_sent(console: Console, values: dict[str, o
     before = revision(console, "base")
     assert error(post(console, "set", {"node": "base", "values": values})) == (422, code)
     assert revision(console, "base") == before
+
+
+REFUSALS = [
+    pytest.param({"speed": 9.5}, "OUT_OF_RANGE", 422, id="out-of-range"),
+    pytest.param({"speed": "fast"}, "TYPE_MISMATCH", 422, id="wrong-type"),
+    pytest.param({"serial": "x"}, "READ_ONLY", 403, id="read-only"),
+    pytest.param({"nothing.here": 1}, "NOT_FOUND", 404, id="unknown-parameter"),
+]
+
+
+@pytest.mark.parametrize("atomic", [False, True], ids=["plain", "atomic"])
+@pytest.mark.parametrize(("values", "code", "status"), REFUSALS)
+def test_every_refused_set_answers_each_parameters_result_as_the_node_does(
+    domain: int, console: Console, values: dict[str, object], code: str, status: int, atomic: bool
+) -> None:
+    """The console's own refusal (before sending) and the node's have one shape: the error,
+    and ``results`` with one row per parameter, the reason and code the node gives."""
+    before = revision(console, "arm")
+    body = {"node": "arm", "values": {"gain": 3, **values}, "atomic": atomic}
+    r = post(console, "set", body)
+    assert error(r) == (status, code), r.text
+    got = r.json()
+    [(name, raw)] = values.items()
+    cli = ["--atomic"] if atomic else []
+    direct = run_cli(domain, "set", "-o", "json", *cli, "arm", "gain=3", f"{name}={json.dumps(raw)}")
+    assert direct.returncode == 1
+    node_said = json.loads(direct.stdout)
+    assert [(x["name"], x["successful"]) for x in got["results"]] == [
+        (n, node_said[n]["successful"]) for n in ("gain", name)
+    ]
+    assert [x["code"] for x in got["results"]] == [None if not atomic else "INVALID_VALUE", code]
+    assert got["node"] == "arm" and got["revision"] >= before
+    if code != "TYPE_MISMATCH":  # the console words a JSON value's kind, the CLI its text's
+        assert [x["reason"] for x in got["results"]] == [node_said[n]["reason"] for n in ("gain", name)]
+        assert got["error"]["message"] in direct.stderr  # the CLI's words for the same refusal
+    if atomic:
+        assert revision(console, "arm") == before
 
 
 def test_good_values_of_every_editor_type_are_accepted(console: Console) -> None:
@@ -286,6 +329,17 @@ def test_delete_removes_a_parameter(console: Console) -> None:
     r = post(console, "delete", {"node": "base", "names": ["note"]})
     assert r.status_code == 200, r.text
     assert _gone(console, "base", "note")
+
+
+def test_a_refused_delete_answers_each_names_result(console: Console) -> None:
+    before = revision(console, "arm")
+    r = post(console, "delete", {"node": "arm", "names": ["bad name!", "nothing.here"]})
+    assert error(r) == (422, "INVALID_NAME"), r.text
+    assert [(x["name"], x["successful"], x["code"]) for x in r.json()["results"]] == [
+        ("bad name!", False, "INVALID_NAME"),
+        ("nothing.here", False, "NOT_FOUND"),  # asked of the node, which has no such parameter
+    ]
+    assert revision(console, "arm") == before
 
 
 def _gone(console: Console, node_name: str, param: str) -> bool:

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 from playwright.sync_api import Locator, Page, expect
 
-from ..cli._support import run_cli, start_server
+from ..cli._support import ROOT, run_cli, start_server
 from ._support import CONSOLE_PARAMS, Console, write_token
 from .conftest import wait_for_nodes
 
@@ -116,12 +116,110 @@ def test_a_refusal_by_the_node_is_shown_under_the_field(page: Page, console: Con
         frozen.stop()
 
 
+@pytest.fixture(scope="module")
+def cruise(domain: int, console: Console) -> Iterator[None]:
+    """A node ``cruise`` declared by a JSON Schema (examples/autoware), which its server enforces."""
+    example = ROOT / "examples" / "autoware"
+    schema, values = example / "schema" / "cruise.schema.json", example / "config" / "cruise.param.yaml"
+    server = start_server(domain, "-n", "cruise", "--schema", str(schema), "-p", str(values))
+    try:
+        wait_for_nodes(console.url, {"cruise"}, params=6)
+        yield
+    finally:
+        server.stop()
+
+
+def test_a_json_schema_enum_is_edited_with_a_choice_list(
+    page: Page, console: Console, domain: int, cruise: None
+) -> None:
+    """The schema's ``enum`` (``mode``: eco or sport) reaches the descriptor as the text
+    ``one of [...]``; the editor offers those values as a ``one_of``'s are offered, instead of
+    a text field that takes anything."""
+    open_node(page, console, "cruise")
+    mode = row(page, "mode").locator('[data-role="input"]')
+    expect(row(page, "mode").locator("select option")).to_have_text(["eco", "sport"])
+    expect(mode).to_have_value("eco")
+    mode.select_option("sport")
+    row(page, "mode").locator("button.set").click()
+    expect(current(page, "mode")).to_have_text("'sport'")
+    assert cli_value(domain, "cruise", "mode") == "'sport'"
+    expect(row(page, "max_speed").locator("select")).to_have_count(0)  # no enum: a text field
+
+
+def test_a_choice_list_shows_a_value_held_outside_it(
+    page: Page, console: Console, domain: int, tmp_path: Path
+) -> None:
+    """``one of [...]`` written by hand among a descriptor's constraints is text the node does
+    not enforce: the value it holds outside the list is shown and kept, not the first choice."""
+    params = tmp_path / "loose.yaml"
+    params.write_text(
+        "/**:\n  ros__parameters:\n    level: c\n  paramdds__descriptors:\n    level:\n"
+        "      type: string\n      additional_constraints: 'one of [\"a\", \"b\"]'\n"
+    )
+    server = start_server(domain, "-n", "loose", "-p", str(params))
+    try:
+        wait_for_nodes(console.url, {"loose"}, params=1)
+        open_node(page, console, "loose")
+        expect(row(page, "level").locator("select option")).to_have_text(["c", "a", "b"])
+        expect(row(page, "level").locator('[data-role="input"]')).to_have_value("c")
+    finally:
+        server.stop()
+
+
+def test_apply_comes_back_once_an_atomic_set_the_node_refused_is_corrected(
+    page: Page, console: Console, domain: int, cruise: None
+) -> None:
+    """The node (not the console, which has no --schema here) refuses the combination: each
+    field shows its part (the cause, and "not applied" on the other), Apply is held back, and
+    correcting the cause brings it back: the other's "not applied" was about the old one."""
+    open_node(page, console, "cruise")
+    apply = page.locator("#apply")
+    row(page, "max_speed").locator('[data-role="input"]').fill("20.0")
+    rate = row(page, "update_rate").locator('[data-role="input"]')
+    rate.fill("0.0")  # in the descriptor's range; the schema's exclusiveMinimum refuses it
+    expect(apply).to_be_enabled()
+    apply.click()
+    expect(row(page, "update_rate").locator(".error")).to_contain_text("minimum")
+    expect(row(page, "max_speed").locator(".error")).to_contain_text("not applied")
+    expect(apply).to_be_disabled()
+    rate.fill("5.0")
+    expect(row(page, "max_speed").locator(".error")).to_have_text("")
+    expect(row(page, "update_rate").locator(".error")).to_have_text("")
+    expect(apply).to_be_enabled()
+    apply.click()
+    expect(page.locator("#banner")).to_contain_text("Applied 2 changes atomically")
+    assert cli_value(domain, "cruise", "update_rate") == "5.0"
+    assert cli_value(domain, "cruise", "max_speed") == "20.0"
+
+
 def test_read_only_parameter_has_a_lock_and_no_editor(page: Page, console: Console) -> None:
     open_node(page, console, "arm")
     expect(row(page, "speed").locator('[data-role="input"]')).to_have_count(1)
     expect(row(page, "serial").locator(".lock")).to_be_visible()
     expect(row(page, "serial").locator('[data-role="input"]')).to_have_count(0)
     expect(row(page, "serial").locator("button")).to_have_count(0)
+
+
+def test_apply_atomically_is_disabled_while_an_edit_shows_an_error(page: Page, console: Console) -> None:
+    """Apply atomically is held back, with the reason in its title, while a pending edit shows
+    an error (the notation's, or the console's verdict), and comes back once it is fixed."""
+    open_node(page, console, "arm")
+    apply = page.locator("#apply")
+    row(page, "speed").locator('[data-role="input"]').fill("3.0")
+    expect(apply).to_be_enabled()
+    gain = row(page, "gain").locator('[data-role="input"]')
+    gain.fill("11")  # integer_range [0, 10, 1]: refused by the console's check
+    expect(row(page, "gain").locator(".error")).to_contain_text("must be within")
+    expect(apply).to_be_disabled()
+    expect(apply).to_have_attribute("title", re.compile(r"gain shows an error"))
+    gain.fill("x")  # the notation's error
+    expect(row(page, "gain").locator(".error")).to_contain_text("expected an integer")
+    expect(apply).to_be_disabled()
+    gain.fill("7")
+    expect(row(page, "gain").locator(".error")).to_have_text("")
+    expect(apply).to_be_enabled()
+    expect(apply).to_have_attribute("title", re.compile(r"all or none"))
+    page.click("#discard")
 
 
 def test_typed_editors(page: Page, console: Console) -> None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import json
 import math
 from pathlib import Path
 
@@ -17,7 +18,7 @@ from paramdds.dds.monitor import EventKind, MonitorEvent
 from paramdds.errors import ErrorCode, OutOfRangeError, TypeMismatchError
 from paramdds.exits import UsageError
 from paramdds.web.hub import Hub
-from paramdds.web.model import typed_value
+from paramdds.web.model import atomic_refusal, choices, parameter_row, typed_parameters, typed_value
 from paramdds.web.serve import is_loopback, options_from, parse_bind
 from paramdds.web.status import STATUS, WebCode, status_of
 from paramdds.web.view import StateView
@@ -48,6 +49,77 @@ def test_bytes_from_hex_or_ints() -> None:
     assert typed_value("key", [1, 2], key).value == b"\x01\x02"
     with pytest.raises(TypeMismatchError, match="hex"):
         typed_value("key", "abc", key)
+
+
+def test_each_value_of_a_request_is_typed_or_refused_with_its_code() -> None:
+    described = {"speed": (ParameterValue(ParameterType.DOUBLE, 1.0), SPEED)}
+    params, refused = typed_parameters({"speed": 9.5, "other": 1, "bad name!": 2}, described)
+    assert [p.name for p in params] == ["other"]
+    assert [(r["name"], r["successful"], r["code"]) for r in refused] == [
+        ("speed", False, "OUT_OF_RANGE"),
+        ("bad name!", False, "INVALID_NAME"),
+    ]
+
+
+def test_an_atomic_refusal_has_a_row_per_name_in_the_nodes_words() -> None:
+    cause = {"name": "b", "successful": False, "reason": "too big", "code": "OUT_OF_RANGE"}
+    same = {"name": "c", "successful": True, "reason": "unchanged", "code": None}
+    rows = atomic_refusal(["a", "b", "c"], [cause, same])
+    other = "not applied: the atomic set failed on 'b'"
+    assert rows == [{"name": "a", "successful": False, "reason": other, "code": "INVALID_VALUE"}, cause, same]
+
+
+def _choices_of(descriptor: ParameterDescriptor) -> object:
+    return parameter_row(descriptor.name, _a_value(descriptor.type), descriptor)["choices"]
+
+
+def _a_value(ptype: ParameterType) -> ParameterValue:
+    return ParameterValue.of(ptype, {"string": "x", "integer": 1, "double": 1.0}.get(ptype.label, ["x"]))
+
+
+def test_a_gpl_one_of_and_a_schema_enum_both_give_a_choice_list() -> None:
+    from paramdds.formats.schema import load_schema_str
+    from paramdds.formats.spec import load_spec_str
+
+    spec = load_spec_str(
+        "p:\n  mode: {type: string, validation: {one_of<>: [[eco, sport]]}}\n"
+        "  level: {type: int, validation: {one_of<>: [[1, 2, 3]]}}\n"
+        "  tags: {type: string_array, validation: {subset_of<>: [[a, b]]}}\n"
+    )
+    assert [_choices_of(e.descriptor) for e in spec] == [["eco", "sport"], [1, 2, 3], None]
+    props = {
+        "mode": {"type": "string", "enum": ["eco", "sport"], "default": "eco"},
+        "level": {"type": "integer", "enum": [1, 2, 3], "minimum": 0, "default": 1},
+        "gain": {"type": "number", "enum": [0.5, 1], "default": 1},
+        "mixed": {"type": "string", "enum": ["a", 1], "default": "a"},
+        "tags": {"type": "array", "items": {"type": "string", "enum": ["a", "b"]}, "default": ["a"]},
+        "free": {"type": "string", "description": "one of [\"x\"] in prose", "default": "x"},
+    }
+    node = {"properties": props, "required": ["mode"]}
+    doc = {"properties": {"/**": {"properties": {"ros__parameters": node}}}}
+    schema = load_schema_str(json.dumps(doc))
+    got = {e.name: _choices_of(e.descriptor) for e in schema.entries}
+    assert got == {
+        "mode": ["eco", "sport"],  # after the note 'required'
+        "level": [1, 2, 3],
+        "gain": [0.5, 1],
+        "mixed": None,  # not all of the parameter's type: a free editor
+        "tags": None,  # an array: its items' enum is not a choice of one value
+        "free": None,  # a description is not a constraint
+    }
+
+
+def test_choices_need_a_whole_list_of_the_parameters_type() -> None:
+    def of(constraints: str, ptype: ParameterType = ParameterType.STRING) -> object:
+        return choices({"type": ptype.label, "additional_constraints": constraints, "validators": []}, ptype)
+
+    assert of('one of ["a", "b"]') == ["a", "b"]
+    assert of('required; group \'g\': oneOf [{"x": 1}]; one of ["a", "b, c"]') == ["a", "b, c"]
+    assert of('one of ["a", "b"…') is None  # cut at the text's limit
+    assert of("not one of these") is None and of("") is None and of("one of []") is None
+    assert of('none of ["a"]') is None  # a word that merely ends in "one of"
+    assert of("one of [true, false]", ParameterType.BOOL) is None  # a bool has its checkbox
+    assert of("one of [1, 2.5]", ParameterType.INTEGER) is None
 
 
 @given(st.floats(min_value=0.0, max_value=5.0))

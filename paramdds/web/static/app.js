@@ -18,6 +18,7 @@ const S = {
   es: null, listTimer: null,
   checkTimers: new Map(),  // name -> the timer of its pending validation (debounced edits)
   checks: new Map(),       // name -> sequence number of its newest validation (older answers are dropped)
+  refusedTogether: null,   // the names of an atomic apply the node refused: its verdict on their combination
 };
 const $ = (sel, root = document) => root.querySelector(sel);
 
@@ -213,7 +214,7 @@ function shownNode(node, origin) { return origin === "ros2" ? "/" + node : node;
 
 function select(node) {
   node = node.replace(/^\/+/, "");
-  if (S.selected !== node) { S.dirty.clear(); S.baseRevision = null; banner(null); }
+  if (S.selected !== node) { S.dirty.clear(); S.baseRevision = null; S.refusedTogether = null; banner(null); }
   checkNode(node);
   S.selected = node;
   if (location.hash !== "#node=" + encodeURIComponent(node)) history.replaceState(null, "", "#node=" + encodeURIComponent(node));
@@ -302,14 +303,17 @@ function editorText(row) {
 function editorFor(row) {
   const d = row.descriptor, type = d.type !== "not_set" ? d.type : row.type;
   const box = el("div", { class: "editor" });
-  const oneOf = d.validators.find((v) => v.kind === "one_of");
+  const choices = row.choices;  // the server's: a one_of validator's, or a JSON Schema enum's
   let input, read;
   if (type === "bool") {
     input = el("input", { type: "checkbox", checked: !!row.value, "data-role": "input" });
     read = () => input.checked;
-  } else if (oneOf && !type.endsWith("_array")) {
-    input = el("select", { "data-role": "input" }, ...oneOf.args[0].map((c) => el("option", { value: String(c), text: String(c), selected: c === row.value })));
-    read = () => { const c = oneOf.args[0].find((x) => String(x) === input.value); return type === "string" ? c : String(c); };
+  } else if (choices) {
+    // the value held is offered too when it is none of them (a constraint the node does not
+    // enforce, written as text): the editor shows what the node holds, never another value
+    const offered = row.value == null || choices.some((c) => c === row.value) ? choices : [row.value, ...choices];
+    input = el("select", { "data-role": "input" }, ...offered.map((c) => el("option", { value: String(c), text: String(c), selected: c === row.value })));
+    read = () => { const c = offered.find((x) => String(x) === input.value); return type === "string" ? c : String(c); };
   } else if (type === "string" && typeof row.value === "string" && /[\n\r]/.test(row.value)) {
     // a multi-line string: a one-line field would drop its line breaks (Enter adds a line here,
     // Ctrl+Enter or Set applies)
@@ -340,7 +344,13 @@ function editorFor(row) {
 }
 
 function rowOf(name) { return $(`#params tbody tr[data-name="${CSS.escape(name)}"]`); }
-function setError(name, text) { const tr = rowOf(name); if (tr) $(".error", tr).textContent = text || ""; }
+function setError(name, text) {
+  const tr = rowOf(name);
+  if (tr) $(".error", tr).textContent = text || "";
+  updateApply();  // an edit showing an error holds Apply back
+}
+// The pending edits whose field shows an error (the notation's, the console's or the node's).
+function editsInError() { return [...S.dirty.keys()].filter((n) => rowOf(n)?.querySelector(".error")?.textContent); }
 
 // The editor's value, parsed; shows the notation's error and returns undefined when it is not one.
 function editorValue(name) {
@@ -392,6 +402,9 @@ function checkSoon(name) {
 }
 
 function markDirty(name) {
+  // a changed combination is no longer the one refused: the others' "not applied" goes (the
+  // console checks this edit again; the node has the last word on the next apply)
+  if (S.refusedTogether) { for (const n of S.refusedTogether) if (n !== name) setError(n, ""); S.refusedTogether = null; }
   if (S.dirty.size === 0) S.baseRevision = S.summary ? { incarnation: S.summary.incarnation, revision: S.summary.revision } : null;
   S.dirty.set(name, true);
   rowOf(name)?.classList.add("dirty");
@@ -404,15 +417,17 @@ function clearDirty(names) {
     clearTimeout(S.checkTimers.get(n)); S.checkTimers.delete(n);
     S.checks.set(n, (S.checks.get(n) || 0) + 1);  // an answer still on its way is not shown
   }
-  if (S.dirty.size === 0) S.baseRevision = null;
+  if (S.dirty.size === 0) { S.baseRevision = null; S.refusedTogether = null; }
   updateApply();
 }
 function updateApply() {
-  const n = S.dirty.size;
-  $("#apply").disabled = n === 0 || S.info.read_only;
+  const n = S.dirty.size, bad = editsInError();
+  $("#apply").disabled = n === 0 || S.info.read_only || bad.length > 0;
   $("#discard").disabled = n === 0;
   $("#apply").textContent = n ? `Apply ${n} change${n === 1 ? "" : "s"} atomically` : "Apply atomically";
-  $("#apply").title = S.summary && S.summary.origin
+  $("#apply").title = bad.length
+    ? `not while ${bad.join(", ")} ${bad.length === 1 ? "shows an error" : "show errors"}: correct ${bad.length === 1 ? "it" : "them"} or discard`
+    : S.summary && S.summary.origin
     ? `all or none, by the node itself; not compared with the values you started from (a node mirrored from ${S.summary.origin} has no revisions)`
     : "all or none, and only if the node has not changed since you started editing";
 }
@@ -486,6 +501,7 @@ async function applyAll() {
     return;
   }
   showResults(data, names);
+  if (data.results) S.refusedTogether = names;
   banner((data.error && data.error.message) || "The node refused the changes.", "error");
 }
 
@@ -551,6 +567,7 @@ function openStream() {
     const keep = new Map([...S.dirty.keys()].map((n) => [n, rowOf(n)]));
     renderRows(d.rows);
     for (const [n, tr] of keep) if (tr && rowOf(n)) rowOf(n).replaceWith(tr);
+    updateApply();  // the edits kept may show errors
   });
   es.addEventListener("params", (m) => {
     const d = parseJSON(m.data);
