@@ -213,7 +213,7 @@ def test_a_missing_web_extra_is_a_clear_usage_error(monkeypatch: pytest.MonkeyPa
     monkeypatch.setattr(
         importlib.util, "find_spec", lambda name, *a: None if name == "uvicorn" else real(name, *a)
     )
-    with pytest.raises(UsageError, match=r"uvicorn not installed.*pip install 'paramdds\[web\]'"):
+    with pytest.raises(UsageError, match=r"uvicorn not installed.*pip install -e '\.\[web\]'"):
         web.run(argparse.Namespace())
 
 
