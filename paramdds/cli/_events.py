@@ -31,7 +31,9 @@ class EventPrinter:
     """Prints monitor events as ``watch`` does: JSON lines or one readable line each.
 
     Called on the monitor's threads; one lock keeps lines whole. Node presence events
-    are printed only after ``synced`` (before it, the ``added`` events are the state).
+    are printed only after ``synced`` (before it, the ``added`` events are the state); a
+    whole site going offline or coming back (over Zenoh) is one line, the site's, not one
+    per node.
     """
 
     def __init__(self, output: str, prefixes: Sequence[str]) -> None:
@@ -48,8 +50,12 @@ class EventPrinter:
         self.last_event = time.monotonic()
         if event.event is EventKind.SYNCED:
             return  # printed by :meth:`synced`, once the state has settled (see settle())
-        if event.event in (EventKind.ONLINE, EventKind.OFFLINE, EventKind.RESTARTED, EventKind.STATUS):
+        if event.event in (EventKind.SITE_OFFLINE, EventKind.SITE_ONLINE):
             if self._synced:
+                self._write(self._site_line(event))
+            return
+        if event.event in (EventKind.ONLINE, EventKind.OFFLINE, EventKind.RESTARTED, EventKind.STATUS):
+            if self._synced and not event.by_site:  # one line for a whole site: the site's
                 self._write(self._node_line(event))
             return
         if matches_prefix(event.name, self._prefixes):
@@ -66,6 +72,12 @@ class EventPrinter:
             self._write(dumps_json({"event": "not_synced", "waited": round(waited, 3)}, pretty=False))
         else:
             self._write(f"not synced: the state did not settle within {waited:g} s; it may be incomplete")
+
+    def _site_line(self, e: MonitorEvent) -> str:
+        """A whole site went offline (every gateway of it) or came back: one line."""
+        if self._json:
+            return dumps_json({"event": e.event.value, "site": e.site, "stamp": e.stamp}, pretty=False)
+        return f"{e.event.value} {e.site}"
 
     def _node_line(self, e: MonitorEvent) -> str:
         from ..dds.monitor import EventKind

@@ -25,12 +25,17 @@ class EventKind(str, Enum):
     OFFLINE = "offline"
     RESTARTED = "restarted"  # the node's server started again (a new incarnation)
     STATUS = "status"  # an online node's status changed (NodeState.status; None: back to normal)
+    # every gateway of a site went (killed, or its uplink cut), taking all its nodes offline, and
+    # a gateway of it came back: one event for the site (MonitorEvent.site; node is "")
+    SITE_OFFLINE = "site_offline"
+    SITE_ONLINE = "site_online"
     SYNCED = "synced"
 
 
 @dataclass(frozen=True)
 class MonitorEvent:
-    """A change a monitor saw: a parameter's new state, or a node going on or offline."""
+    """A change a monitor saw: a parameter's new state, a node going on or offline, or
+    (over Zenoh) a whole site."""
 
     event: EventKind
     node: str = ""
@@ -42,6 +47,10 @@ class MonitorEvent:
     incarnation: int = 0  # the server's for the node (new on every start): see NodeState.incarnation
     origin: str | None = None  # the node's presence tag "origin" ("ros2": mirrored by the bridge), if known
     status: str | None = None  # the node's status (see NodeState.status) on online and status events
+    site: str = ""  # the site of a site_offline / site_online event (remote monitors only)
+    # an online / offline event of a node that came or went with its whole site: the site's
+    # event says it once, so a log shows one line, not one per node
+    by_site: bool = False
 
 
 @dataclass

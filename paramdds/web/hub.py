@@ -10,7 +10,8 @@ into at most three messages per subscriber:
 ``nodes``   summaries of the nodes that changed (so a visible row updates its
             revision, count or online state), or ``{"refresh": true}`` when more
             than :data:`MAX_NODE_UPDATES` changed (the page then re-reads its page);
-``log``     the newest :data:`LOG_LIMIT` events of the burst and how many were left out.
+``log``     the newest :data:`LOG_LIMIT` events of the burst and how many were left out
+            (a whole site going offline or coming back is its one event, not one per node).
 
 A subscriber whose queue is full (a stalled browser) gets no more messages until
 it drains, then one ``resync``: the page reloads its view instead of replaying.
@@ -61,6 +62,7 @@ def log_entry(e: MonitorEvent) -> Row:
     return {
         "event": e.event.value,
         "node": e.node,
+        "site": e.site,  # a site_offline / site_online event's site ("" for the others)
         "origin": e.origin,  # "ros2": shown with its leading slash
         "status": e.status,  # a "status" event's new status ("unreachable", "stale"; None: normal)
         "name": e.name,
@@ -127,10 +129,10 @@ class Hub:
             nodes_message = sse("nodes", {"refresh": True})
         else:
             nodes_message = sse("nodes", {"nodes": [summary_json(s) for s in self._view.summaries(changed)]})
-        shown = [e for e in events if e.event is not EventKind.SYNCED][-LOG_LIMIT:]
-        log_message = sse(
-            "log", {"events": [log_entry(e) for e in shown], "skipped": len(events) - len(shown)}
-        )
+        # a node that went or came with its whole site is the site's one line, not its own
+        told = [e for e in events if not e.by_site]
+        shown = [e for e in told if e.event is not EventKind.SYNCED][-LOG_LIMIT:]
+        log_message = sse("log", {"events": [log_entry(e) for e in shown], "skipped": len(told) - len(shown)})
         by_node = {sub.node for sub in self._subscribers if sub.node}
         params = {node: self._params_message(node, events) for node in by_node if node in changed}
         for sub in list(self._subscribers):

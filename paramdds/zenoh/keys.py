@@ -67,6 +67,13 @@ def gateway_key(site: str, zid: str) -> str:
     return f"{PREFIX}/{check_site(site)}/gateway/{zid}"
 
 
+def tokens_pattern(site: str) -> str:
+    """Every liveliness token of ``site`` (``*``: every site): its nodes' and its gateways'."""
+    if site != "*":
+        check_site(site)
+    return f"{PREFIX}/{site}/**"
+
+
 def active_key(site: str, gateway: str, since: int) -> str:
     """The token of the active gateway ``gateway`` of ``site``, active since ``since`` (ns)."""
     return f"{gateway_key(site, gateway)}/active/{since}"

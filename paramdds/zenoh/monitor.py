@@ -9,8 +9,9 @@ console take it as they take the DDS one. The feed:
   gateway's current state, never from history), and marks the monitor synced;
 * applies each state and token by the rules of :mod:`.monitor_rules` (the newest state
   of a node's gateway is held; a node is online while its gateway says so *and* its
-  token is alive): a gateway killed, or an uplink cut, takes every node of its site
-  offline within the Zenoh lease (:data:`~.config.LEASE_MS`);
+  token is alive *and* a gateway of its site is up): a gateway killed, or an uplink cut,
+  takes every node of its site offline within the Zenoh lease (:data:`~.config.LEASE_MS`),
+  told once as a ``site_offline`` event (and ``site_online`` when a gateway is back);
 * asks for a node's whole state again when its token comes back (publications made
   meanwhile were lost, so nothing stale shows online), when a delta does not follow the
   state held, and (a few times) when a state did not come or did not decode.
@@ -33,7 +34,7 @@ from ..dds.client import DEFAULT_TIMEOUT
 from ..dds.monitor import EventCallback, ParameterMonitor
 from ..errors import ParamddsError
 from . import codec, keys
-from .monitor_rules import GAP, HELD, RemoteStates
+from .monitor_rules import GAP, HELD, SITE_GRACE, RemoteStates
 from .states import ask_states, sites_of
 
 log = logging.getLogger(__name__)
@@ -120,6 +121,9 @@ class ZenohStateFeed:
         self._to_refresh: set[tuple[str, str]] = set()
         self._asked_again: dict[str, int] = {}  # node -> times asked again (see _ask_again)
         self._refresher: threading.Thread | None = None
+        self._settling = False  # a settle of the nodes whose token went is due (see _on_alive)
+        # once the first sync has chosen its sites: those it asks whose gateway was not seen yet
+        self._unseen: set[str] | None = None
         # an exact list of sites is asked for site by site (an operator whose certificate is granted
         # some sites may not even declare a subscriber on every site's keys); globs filter here
         exact = self._sites is not None and not any("*" in g or "?" in g for g in self._sites)
@@ -140,8 +144,10 @@ class ZenohStateFeed:
             for scope in self._scopes
             for entity in (
                 session.declare_subscriber(keys.site_pattern(scope, keys.STATE), self._on_state),
+                # one subscriber for the nodes' and the gateways' tokens: two liveliness subscribers
+                # with history at once made the first sync's liveliness gets wait their whole timeout
                 session.liveliness().declare_subscriber(
-                    keys.site_pattern(scope, keys.ALIVE), self._on_alive, history=True
+                    keys.tokens_pattern(scope), self._on_token, history=True
                 ),
             )
         ]
@@ -171,9 +177,15 @@ class ZenohStateFeed:
                     self._states.tokens_found(n for n in alive if self._wanted(n))
                 if scope == "*":  # a query per site (see ask_states), the sites wanted of those up
                     known = {n.split("/", 1)[0] for n in alive} | set(sites_of(self._session, self._timeout))
-                    up = sorted(site for site in known if self._wanted_site(site))
+                    with self._refresh_lock:  # a gateway seen from now on, of a site not asked here, asks
+                        with book.update():
+                            seen = self._states.sites_up()
+                        up = sorted(site for site in known | seen if self._wanted_site(site))
+                        self._unseen = {*(self._unseen or ()), *(set(up) - seen)}
                     patterns += [keys.site_pattern(site, keys.STATE) for site in up]
                 else:
+                    with self._refresh_lock, book.update():
+                        self._unseen = {*(self._unseen or ()), *({scope} - self._states.sites_up())}
                     patterns.append(keys.site_pattern(scope, keys.STATE))
             for msg in ask_states(self._session, patterns, self._timeout, bad):
                 self._apply_state(msg)
@@ -200,15 +212,64 @@ class ZenohStateFeed:
             return
         book = self._sink
         with book.update() as change:
-            came_back = self._states.token(change, name, not _is_delete(sample))
-        if not _is_delete(sample) and (book.synced or came_back):
+            came_back = self._states.token(change, name, not _is_delete(sample), time.monotonic())
+        if _is_delete(sample):
+            self._settle_later(SITE_GRACE)
+        elif book.synced or came_back:
             # back (a gateway took over, an uplink came back, a session dropped by loss): what was
             # published meanwhile is lost, and so is a first query that was in flight (before the
             # first sync is done, a token seen for the first time is in its query anyway)
             self._refresh(site, node)
 
+    def _on_token(self, sample: Any) -> None:
+        """A liveliness token of the sites watched: a node's, a gateway's or an active one's."""
+        key = str(sample.key_expr)
+        if key.endswith("/" + keys.ALIVE):
+            self._on_alive(sample)
+            return
+        try:
+            gateway, active_since = keys.parse_gateway_key(key)
+            site = keys.check_site(key.split("/")[1])
+        except ParamddsError:
+            return
+        if active_since is not None or not self._wanted_site(site):
+            return
+        with self._sink.update() as change:
+            up = self._states.gateway(change, site, gateway, not _is_delete(sample))
+        if not up:
+            return
+        # the site's first gateway, or one back (what it published meanwhile is lost): ask for
+        # the site's states, unless the first sync does (it has not chosen its sites yet, and
+        # will see this one; or it chose this one)
+        with self._refresh_lock:
+            if self._unseen is None:
+                return
+            if site in self._unseen:
+                self._unseen.discard(site)  # a later gateway of it is a return
+                return
+        self._refresh(site, "")
+
+    def _settle_later(self, delay: float) -> None:
+        """Settle the nodes whose token went (:meth:`RemoteStates.settle`) ``delay`` seconds on."""
+        with self._refresh_lock:
+            if self._settling or self._sink.closed:
+                return
+            self._settling = True
+        timer = threading.Timer(delay + 0.01, self._settle)
+        timer.daemon = True
+        timer.start()
+
+    def _settle(self) -> None:
+        with self._refresh_lock:
+            self._settling = False
+        with self._sink.update() as change:
+            again = self._states.settle(change, time.monotonic())
+        if again is not None:
+            self._settle_later(again)
+
     def _refresh(self, site: str, node: str) -> None:
-        """Ask for ``node``'s whole state again, soon (one thread asks for all, a query per site)."""
+        """Ask for ``node``'s whole state again (``""``: every node of ``site``), soon (one
+        thread asks for all, a query per site)."""
         with self._refresh_lock:
             if self._sink.closed:
                 return
@@ -232,7 +293,7 @@ class ZenohStateFeed:
                 by_site.setdefault(site, []).append(node)
             asked = [
                 keys.node_key(site, site_nodes[0], keys.STATE)
-                if len(site_nodes) == 1
+                if len(site_nodes) == 1 and site_nodes[0]  # "": the whole site
                 else keys.site_pattern(site, keys.STATE)
                 for site, site_nodes in by_site.items()
             ]

@@ -9,7 +9,16 @@ Zenoh for anything is :mod:`.monitor`'s. Its rules:
   it follows (else the whole state must be asked for: :data:`GAP`);
 * holding a state is an event per parameter added, modified or deleted since the state
   held before (none when nothing changed);
-* a node is online while its gateway says so *and* its liveliness token is alive.
+* a node is online while its gateway says so *and* its liveliness token is alive *and*
+  its site has a gateway whose token is alive;
+* a site whose every gateway's token went (the gateway killed, or its uplink cut: the
+  router drops the session and every token of it) is one ``site_offline`` event, its
+  nodes' ``offline`` events marked ``by_site``; a gateway of it coming back is one
+  ``site_online``, and its nodes' ``online`` events are marked so too (a log shows the
+  site's line, not one per node). The router drops a session's tokens in no set order,
+  so a node token that goes while its site's gateway is still up takes the node offline
+  only :data:`SITE_GRACE` seconds later (:meth:`RemoteStates.settle`), unless the
+  site's gateways went meanwhile.
 
 Every method runs inside an update of the book (its lock held), which guards this
 object too.
@@ -19,6 +28,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Iterable
+from dataclasses import replace
 from enum import Enum
 
 from ..core.descriptors import ParameterDescriptor
@@ -28,6 +38,7 @@ from ..core.values import ParameterValue
 from .codec import NodeStateMsg
 
 Table = dict[str, tuple[ParameterValue, ParameterDescriptor]]  # a node's parameters by name
+SITE_GRACE = 0.25  # seconds a node whose token went waits for its site's gateways to go too
 
 
 class Outcome(Enum):
@@ -48,25 +59,96 @@ class RemoteStates:
         self._reported: dict[str, bool] = {}  # node -> online as its gateway last said
         self._alive: set[str] = set()  # nodes whose liveliness token is alive
         self._gone: set[str] = set()  # nodes whose token was seen going (a first get may lag)
+        self._gateways: dict[str, set[str]] = {}  # site -> its gateways whose token is alive
+        self._down: set[str] = set()  # sites seen up whose every gateway went since
+        self._leaving: dict[str, float] = {}  # node -> when its token went, its site's gateway up
+        self._dropped: set[str] = set()  # nodes taken offline with their site, not online since
 
     def tokens_found(self, names: Iterable[str]) -> None:
         """The tokens a liveliness get found alive (those seen going since are not)."""
         self._alive.update(n for n in names if n not in self._gone)
 
-    def token(self, change: BookUpdate, name: str, alive: bool) -> bool:
-        """A node's token came (``alive``) or went; True when it came back after going."""
+    def token(self, change: BookUpdate, name: str, alive: bool, now: float = 0.0) -> bool:
+        """A node's token came (``alive``) or went at ``now`` (monotonic seconds); True when it
+        came back after going. A token that goes while its site's gateway is up takes the node
+        offline at the next :meth:`settle` past :data:`SITE_GRACE`."""
         came_back = False
         if alive:
             came_back = name in self._gone
             self._alive.add(name)
             self._gone.discard(name)
+            self._leaving.pop(name, None)
         else:
             self._alive.discard(name)
             self._gone.add(name)
-        state = change.get(name)
-        if state is not None:
-            change.set_online(state, self._reported.get(name, False) and name in self._alive)
+            if self._gateways.get(_site(name)):
+                self._leaving.setdefault(name, now)
+        self._show(change, name)
         return came_back
+
+    def settle(self, change: BookUpdate, now: float) -> float | None:
+        """Take offline the nodes whose token went :data:`SITE_GRACE` ago while their site
+        stayed up; the seconds until the next one is due (None: none waits)."""
+        due = [n for n, went in self._leaving.items() if now - went >= SITE_GRACE]
+        for name in due:
+            del self._leaving[name]
+            self._show(change, name)
+        if not self._leaving:
+            return None
+        return max(0.0, min(self._leaving.values()) + SITE_GRACE - now)
+
+    def sites_up(self) -> set[str]:
+        """The sites with a gateway whose token is alive."""
+        return {site for site, gateways in self._gateways.items() if gateways}
+
+    def gateway(self, change: BookUpdate, site: str, gateway: str, alive: bool) -> bool:
+        """A gateway's token of ``site`` came (``alive``) or went: the site's event when the
+        last one went, or the first one came back after that. True when the site has a
+        gateway again after none (the first one seen, or one back)."""
+        gateways = self._gateways.setdefault(site, set())
+        if alive:
+            first = not gateways
+            gateways.add(gateway)
+            if site not in self._down:
+                return first
+            self._down.discard(site)
+            change.emit(MonitorEvent(EventKind.SITE_ONLINE, stamp=time.time(), site=site))
+        else:
+            if gateway not in gateways:
+                return False
+            gateways.discard(gateway)
+            if gateways:
+                return False
+            self._down.add(site)
+            change.emit(MonitorEvent(EventKind.SITE_OFFLINE, stamp=time.time(), site=site))
+        for name in [n for n in (*self._reported, *self._leaving) if _site(n) == site]:
+            if not alive:
+                self._leaving.pop(name, None)
+            self._show(change, name)
+        return alive
+
+    def _show(self, change: BookUpdate, name: str) -> None:
+        """Set ``name``'s presence in the book by the rule (module doc)."""
+        state = change.get(name)
+        if state is None:
+            return
+        site = _site(name)
+        online = (
+            self._reported.get(name, False)
+            and (name in self._alive or name in self._leaving)  # leaving: shown online for the grace
+            and site not in self._down
+        )
+        if online == state.online:
+            return
+        by_site = site in self._down if not online else name in self._dropped
+        if by_site and not online:
+            self._dropped.add(name)
+        elif online:
+            self._dropped.discard(name)
+        before = len(change.events)
+        change.set_online(state, online)
+        if by_site and len(change.events) > before:
+            change.events[-1] = replace(change.events[-1], by_site=True)
 
     def missing(self, change: BookUpdate) -> list[str]:
         """The nodes whose token is alive but whose state the book does not hold."""
@@ -93,8 +175,10 @@ class RemoteStates:
         state.revision, state.announced = msg.revision, msg.announced
         state.incarnation, state.origin = msg.incarnation, msg.origin
         self._reported[name] = msg.online
+        if not msg.online:  # offline as its gateway says: its coming back is its own
+            self._dropped.discard(name)
         change.set_status(state, msg.status)
-        change.set_online(state, msg.online and name in self._alive)
+        self._show(change, name)
         return HELD
 
 
@@ -117,3 +201,7 @@ def _changes(change: BookUpdate, name: str, old: Table, new: Table, msg: NodeSta
                     EventKind.DELETED, name, pname, value, descriptor, msg.revision, stamp, msg.incarnation
                 )
             )
+
+
+def _site(name: str) -> str:
+    return name.split("/", 1)[0]

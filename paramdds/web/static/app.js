@@ -542,7 +542,7 @@ function log(events, skipped) {
   const list = $("#log");
   for (const e of events) {
     const when = new Date(e.stamp * 1000).toLocaleTimeString();
-    const who = shownNode(e.node, e.origin);
+    const who = e.site ? e.site : shownNode(e.node, e.origin);  // site_offline / site_online: the site
     const what = e.name ? `${who} ${e.name}` + (e.value !== null && e.value !== undefined ? ` = ${cellText(e.value, e.type)}` : "")
       : e.event === "status" ? `${who} ${e.status || "ok"}` : who;
     list.prepend(el("li", { class: "k-" + e.event, text: `${when}  ${e.event.padEnd(8)} r${e.revision}  ${what}` }));

@@ -1,0 +1,183 @@
+"""A whole site going offline and coming back (paramdds.zenoh.monitor_rules), without a
+session: one site event, its nodes' events marked ``by_site``, and the grace that waits
+for the site's gateways when node tokens go first."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from paramdds.core.monitor_events import EventKind, MonitorEvent
+from paramdds.core.state_book import StateBook
+from paramdds.zenoh.codec import NodeStateMsg
+from paramdds.zenoh.monitor_rules import SITE_GRACE, RemoteStates
+
+NODES = [f"north/n{k}" for k in range(25)]
+
+
+class Site:
+    """A book and the rules holding 25 online nodes of site ``north`` and one of ``south``."""
+
+    def __init__(self) -> None:
+        self.events: list[MonitorEvent] = []
+        self.book = StateBook(on_event=self.events.append)
+        self.rules = RemoteStates()
+        self.gateway("north", "g1", True)
+        self.gateway("south", "g9", True)
+        for name in [*NODES, "south/n0"]:
+            site, node = name.split("/")
+            with self.book.update() as change:
+                self.rules.apply(self.book, change, name, NodeStateMsg(site, node, "g", 1, True))
+            self.token(name, True)
+        self.events.clear()
+
+    def gateway(self, site: str, gateway: str, alive: bool) -> None:
+        with self.book.update() as change:
+            self.rules.gateway(change, site, gateway, alive)
+
+    def token(self, name: str, alive: bool, now: float = 0.0) -> None:
+        with self.book.update() as change:
+            self.rules.token(change, name, alive, now)
+
+    def settle(self, now: float) -> float | None:
+        with self.book.update() as change:
+            return self.rules.settle(change, now)
+
+    def lines(self) -> list[str]:
+        """What a log shows: the events not folded into their site's."""
+        shown = [f"{e.event.value} {e.site or e.node}" for e in self.events if not e.by_site]
+        self.events.clear()
+        return shown
+
+    def online(self) -> set[str]:
+        return {n for n, s in self.book.snapshot().items() if s.online}
+
+
+def test_a_site_whose_gateway_went_is_one_event_whatever_the_order_of_its_tokens() -> None:
+    s = Site()
+    for name in NODES[:10]:  # some node tokens go first: the site's gateway is still up
+        s.token(name, False, now=1.0)
+    assert s.lines() == [] and s.online() == {*NODES, "south/n0"}  # within the grace
+    s.gateway("north", "g1", False)
+    for name in NODES[10:]:
+        s.token(name, False, now=1.1)
+    offline = [e for e in s.events if e.event is EventKind.OFFLINE]
+    assert sorted(e.node for e in offline) == sorted(NODES) and all(e.by_site for e in offline)
+    assert s.lines() == ["site_offline north"]
+    assert s.online() == {"south/n0"}
+    assert s.settle(1.0 + SITE_GRACE) is None
+    assert s.lines() == []
+
+
+@pytest.mark.parametrize("gateway_first", [True, False])
+def test_a_site_coming_back_is_one_event_and_its_nodes_come_back_with_it(gateway_first: bool) -> None:
+    s = Site()
+    s.gateway("north", "g1", False)
+    for name in NODES:
+        s.token(name, False, now=1.0)
+    s.lines()
+    if gateway_first:  # reconnected (a new session: another token); the node tokens in any order
+        s.gateway("north", "g2", True)
+    for name in NODES:
+        s.token(name, True, now=2.0)
+    if not gateway_first:
+        assert s.online() == {"south/n0"}  # no gateway of the site yet
+        s.gateway("north", "g2", True)
+    online = [e for e in s.events if e.event is EventKind.ONLINE]
+    assert sorted(e.node for e in online) == sorted(NODES) and all(e.by_site for e in online)
+    assert s.lines() == ["site_online north"]
+    assert s.online() == {*NODES, "south/n0"}
+
+
+def test_a_node_that_goes_alone_goes_offline_after_the_grace_as_its_own_event() -> None:
+    s = Site()
+    s.token("north/n3", False, now=5.0)
+    assert s.lines() == []
+    assert s.settle(5.0 + SITE_GRACE / 2) == SITE_GRACE / 2
+    assert s.settle(5.0 + SITE_GRACE) is None
+    assert s.lines() == ["offline north/n3"]
+
+
+def test_a_node_token_back_within_the_grace_is_no_flap() -> None:
+    s = Site()  # a standby gateway took over at once: the node's token went and came back
+    s.token("north/n3", False, now=5.0)
+    s.token("north/n3", True, now=5.1)
+    assert s.settle(5.0 + SITE_GRACE) is None
+    assert s.lines() == []
+
+
+def test_a_site_with_a_gateway_left_stays_up() -> None:
+    s = Site()
+    s.gateway("north", "g2", True)  # a standby
+    s.gateway("north", "g1", False)
+    assert s.lines() == []
+    assert s.online() == {*NODES, "south/n0"}
+
+
+def test_a_node_offline_when_its_site_came_back_comes_online_as_its_own_event() -> None:
+    s = Site()
+    s.gateway("north", "g1", False)
+    s.gateway("north", "g1b", True)
+    with s.book.update() as change:  # the gateway, asked again, says n3 is offline now
+        s.rules.apply(s.book, change, "north/n3", NodeStateMsg("north", "n3", "g", 2, False))
+    s.lines()
+    with s.book.update() as change:
+        s.rules.apply(s.book, change, "north/n3", NodeStateMsg("north", "n3", "g", 3, True))
+    assert s.lines() == ["online north/n3"]
+
+
+def _site_went(s: Site) -> list[MonitorEvent]:
+    for name in NODES[:3]:
+        s.token(name, False, now=1.0)
+    s.gateway("north", "g1", False)
+    events = list(s.events)
+    s.events.clear()
+    return events
+
+
+def test_watch_prints_one_line_for_a_site_that_went_and_came_back(capsys: pytest.CaptureFixture[str]) -> None:
+    from paramdds.cli._events import EventPrinter
+
+    s = Site()
+    went = _site_went(s)
+    s.gateway("north", "g2", True)
+    for name in NODES:
+        s.token(name, True, now=2.0)
+    came = list(s.events)
+    for output in ("text", "json"):
+        printer = EventPrinter(output, [])
+        printer.synced()
+        for event in [*went, *came]:
+            printer(event)
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == "synced" and out[1:3] == ["site_offline north", "site_online north"]
+    assert out[3] == '{"event": "synced"}'
+    assert [json.loads(line)["event"] for line in out[4:]] == ["site_offline", "site_online"]
+    assert json.loads(out[4])["site"] == "north"
+
+
+def test_the_web_console_logs_one_line_for_a_site_and_updates_every_node_row() -> None:
+    import asyncio
+    from typing import cast
+
+    from paramdds.dds.monitor import ParameterMonitor
+    from paramdds.web.hub import Hub
+    from paramdds.web.view import StateView
+
+    s = Site()
+    went = _site_went(s)
+
+    async def run() -> list[str]:
+        hub = Hub(StateView(cast(ParameterMonitor, s.book)), asyncio.get_running_loop())
+        sub = hub.subscribe("")
+        for event in went:
+            hub.on_event(event)
+        await asyncio.sleep(0.2)
+        return [sub.queue.get_nowait() or "" for _ in range(sub.queue.qsize())]
+
+    nodes, log = asyncio.run(run())
+    assert nodes.startswith("event: nodes") and all(f'"node":"{n}"' in nodes for n in NODES)
+    entries = json.loads(log.split("data: ", 1)[1])
+    assert [(e["event"], e["site"]) for e in entries["events"]] == [("site_offline", "north")]
+    assert entries["skipped"] == 0
