@@ -51,8 +51,14 @@ def ask_states(
         for key, payload in replies:
             try:
                 yield codec.NodeStateMsg.decode(payload)
-            except ParamddsError as exc:
-                log.warning("ignoring a state from %s: %s", key, exc)
+            except ParamddsError as exc:  # its length and first bytes tell a cut or shifted payload
+                log.warning(
+                    "ignoring a state from %s (%d bytes, starting %s): %s",
+                    key,
+                    len(payload),
+                    payload[:12].hex(" "),
+                    exc,
+                )
                 if bad is not None:
                     bad.append(key)
 
