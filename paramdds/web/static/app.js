@@ -542,7 +542,11 @@ function log(events, skipped) {
   const list = $("#log");
   for (const e of events) {
     const when = new Date(e.stamp * 1000).toLocaleTimeString();
-    const who = e.site ? e.site : shownNode(e.node, e.origin);  // site_offline / site_online: the site
+    if (e.site) {  // site_offline / site_online: one line for the whole site
+      list.prepend(el("li", { class: "k-" + e.event, text: `${when}  ${e.event}  ${e.site}` }));
+      continue;
+    }
+    const who = shownNode(e.node, e.origin);
     const what = e.name ? `${who} ${e.name}` + (e.value !== null && e.value !== undefined ? ` = ${cellText(e.value, e.type)}` : "")
       : e.event === "status" ? `${who} ${e.status || "ok"}` : who;
     list.prepend(el("li", { class: "k-" + e.event, text: `${when}  ${e.event.padEnd(8)} r${e.revision}  ${what}` }));
