@@ -67,11 +67,11 @@ def gateway_key(site: str, zid: str) -> str:
     return f"{PREFIX}/{check_site(site)}/gateway/{zid}"
 
 
-def tokens_pattern(site: str) -> str:
-    """Every liveliness token of ``site`` (``*``: every site): its nodes' and its gateways'."""
+def gateways_pattern(site: str) -> str:
+    """The tokens of every gateway of ``site`` (``*``: every site), not the active ones'."""
     if site != "*":
         check_site(site)
-    return f"{PREFIX}/{site}/**"
+    return f"{PREFIX}/{site}/gateway/*"
 
 
 def active_key(site: str, gateway: str, since: int) -> str:

@@ -35,7 +35,7 @@ from ..dds.monitor import EventCallback, ParameterMonitor
 from ..errors import ParamddsError
 from . import codec, keys
 from .monitor_rules import GAP, HELD, SITE_GRACE, RemoteStates
-from .states import ask_states, sites_of
+from .states import ask_states, gateways_of
 
 log = logging.getLogger(__name__)
 
@@ -122,8 +122,8 @@ class ZenohStateFeed:
         self._asked_again: dict[str, int] = {}  # node -> times asked again (see _ask_again)
         self._refresher: threading.Thread | None = None
         self._settling = False  # a settle of the nodes whose token went is due (see _on_alive)
-        # once the first sync has chosen its sites: those it asks whose gateway was not seen yet
-        self._unseen: set[str] | None = None
+        # sites whose first gateway came before the first sync chose its sites (None: chosen)
+        self._early: set[str] | None = set()
         # an exact list of sites is asked for site by site (an operator whose certificate is granted
         # some sites may not even declare a subscriber on every site's keys); globs filter here
         exact = self._sites is not None and not any("*" in g or "?" in g for g in self._sites)
@@ -144,11 +144,13 @@ class ZenohStateFeed:
             for scope in self._scopes
             for entity in (
                 session.declare_subscriber(keys.site_pattern(scope, keys.STATE), self._on_state),
-                # one subscriber for the nodes' and the gateways' tokens: two liveliness subscribers
-                # with history at once made the first sync's liveliness gets wait their whole timeout
                 session.liveliness().declare_subscriber(
-                    keys.tokens_pattern(scope), self._on_token, history=True
+                    keys.site_pattern(scope, keys.ALIVE), self._on_alive, history=True
                 ),
+                # the gateways' tokens (a site is offline when its last gateway's goes), without
+                # history: a liveliness get on this session (the first sync's, a client's) crossing
+                # a liveliness subscriber with history on the same keys returned nothing (Zenoh 1.10)
+                session.liveliness().declare_subscriber(keys.gateways_pattern(scope), self._on_gateway),
             )
         ]
         threading.Thread(target=self._first_sync, name="paramdds-zenoh-sync", daemon=True).start()
@@ -171,22 +173,24 @@ class ZenohStateFeed:
         bad: list[str] = []
         try:
             patterns: list[str] = []
+            chosen: set[str] = set()
             for scope in self._scopes:  # the tokens first, so that the states below show online exactly
                 alive = _alive_of(self._session, keys.site_pattern(scope, keys.ALIVE), self._timeout)
                 with book.update():
                     self._states.tokens_found(n for n in alive if self._wanted(n))
+                found = gateways_of(self._session, self._timeout, scope)
+                found = {site: gws for site, gws in found.items() if self._wanted_site(site)}
+                with book.update():
+                    self._states.gateways_found(found)
                 if scope == "*":  # a query per site (see ask_states), the sites wanted of those up
-                    known = {n.split("/", 1)[0] for n in alive} | set(sites_of(self._session, self._timeout))
-                    with self._refresh_lock:  # a gateway seen from now on, of a site not asked here, asks
-                        with book.update():
-                            seen = self._states.sites_up()
-                        up = sorted(site for site in known | seen if self._wanted_site(site))
-                        self._unseen = {*(self._unseen or ()), *(set(up) - seen)}
-                    patterns += [keys.site_pattern(site, keys.STATE) for site in up]
+                    known = {n.split("/", 1)[0] for n in alive} | set(found)
+                    asked = {site for site in known if self._wanted_site(site)}
                 else:
-                    with self._refresh_lock, book.update():
-                        self._unseen = {*(self._unseen or ()), *({scope} - self._states.sites_up())}
-                    patterns.append(keys.site_pattern(scope, keys.STATE))
+                    asked = {scope}
+                patterns += [keys.site_pattern(site, keys.STATE) for site in sorted(asked)]
+                chosen |= asked
+            for site in self._chosen(chosen):  # a gateway seen while the sites were chosen, of another site
+                self._refresh(site, "")
             for msg in ask_states(self._session, patterns, self._timeout, bad):
                 self._apply_state(msg)
         except Exception as exc:  # the session closed under us
@@ -221,12 +225,8 @@ class ZenohStateFeed:
             # first sync is done, a token seen for the first time is in its query anyway)
             self._refresh(site, node)
 
-    def _on_token(self, sample: Any) -> None:
-        """A liveliness token of the sites watched: a node's, a gateway's or an active one's."""
+    def _on_gateway(self, sample: Any) -> None:
         key = str(sample.key_expr)
-        if key.endswith("/" + keys.ALIVE):
-            self._on_alive(sample)
-            return
         try:
             gateway, active_since = keys.parse_gateway_key(key)
             site = keys.check_site(key.split("/")[1])
@@ -238,16 +238,21 @@ class ZenohStateFeed:
             up = self._states.gateway(change, site, gateway, not _is_delete(sample))
         if not up:
             return
-        # the site's first gateway, or one back (what it published meanwhile is lost): ask for
-        # the site's states, unless the first sync does (it has not chosen its sites yet, and
-        # will see this one; or it chose this one)
+        # a site's first gateway, or one back (what it published meanwhile is lost): ask for the
+        # site's states, unless the first sync has not chosen its sites yet (it asks them after)
         with self._refresh_lock:
-            if self._unseen is None:
-                return
-            if site in self._unseen:
-                self._unseen.discard(site)  # a later gateway of it is a return
+            if self._early is not None:
+                self._early.add(site)
                 return
         self._refresh(site, "")
+
+    def _chosen(self, asked: set[str]) -> set[str]:
+        """The first sync asks ``asked``: from now on a site's first gateway asks for the site's
+        states. The sites whose first gateway came meanwhile, and that the first sync does not
+        ask, are returned (to be asked)."""
+        with self._refresh_lock:
+            early, self._early = self._early or set(), None
+            return early - asked
 
     def _settle_later(self, delay: float) -> None:
         """Settle the nodes whose token went (:meth:`RemoteStates.settle`) ``delay`` seconds on."""

@@ -60,6 +60,7 @@ class RemoteStates:
         self._alive: set[str] = set()  # nodes whose liveliness token is alive
         self._gone: set[str] = set()  # nodes whose token was seen going (a first get may lag)
         self._gateways: dict[str, set[str]] = {}  # site -> its gateways whose token is alive
+        self._gw_gone: set[tuple[str, str]] = set()  # (site, gateway) seen going before being seen
         self._down: set[str] = set()  # sites seen up whose every gateway went since
         self._leaving: dict[str, float] = {}  # node -> when its token went, its site's gateway up
         self._dropped: set[str] = set()  # nodes taken offline with their site, not online since
@@ -97,9 +98,12 @@ class RemoteStates:
             return None
         return max(0.0, min(self._leaving.values()) + SITE_GRACE - now)
 
-    def sites_up(self) -> set[str]:
-        """The sites with a gateway whose token is alive."""
-        return {site for site, gateways in self._gateways.items() if gateways}
+    def gateways_found(self, found: dict[str, set[str]]) -> None:
+        """The gateways' tokens a liveliness get found alive, by site (those seen going since
+        are not)."""
+        for site, gateways in found.items():
+            alive = {g for g in gateways if (site, g) not in self._gw_gone}
+            self._gateways.setdefault(site, set()).update(alive)
 
     def gateway(self, change: BookUpdate, site: str, gateway: str, alive: bool) -> bool:
         """A gateway's token of ``site`` came (``alive``) or went: the site's event when the
@@ -115,6 +119,7 @@ class RemoteStates:
             change.emit(MonitorEvent(EventKind.SITE_ONLINE, stamp=time.time(), site=site))
         else:
             if gateway not in gateways:
+                self._gw_gone.add((site, gateway))  # a get that lags must not revive it
                 return False
             gateways.discard(gateway)
             if gateways:

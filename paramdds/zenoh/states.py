@@ -1,7 +1,8 @@
 """The gateways' node states, asked for: what the remote monitor and client both query.
 
 :func:`ask_states` gets every node state the gateways hold for some key patterns (every
-query at once, each with its own deadline); :func:`sites_of` the sites whose gateway is up.
+query at once, each with its own deadline); :func:`gateways_of` and :func:`sites_of` the
+gateways and sites up.
 """
 
 from __future__ import annotations
@@ -20,7 +21,6 @@ from . import codec, keys
 log = logging.getLogger(__name__)
 
 REPLY_MARGIN = 0.5  # seconds past a query's timeout before its asker stops waiting for Zenoh
-_ALL_GATEWAYS = f"{keys.PREFIX}/*/gateway/*"  # the gateways' tokens (not the active ones': one chunk more)
 
 
 def ask_states(
@@ -84,13 +84,22 @@ def _send_query(
     )
 
 
-def sites_of(session: Any, timeout: float) -> list[str]:
-    """The sites whose gateway is up now (a gateway's liveliness token names its site)."""
-    sites: set[str] = set()
-    for reply in session.liveliness().get(_ALL_GATEWAYS, timeout=timeout):
+def gateways_of(session: Any, timeout: float, site: str = "*") -> dict[str, set[str]]:
+    """The gateways up now of ``site`` (``*``: every site), by site (their liveliness tokens)."""
+    found: dict[str, set[str]] = {}
+    for reply in session.liveliness().get(keys.gateways_pattern(site), timeout=timeout):
         if reply.ok is not None:
+            key = str(reply.ok.key_expr)
             try:
-                sites.add(keys.check_site(str(reply.ok.key_expr).split("/")[1]))
+                gateway, active_since = keys.parse_gateway_key(key)
+                name = keys.check_site(key.split("/")[1])
             except (ParamddsError, IndexError):
                 continue
-    return sorted(sites)
+            if active_since is None:
+                found.setdefault(name, set()).add(gateway)
+    return found
+
+
+def sites_of(session: Any, timeout: float) -> list[str]:
+    """The sites whose gateway is up now (a gateway's liveliness token names its site)."""
+    return sorted(gateways_of(session, timeout))
