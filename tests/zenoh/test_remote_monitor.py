@@ -166,3 +166,22 @@ def test_a_nodes_status_reaches_remote_viewers_live_as_an_event_and_in_nodes(fle
     client.close()
     monitor.close()
     token.undeclare()
+
+
+def test_a_client_on_the_monitors_session_still_finds_every_site(fleet: Fleet) -> None:
+    """The monitor follows the gateways' tokens; a liveliness get on its session (a client's
+    ``nodes()``, the monitor's own first sync) must still see them: Zenoh 1.10 answered such a
+    get with nothing when the session held a liveliness subscriber with history on those keys."""
+    from paramdds.zenoh.client import RemoteParameterClient
+
+    gw = FakeGateway(fleet.remote())
+    token = gw.session.liveliness().declare_token(keys.node_key("s1", NODE, keys.ALIVE))
+    session = fleet.remote()
+    client = RemoteParameterClient(session, timeout=3.0)
+    for _ in range(5):
+        monitor = RemoteParameterMonitor(session)
+        assert [n.node for n in client.nodes()] == ["s1/ns/robot1"]
+        assert monitor.wait_until(lambda s: "s1/ns/robot1" in s and s["s1/ns/robot1"].online, 3.0)
+        monitor.close()
+    client.close()
+    token.undeclare()
