@@ -147,7 +147,7 @@ class Call:
     reached: bool = False  # a copy went out while the transport had a peer for it
     announced: bool = False  # its node's presence was seen (online or offline) during the call
     in_flight: float = IN_FLIGHT
-    holding: bool = False  # a write sure not to land while it sends no copy: send none
+    holding: bool = False  # a write sure never to land as long as it sends no more copies: it sends none
     _last_copy: float = field(default=float("-inf"), repr=False)
     _step: float = field(default=0.0, repr=False)
     _next_resend: float = field(default=0.0, repr=False)
