@@ -41,7 +41,7 @@ from ..core.values import NOT_SET, Parameter, ParameterValue
 from ..errors import NotFoundError, ParamddsError
 from .client_protocol import ClientTransport, PendingCall
 from .client_transport import ONLINE_FRESH, PRESENCE_GRACE, PRESENCE_POLL, REQUEST_TOPICS, DdsClientTransport
-from .discovery import DiscoveryState, DiscoveryWatch, Presence
+from .discovery import DiscoveryState, Presence
 from .qos import QosProfiles
 
 __all__ = [
@@ -197,27 +197,6 @@ class ParameterClient:
             carrier = type(self.transport).__name__
             raise ParamddsError(f"discovery is DDS's; this client is carried by {carrier}")
         return self.transport
-
-    # the DDS transport's entities, for tests that look inside a client
-    @property
-    def _dp(self) -> DomainParticipant:
-        return self._dds().participant
-
-    @property
-    def _reply_filter(self) -> Any:
-        return self._dds().reply_filter
-
-    @property
-    def _presence(self) -> Any:
-        return self._dds().presence_reader
-
-    @property
-    def _presence_filter(self) -> Any:
-        return self._dds().presence_filter
-
-    @property
-    def _discovery(self) -> DiscoveryWatch | None:
-        return self._dds().discovery_watch
 
     # -- a call's life, for this client and an event loop's (AsyncParameterClient) ------------
 
