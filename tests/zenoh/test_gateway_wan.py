@@ -1,0 +1,49 @@
+"""A gateway started while its WAN is down waits for the router and then serves its site.
+
+Real processes on loopback: a ``paramdds server`` and a ``paramdds zenoh`` gateway on a DDS
+domain of their own, and a Zenoh router session in the test process started only after the
+gateway, on the port the gateway dials.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from paramdds.zenoh.client import RemoteParameterClient
+
+from ..reliability.conftest import PARAMDDS, Proc, make_dds_env
+from .conftest import Fleet, free_port, open_remote, open_router, wait_for
+
+pytestmark = pytest.mark.timeout(90)
+
+
+@pytest.mark.slow
+def test_a_gateway_started_before_its_router_waits_and_then_serves_its_nodes(fleet: Fleet) -> None:
+    fleet.server("s1", "robot1")
+    endpoint = f"tcp/127.0.0.1:{free_port()}"  # nobody listens here yet
+    gateway = Proc(
+        [PARAMDDS, "zenoh", "--site", "s1", "--connect", endpoint], make_dds_env(fleet.domain("s1"))
+    )
+    fleet.procs.append(gateway)
+
+    def tries() -> int:
+        return gateway.stderr_text().count(f"no Zenoh router reachable at {endpoint} (try ")
+
+    # the WAN is down at boot: the gateway tries again and again, logging each try, and stays up
+    assert wait_for(lambda: tries() >= 3, 20.0), gateway.stderr_text()
+    assert gateway.popen.poll() is None, gateway.stderr_text()
+    assert not gateway.lines, gateway.lines  # nothing served, nothing said served
+
+    router = open_router(endpoint)
+    try:
+        gateway.wait_for("[ZENOH] Gateway for site s1", 20)  # it connects on its own
+        remote = open_remote(endpoint)
+        try:
+            client = RemoteParameterClient(remote, timeout=5.0)
+            client.wait_for_node("s1/robot1")
+            assert client.get_value("s1/robot1", "robot.max_velocity").value == 1.5
+            assert client.set("s1/robot1", {"robot.max_velocity": 2.5}).successful
+        finally:
+            remote.close()
+    finally:
+        router.close()
