@@ -1,8 +1,11 @@
-"""Pure parts of a gateway's start: the pauses between tries, and endpoint checks."""
+"""Pure parts of a gateway's start: the pauses between tries, endpoint checks, a missing extra."""
 
 from __future__ import annotations
 
+import argparse
 import itertools
+import sys
+from pathlib import Path
 
 import pytest
 
@@ -23,3 +26,26 @@ def test_a_port_out_of_range_is_named_as_such() -> None:
     with pytest.raises(ParamddsError, match="needs HOST:PORT"):
         check_endpoint("tcp/127.0.0.1")
     assert check_endpoint("tcp/127.0.0.1:7447") == "tcp/127.0.0.1:7447"
+
+
+def test_a_missing_secure_extra_is_a_usage_error_naming_it(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    import importlib.util
+
+    from paramdds.cli.verbs import keystore, zenoh
+    from paramdds.exits import UsageError
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda name, *a: None if name == "cryptography" else real(name, *a)
+    )
+    monkeypatch.setitem(sys.modules, "cryptography", None)  # as if not installed: importing fails
+    extra = r"cryptography not installed\): pip install 'paramdds\[secure\]'"
+    with pytest.raises(UsageError, match=r"'paramdds keystore' needs the secure extra \(" + extra):
+        keystore.run(argparse.Namespace(action="init", keystore=str(tmp_path / "ks")))
+    assert not (tmp_path / "ks").exists()  # nothing half made
+    ks, out = str(tmp_path / "ks"), str(tmp_path / "o")
+    args = argparse.Namespace(issue_cert="gw", keystore=ks, out=out, host=[])
+    with pytest.raises(UsageError, match=r"--issue-cert' needs the secure extra \(" + extra):
+        zenoh.run(args)
