@@ -47,3 +47,20 @@ def test_a_gateway_started_before_its_router_waits_and_then_serves_its_nodes(fle
             remote.close()
     finally:
         router.close()
+
+
+@pytest.mark.slow
+def test_the_web_console_over_zenoh_names_the_router_not_a_dds_domain(fleet: Fleet) -> None:
+    pytest.importorskip("uvicorn", reason="the web extra is not installed")
+    import json
+    import urllib.request
+
+    port = free_port()
+    env = make_dds_env(fleet.domain("s1"), PARAMDDS_ZENOH=fleet.endpoint)
+    web = Proc([PARAMDDS, "web", "--bind", f"127.0.0.1:{port}"], env)
+    fleet.procs.append(web)
+    _, line = web.wait_for("[WEB] Console on", 20)
+    assert line.endswith(f"(zenoh {fleet.endpoint}, writes allowed)"), line
+    with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/info", timeout=5) as r:
+        info = json.loads(r.read())
+    assert info["zenoh"] == fleet.endpoint  # the page's badge shows it in place of "domain N"
