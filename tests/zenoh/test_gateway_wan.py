@@ -7,6 +7,8 @@ gateway, on the port the gateway dials.
 
 from __future__ import annotations
 
+import time
+
 import pytest
 
 from paramdds.zenoh.client import RemoteParameterClient
@@ -37,16 +39,32 @@ def test_a_gateway_started_before_its_router_waits_and_then_serves_its_nodes(fle
     router = open_router(endpoint)
     try:
         gateway.wait_for("[ZENOH] Gateway for site s1", 20)  # it connects on its own
+        assert "reached the Zenoh router" in gateway.stderr_text()
         remote = open_remote(endpoint)
         try:
             client = RemoteParameterClient(remote, timeout=5.0)
-            client.wait_for_node("s1/robot1")
+            client.wait_for_node("s1/robot1", 10.0)
             assert client.get_value("s1/robot1", "robot.max_velocity").value == 1.5
             assert client.set("s1/robot1", {"robot.max_velocity": 2.5}).successful
         finally:
             remote.close()
     finally:
         router.close()
+
+    # once connected, a cut of the router is ridden out: the gateway reconnects on its own
+    time.sleep(2.0)
+    router = open_router(endpoint)
+    try:
+        remote = open_remote(endpoint)
+        try:
+            client = RemoteParameterClient(remote, timeout=5.0)
+            client.wait_for_node("s1/robot1", 20.0)
+            assert client.get_value("s1/robot1", "robot.max_velocity").value == 2.5
+        finally:
+            remote.close()
+    finally:
+        router.close()
+    assert gateway.popen.poll() is None, gateway.stderr_text()
 
 
 @pytest.mark.slow
