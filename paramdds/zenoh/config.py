@@ -202,7 +202,8 @@ def open_session_waiting(
             waited = clock() - started
             if wait is not None and waited + 1e-3 >= wait:
                 raise UnavailableError(
-                    f"no Zenoh router reachable at {where} within {wait:g} s ({tries} tries)"
+                    f"no Zenoh router reachable at {where} within {wait:g} s "
+                    f"({tries} {'try' if tries == 1 else 'tries'})"
                 ) from exc
             pause = next(delays)
             if wait is not None:
