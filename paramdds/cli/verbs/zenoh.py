@@ -166,7 +166,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(exc.message) from None
     from ...zenoh.gateway import Gateway
 
-    build_config(options)  # a bad configuration file is a usage error now, not after a wait
+    build_config(options)  # a bad configuration file: exit 2 at once, never after a wait
     with Session(args, app_name="paramdds-zenoh") as session:  # the DDS side first, at once
         zsession = open_session_waiting(options, args.open_timeout)
 
