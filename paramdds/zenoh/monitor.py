@@ -33,6 +33,7 @@ from ..dds.client import DEFAULT_TIMEOUT
 from ..dds.monitor import EventCallback, ParameterMonitor
 from ..errors import ParamddsError
 from . import codec, keys
+from .completeness import SiteLedger
 from .monitor_rules import GAP, HELD, RemoteStates
 from .states import ask_states, sites_of
 
@@ -92,6 +93,12 @@ class RemoteParameterMonitor(ParameterMonitor):
         only = remote_filter(nodes) if nodes else None
         feed = ZenohStateFeed(session, sites=sites, nodes=only, timeout=timeout)
         super().__init__(feed, nodes=only, on_event=on_event)
+        self._remote_feed = feed
+
+    def missing_sites(self) -> dict[str, str]:
+        """The known sites this monitor lacks (:mod:`.completeness`): site -> why; empty when
+        every site known answered in full (``*``: no site is known at all)."""
+        return self._remote_feed.missing_sites()
 
 
 class ZenohStateFeed:
@@ -124,6 +131,8 @@ class ZenohStateFeed:
         # some sites may not even declare a subscriber on every site's keys); globs filter here
         exact = self._sites is not None and not any("*" in g or "?" in g for g in self._sites)
         self._scopes = [keys.check_site(site) for site in self._sites or ()] if exact else ["*"]
+        # the sites known (the exact ones named, those seen), and those that answered
+        self._ledger = SiteLedger(keys.check_site(s) for s in self._sites or () if not is_node_glob(s))
         self._entities: list[Any] = []
 
     @property
@@ -160,6 +169,11 @@ class ZenohStateFeed:
     def _wanted_site(self, site: str) -> bool:
         return self._sites is None or any(fnmatch.fnmatchcase(site, g) for g in self._sites)
 
+    def missing_sites(self) -> dict[str, str]:
+        with self._sink.update() as change:
+            lacking = {n.split("/", 1)[0] for n in self._states.missing(change)}
+        return self._ledger.missing(lacking)
+
     def _first_sync(self) -> None:
         book = self._sink
         bad: list[str] = []
@@ -169,18 +183,30 @@ class ZenohStateFeed:
                 alive = _alive_of(self._session, keys.site_pattern(scope, keys.ALIVE), self._timeout)
                 with book.update():
                     self._states.tokens_found(n for n in alive if self._wanted(n))
+                gateways = [s for s in sites_of(self._session, self._timeout, scope) if self._wanted_site(s)]
+                self._ledger.gateways_up(gateways)
+                node_sites = {n.split("/", 1)[0] for n in alive}
+                self._ledger.nodes_seen(s for s in node_sites if self._wanted_site(s))
                 if scope == "*":  # a query per site (see ask_states), the sites wanted of those up
-                    known = {n.split("/", 1)[0] for n in alive} | set(sites_of(self._session, self._timeout))
+                    known = node_sites | set(gateways)
                     up = sorted(site for site in known if self._wanted_site(site))
                     patterns += [keys.site_pattern(site, keys.STATE) for site in up]
                 else:
                     patterns.append(keys.site_pattern(scope, keys.STATE))
-            for msg in ask_states(self._session, patterns, self._timeout, bad):
-                self._apply_state(msg)
+            self._ask_sites(patterns, bad)
         except Exception as exc:  # the session closed under us
             log.debug("the first state query failed: %s", exc)
         self._ask_again(bad)
         book.mark_synced()
+
+    def _ask_sites(self, patterns: list[str], bad: list[str]) -> None:
+        """Ask for the states of ``patterns``; a site's pattern whose query ended in time
+        counts as the site answered."""
+        answered: set[str] = set()
+        for msg in ask_states(self._session, patterns, self._timeout, bad, answered):
+            self._apply_state(msg)
+        by_pattern = {keys.site_pattern(s, keys.STATE): s for s in self._ledger.known() if s != "*"}
+        self._ledger.answered((by_pattern[p] for p in answered if p in by_pattern), self._timeout)
 
     def _on_state(self, sample: Any) -> None:
         try:
@@ -238,8 +264,7 @@ class ZenohStateFeed:
             ]
             bad: list[str] = []
             try:
-                for msg in ask_states(self._session, asked, self._timeout, bad):
-                    self._apply_state(msg)
+                self._ask_sites(asked, bad)
             except Exception as exc:  # the session closed under us
                 log.debug("refreshing %s failed: %s", asked, exc)
             self._ask_again(bad)
