@@ -65,7 +65,12 @@ def test_mutual_tls_and_access_by_certificate_name(tmp_path: Path, procs: list[P
             domain_env,
         )
         procs.append(gw)
-        gw.wait_for("[ZENOH] Gateway for site", 20)
+        if site == "a":
+            gw.wait_for("[ZENOH] Gateway for site", 20)
+        else:  # gw_b is not granted site b: it stops at start, saying why (a refusal: exit 1)
+            assert gw.popen.wait(30) == 1, gw.stderr_text()
+            assert "its certificate is not granted site 'b'" in gw.stderr_text()
+            assert not any("[ZENOH] Gateway for site" in line for _, line in gw.lines)
 
     op = tmp_path / "operator"
     session = open_session(
