@@ -17,6 +17,7 @@ if TYPE_CHECKING:
     from .dds.client import ParameterClient
     from .dds.monitor import EventCallback, ParameterMonitor
     from .dds.qos import QosProfiles
+    from .zenoh.completeness import Lack
 
 log = logging.getLogger(__name__)
 
@@ -108,10 +109,10 @@ class Session:
         self._closers.append(monitor)
         return monitor
 
-    def missing_sites(self) -> dict[str, str]:
+    def missing_sites(self) -> dict[str, Lack]:
         """With ``--zenoh``: the known sites the monitors made so far lack, and why
         (:mod:`paramdds.zenoh.completeness`); empty over DDS and when every site answered."""
-        missing: dict[str, str] = {}
+        missing: dict[str, Lack] = {}
         for remote in self._remote_monitors:
             missing.update(remote.missing_sites())
         return missing

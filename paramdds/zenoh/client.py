@@ -36,14 +36,12 @@ from ..errors import (
     UnavailableError,
 )
 from . import codec, keys
-from .states import REPLY_MARGIN, ask_states, sites_of
+from .states import REPLY_MARGIN, ROUTE_WAIT, ask_states, site_active, sites_of
 
 log = logging.getLogger(__name__)
 
 __all__ = ["REPLY_MARGIN", "ROUTE_WAIT", "RemoteParameterClient", "ZenohClientTransport"]
 
-ROUTE_WAIT = 1.0  # seconds the first call of a verb to a site waits to learn a gateway serves it
-GRANT_ASK = 0.5  # seconds a call with no route asks the router whether the site's gateway is up
 
 
 def RemoteParameterClient(session: Any, *, timeout: float = DEFAULT_TIMEOUT) -> ParameterClient:
@@ -153,7 +151,7 @@ class ZenohClientTransport:
         while not self._matching(querier, pending):
             if time.monotonic() >= until:
                 site = keys.split_remote(pending.node)[0]
-                if self._site_active(site) and not self._matching(querier, pending):
+                if site_active(self._session, site) and not self._matching(querier, pending):
                     raise NotPermittedError(
                         f"node {pending.node!r}: site {site!r} is not granted to this client (its "
                         "gateway is up, but the router's access control refuses this certificate "
@@ -165,16 +163,6 @@ class ZenohClientTransport:
                 )
             if self._closing.wait(0.005):
                 raise UnavailableError("the client was closed")
-
-    def _site_active(self, site: str) -> bool:
-        """Whether the router shows an active gateway of ``site`` (every certificate may see the
-        gateways' tokens, :mod:`.acl`): then a call with no route to it is refused access."""
-        try:
-            pattern = f"{keys.gateway_key(site, '*')}/active/*"
-            replies = self._session.liveliness().get(pattern, timeout=GRANT_ASK)
-            return any(r.ok is not None for r in replies)
-        except Exception:  # the session closed under us
-            return False
 
     def send(self, pending: PendingCall) -> None:
         """Send the query; its future gets the reply's JSON object, or the error to raise."""

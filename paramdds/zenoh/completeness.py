@@ -9,15 +9,24 @@ state query ended before its timeout (every gateway serving it sent all its stat
 site whose nodes hold liveliness tokens but whose states did not all arrive lacks them.
 When no site is known at all, the view lacks every site (:data:`EVERY_SITE`): nothing
 answered, which an empty fleet, a router with no gateway and a certificate granted no
-site all look like.
+site all look like. A site whose gateway is up but serves this client nothing is
+*refused*: the router's access control does not grant this client's certificate the site.
 """
 
 from __future__ import annotations
 
 import threading
 from collections.abc import Iterable
+from typing import NamedTuple
 
 EVERY_SITE = "*"  # the key of :meth:`SiteLedger.missing` when no site is known at all
+
+
+class Lack(NamedTuple):
+    """Why a view lacks a site; ``refused``: the site is not granted to this client."""
+
+    reason: str
+    refused: bool = False
 
 
 class SiteLedger:
@@ -29,6 +38,7 @@ class SiteLedger:
         self._up: set[str] = set()  # a gateway of the site was seen
         self._seen: set[str] = set()  # a node or a gateway of the site was seen
         self._answered: set[str] = set()
+        self._refused: set[str] = set()
         self._timeout = 0.0
 
     def gateways_up(self, sites: Iterable[str]) -> None:
@@ -46,11 +56,20 @@ class SiteLedger:
             self._timeout = max(self._timeout, timeout)
             self._answered.update(s for s in sites if s in self._up)
 
+    def refused(self, sites: Iterable[str]) -> None:
+        """A gateway of each of ``sites`` is up, but none serves this client."""
+        with self._lock:
+            self._refused.update(sites)
+
+    def is_up(self, site: str) -> bool:
+        with self._lock:
+            return site in self._up
+
     def known(self) -> set[str]:
         with self._lock:
             return self._named | self._seen
 
-    def missing(self, lacking: Iterable[str] = ()) -> dict[str, str]:
+    def missing(self, lacking: Iterable[str] = ()) -> dict[str, Lack]:
         """Why each known site is lacking from the view (none: the view is complete);
         ``lacking``: sites with a node alive whose state is not held."""
         short = set(lacking)
@@ -58,25 +77,41 @@ class SiteLedger:
             known = self._named | self._seen
             if not known:
                 return {
-                    EVERY_SITE: "no gateway of any site is reachable (none connected, or this client is "
-                    "granted no site: name the sites in PARAMDDS_ZENOH_SITES)"
+                    EVERY_SITE: Lack(
+                        "no gateway of any site is reachable (none connected, or this client is "
+                        "granted no site: name the sites in PARAMDDS_ZENOH_SITES)"
+                    )
                 }
-            reasons: dict[str, str] = {}
+            lacks: dict[str, Lack] = {}
             for site in sorted(known):
-                if site not in self._up:
-                    reasons[site] = (
+                if site in self._refused:
+                    lacks[site] = Lack(
+                        f"site {site!r} is not granted to this client (its gateway is up, but the "
+                        "router's access control refuses this certificate the site)",
+                        refused=True,
+                    )
+                elif site not in self._up:
+                    lacks[site] = Lack(
                         f"no gateway of site {site!r} is reachable (site not connected, its uplink "
                         "down, or this client not granted it)"
                     )
                 elif site not in self._answered:
-                    reasons[site] = f"site {site!r} did not answer within {self._timeout:g} s"
+                    lacks[site] = Lack(f"site {site!r} did not answer within {self._timeout:g} s")
                 elif site in short:
-                    reasons[site] = f"site {site!r}: the state of some of its online nodes did not arrive"
-            return reasons
+                    lacks[site] = Lack(f"site {site!r}: the state of some of its online nodes did not arrive")
+            return lacks
 
 
-def lacking_line(site: str, reason: str) -> str:
+def lacking_line(site: str, lack: Lack) -> str:
     """What a view tells its reader of a site it lacks (one line)."""
     if site == EVERY_SITE:
-        return f"the answer may lack every site: {reason}"
-    return f"the answer lacks site {site!r}: {reason}"
+        return f"the answer may lack every site: {lack.reason}"
+    return f"the answer lacks site {site!r}: {lack.reason}"
+
+
+def lacking_exit(lacks: dict[str, Lack]) -> int:
+    """The exit code of a view that lacks ``lacks``: 0 when it lacks nothing; 1 (a refusal)
+    when every site lacking is not granted to this client; else 3 (a site not reached)."""
+    if not lacks:
+        return 0
+    return 1 if all(lack.refused for lack in lacks.values()) else 3

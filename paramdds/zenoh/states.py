@@ -19,6 +19,8 @@ from . import codec, keys
 
 log = logging.getLogger(__name__)
 
+ROUTE_WAIT = 1.0  # seconds a first query to a site waits to learn a gateway serves it
+GRANT_ASK = 0.5  # seconds a query with no route asks the router whether the site's gateway is up
 PARALLEL_QUERIES = 4  # state queries in flight at once (see ask_states)
 REPLY_MARGIN = 0.5  # seconds past a query's timeout before its asker stops waiting for Zenoh
 _ALL_GATEWAYS = f"{keys.PREFIX}/*/gateway/*"  # the gateways' tokens (not the active ones': one chunk more)
@@ -111,3 +113,14 @@ def sites_of(session: Any, timeout: float, site: str = "*") -> list[str]:
             except (ParamddsError, IndexError):
                 continue
     return sorted(sites)
+
+
+def site_active(session: Any, site: str) -> bool:
+    """Whether the router shows an active gateway of ``site`` (every certificate may see the
+    gateways' tokens, :mod:`.acl`): then a query that no gateway of it serves was refused
+    this client by the router's access control."""
+    try:
+        replies = session.liveliness().get(f"{keys.gateway_key(site, '*')}/active/*", timeout=GRANT_ASK)
+        return any(r.ok is not None for r in replies)
+    except Exception:  # the session closed under us
+        return False

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from paramdds.zenoh.completeness import EVERY_SITE, SiteLedger
+from paramdds.zenoh.completeness import EVERY_SITE, Lack, SiteLedger, lacking_exit
 
 
 def test_a_named_site_without_a_gateway_is_missing_and_an_answered_one_is_not() -> None:
@@ -10,7 +10,7 @@ def test_a_named_site_without_a_gateway_is_missing_and_an_answered_one_is_not() 
     ledger.gateways_up(["north", "south"])
     ledger.answered(["north", "south", "east"], 5.0)  # east: its query ended at once, no gateway
     assert set(ledger.missing()) == {"east"}
-    assert "no gateway of site 'east' is reachable" in ledger.missing()["east"]
+    assert "no gateway of site 'east' is reachable" in ledger.missing()["east"].reason
     assert set(ledger.missing(lacking=["south"])) == {"east", "south"}
 
 
@@ -20,10 +20,25 @@ def test_a_site_seen_that_did_not_answer_in_time_is_missing() -> None:
     ledger.nodes_seen(["west"])
     ledger.answered([], 2.0)
     assert ledger.missing() == {
-        "north": "site 'north' did not answer within 2 s",
-        "west": "no gateway of site 'west' is reachable (site not connected, its uplink down, "
-        "or this client not granted it)",
+        "north": Lack("site 'north' did not answer within 2 s"),
+        "west": Lack(
+            "no gateway of site 'west' is reachable (site not connected, its uplink down, "
+            "or this client not granted it)"
+        ),
     }
+    assert lacking_exit(ledger.missing()) == 3
+
+
+def test_a_site_refused_is_not_granted_and_a_refusal_alone_exits_1() -> None:
+    ledger = SiteLedger()
+    ledger.gateways_up(["north", "south"])
+    ledger.refused(["south"])
+    ledger.answered(["north"], 5.0)
+    missing = ledger.missing()
+    assert list(missing) == ["south"] and missing["south"].refused
+    assert "site 'south' is not granted to this client" in missing["south"].reason
+    assert lacking_exit(missing) == 1
+    assert lacking_exit({}) == 0
 
 
 def test_no_site_known_at_all_is_never_an_empty_complete_fleet() -> None:

@@ -118,6 +118,18 @@ def test_mutual_tls_and_access_by_certificate_name(tmp_path: Path, procs: list[P
         timeout=30,
     )
     assert refused.returncode == 1 and "not granted" in refused.stderr, refused
+    # naming no site, the operator is shown every site: c as not granted (a refusal: exit 1)
+    unnamed = subprocess.run(
+        [PARAMDDS, "--zenoh", endpoint, "nodes", "-o", "json"],
+        env={**env, "PARAMDDS_ZENOH_TLS": str(op)},
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert unnamed.returncode == 1, unnamed.stderr
+    rows = {r["node"]: r["status"] for r in json.loads(unnamed.stdout)}
+    assert rows == {"a/robot1": None, "c/*": "not granted"}, rows
+    assert "site 'c' is not granted to this client" in unnamed.stderr
 
     # no certificate: no session at all, within the bounded wait
     with pytest.raises(UnavailableError, match="no Zenoh router reachable"):

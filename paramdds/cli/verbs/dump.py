@@ -7,8 +7,8 @@ node it dumps every node online, from one monitor's state (no request per node),
 
 Over Zenoh every node is read from the remote monitor's state (values and descriptors,
 one state query per site), never with a call per node: what cannot be read (a node not
-online, a known site that did not answer) is one line each on stderr and exit 3, and
-the rest is written.
+online, a known site that did not answer) is one line each on stderr and exit 3 (1 when
+it is only sites not granted to this client), and the rest is written.
 """
 
 from __future__ import annotations
@@ -91,7 +91,7 @@ def remote_snapshots(session: Session, patterns: list[str]) -> tuple[dict[str, S
     from ...core.names import is_node_glob
     from ...errors import UnavailableError
     from ...exits import Exit
-    from ...zenoh.completeness import lacking_line
+    from ...zenoh.completeness import lacking_exit, lacking_line
     from .._live import current_states
     from .._output import problem
 
@@ -109,9 +109,9 @@ def remote_snapshots(session: Session, patterns: list[str]) -> tuple[dict[str, S
     for node in unread:
         state = states.get(node)
         problem(f"node {node!r} is {'offline' if state is not None else 'not present'}: not dumped")
-    for site, reason in missing.items():
-        problem(lacking_line(site, reason))
-    return snapshots, Exit.UNREACHABLE if unread or missing else Exit.OK
+    for site, lack in missing.items():
+        problem(lacking_line(site, lack))
+    return snapshots, Exit.UNREACHABLE if unread else lacking_exit(missing)
 
 
 def _held(st: NodeState) -> Snapshot:

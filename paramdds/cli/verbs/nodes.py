@@ -1,7 +1,9 @@
 """``paramdds nodes``: every node alive now, once the monitor holds their state (or a short wait).
 
 Over Zenoh, a known site that did not answer is a row of its own (``SITE/*``, status
-``no answer``, its reason under ``missing``) and a line on stderr, and the exit code is 3.
+``no answer``, or ``not granted`` when the router refuses this client the site; its reason
+under ``missing``) and a line on stderr, and the exit code is 3 (1 when every site lacking
+is only not granted).
 """
 
 from __future__ import annotations
@@ -52,19 +54,20 @@ def run(args: argparse.Namespace) -> int:
         for st in sorted(states.values(), key=lambda st: st.node)
         if st.online
     ]
-    rows += [_missing_row(site, reason) for site, reason in missing.items()]
+    rows += [_missing_row(site, lack.reason, lack.refused) for site, lack in missing.items()]
     emit(args.output, rows, _nodes_table(rows))
     if missing:
-        from ...zenoh.completeness import lacking_line
+        from ...zenoh.completeness import lacking_exit, lacking_line
 
-        for site, reason in missing.items():
-            problem(lacking_line(site, reason))
-        return Exit.UNREACHABLE
+        for site, lack in missing.items():
+            problem(lacking_line(site, lack))
+        return lacking_exit(missing)
     return Exit.OK
 
 
-def _missing_row(site: str, reason: str) -> dict[str, object]:
-    """A site that did not answer, as a row: its nodes are ``SITE/*``, status ``no answer``."""
+def _missing_row(site: str, reason: str, refused: bool) -> dict[str, object]:
+    """A site lacking, as a row: its nodes are ``SITE/*``, status ``no answer`` (or ``not
+    granted``: the router's access control refuses this client the site)."""
     return {
         "node": f"{site}/*",
         "online": False,
@@ -77,7 +80,7 @@ def _missing_row(site: str, reason: str) -> dict[str, object]:
         "incarnation": None,
         "at": None,
         "origin": None,
-        "status": "no answer",
+        "status": "not granted" if refused else "no answer",
         "missing": reason,
     }
 

@@ -46,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
             from ...zenoh.completeness import lacking_line
             from .._output import problem
 
-            for site, reason in missing.items():
-                problem(lacking_line(site, reason))
+            for site, lack in missing.items():
+                problem(lacking_line(site, lack))
         wait_until_interrupted(printer.broken)
     return Exit.OK
