@@ -130,6 +130,22 @@ def test_mutual_tls_and_access_by_certificate_name(tmp_path: Path, procs: list[P
     rows = {r["node"]: r["status"] for r in json.loads(unnamed.stdout)}
     assert rows == {"a/robot1": None, "c/*": "not granted"}, rows
     assert "site 'c' is not granted to this client" in unnamed.stderr
+    # and a watch of every site follows the sites granted (it used to print only `synced`)
+    watch = Proc([PARAMDDS, "--zenoh", endpoint, "watch"], {**env, "PARAMDDS_ZENOH_TLS": str(op)})
+    procs.append(watch)
+    watch.wait_for("added    a/robot1 robot.max_velocity", 20)
+    watch.wait_for("synced", 10)
+    session = open_session(
+        ZenohOptions(
+            connect=[endpoint], tls=TlsFiles(str(op / "ca.pem"), str(op / "cert.pem"), str(op / "key.pem"))
+        )
+    )
+    try:
+        client = RemoteParameterClient(session, timeout=3.0)
+        assert client.set("a/robot1", {"robot.max_velocity": 2.5}).successful
+    finally:
+        session.close()
+    watch.wait_for("modified a/robot1 robot.max_velocity = double 2.5", 10)
 
     # no certificate: no session at all, within the bounded wait
     with pytest.raises(UnavailableError, match="no Zenoh router reachable"):
