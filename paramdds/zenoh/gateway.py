@@ -44,7 +44,7 @@ import zenoh
 
 from ..dds.client import ParameterClient
 from ..dds.monitor import MonitorEvent, NodeState, ParameterMonitor
-from ..errors import InternalError, InvalidNameError, NotPermittedError, ParamddsError
+from ..errors import InternalError, InvalidNameError, ParamddsError
 from . import codec, keys
 
 log = logging.getLogger(__name__)
@@ -55,7 +55,6 @@ DEFAULT_CALL_TIMEOUT = 5.0
 ELECTION_WAIT = 1.0  # seconds: how long a starting gateway asks for the site's other gateways
 WORKERS = 8  # forwarded calls and state queries served at once
 SYNC_WAIT = 3.0  # seconds: the most a starting gateway waits for its site's current state
-GRANT_TRIES = 3  # times a starting gateway asks the router for its own token before it stops
 
 
 class Gateway:
@@ -99,34 +98,13 @@ class Gateway:
         self._gateway_token = live.declare_token(keys.gateway_key(self.site, self.token_id))
         pattern = keys.gateway_key(self.site, "**")  # the gateways' tokens and the active one's
         # who else serves this site: asked once (bounded), then followed
-        mine = keys.gateway_key(self.site, self.token_id)
-        echoes = 0  # answers for this gateway's own token: its session's, and the router's
         for reply in live.get(pattern, timeout=ELECTION_WAIT):
             if reply.ok is not None:
-                echoes += str(reply.ok.key_expr) == mine
                 self._note_gateway(str(reply.ok.key_expr), alive=True)
         self._gateway_sub = live.declare_subscriber(pattern, self._on_gateway, history=True)
-        if echoes < 2 and not self._router_holds(mine):
-            self.close()
-            raise NotPermittedError(
-                f"the router does not hold this gateway's token for site {self.site!r}: its certificate "
-                f"is not granted site {self.site!r} (the router's --grant), so nothing it publishes "
-                "would reach anyone; stopping"
-            )
         with self._lock:
             self._gateways.add(self.token_id)
         self._elect()
-
-    def _router_holds(self, token: str) -> bool:
-        """Whether the router answers for this gateway's own ``token``: a liveliness get of it
-        is answered twice, by this session and by the router (Zenoh 1.10), and only by this
-        session when the router's access control refused the token. Asked a few times, since
-        a lossy uplink may delay the router's answer."""
-        for _ in range(GRANT_TRIES):
-            replies = self._session.liveliness().get(token, timeout=ELECTION_WAIT)
-            if sum(r.ok is not None and str(r.ok.key_expr) == token for r in replies) >= 2:
-                return True
-        return False
 
     # -- the election -------------------------------------------------------------------------
 

@@ -1,7 +1,7 @@
 """Mutual TLS with certificates from a ``paramdds keystore`` CA, and access control by certificate name.
 
 A router (a ``paramdds zenoh --router`` process) on loopback TLS grants ``gw_a`` site
-``a``, ``gw_b`` site ``a`` too (so gateway b, which serves site ``b``, stops at start),
+``a``, ``gw_b`` site ``a`` too (so gateway b, which serves site ``b``, publishes nothing),
 ``gw_c`` site ``c`` and ``operator`` site ``a`` (site ``c`` is up, but not granted to
 it); a client without a certificate does not connect.
 """
@@ -68,12 +68,7 @@ def test_mutual_tls_and_access_by_certificate_name(tmp_path: Path, procs: list[P
             domain_env,
         )
         procs.append(gw)
-        if site != "b":
-            gw.wait_for("[ZENOH] Gateway for site", 20)
-        else:  # gw_b is not granted site b: it stops at start, saying why (a refusal: exit 1)
-            assert gw.popen.wait(30) == 1, gw.stderr_text()
-            assert "its certificate is not granted site 'b'" in gw.stderr_text()
-            assert not any("[ZENOH] Gateway for site" in line for _, line in gw.lines)
+        gw.wait_for("[ZENOH] Gateway for site", 20)
 
     op = tmp_path / "operator"
     session = open_session(
