@@ -58,6 +58,20 @@ def test_the_cli_names_the_sites_it_lacks_and_exits_3(fleet: Fleet) -> None:
         "/s1/robot2:",
     ]
     assert "lacks site 'east'" in dumped.stderr
+    # get over a glob: every node's values from the monitor's state, and the sites lacking
+    got = run("get", "s*/*", "robot.max_velocity", "nope", PARAMDDS_ZENOH_SITES="s1,east")
+    assert got.returncode == 3, got.stderr
+    assert got.stdout.splitlines() == [
+        "s1/robot1: robot.max_velocity = double 1.5",
+        "s1/robot2: robot.max_velocity = double 1.5",
+    ]
+    assert "nope: not found on 's1/robot1'" in got.stderr and "lacks site 'east'" in got.stderr
+    whole_get = run("get", "s1/*", "robot.max_velocity", "-o", "json")
+    assert whole_get.returncode == 0, whole_get.stderr
+    assert json.loads(whole_get.stdout) == {
+        "s1/robot1": {"robot.max_velocity": 1.5},
+        "s1/robot2": {"robot.max_velocity": 1.5},
+    }
     gone = run("dump", "s1/robot1", "s1/robot9")
     assert gone.returncode == 3 and "/s1/robot1:" in gone.stdout, gone
     assert "node 's1/robot9' is not present" in gone.stderr
