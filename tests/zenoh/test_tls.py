@@ -164,3 +164,13 @@ def test_mutual_tls_and_access_by_certificate_name(tmp_path: Path, procs: list[P
             RemoteParameterClient(session, timeout=2.0).get("a/robot1", ["robot.max_velocity"])
     finally:
         session.close()
+    # ... and its `nodes` says so at once, never an empty fleet with exit 0
+    empty = subprocess.run(
+        [PARAMDDS, "--zenoh", endpoint, "nodes"],
+        env={**env, "PARAMDDS_ZENOH_TLS": str(nobody)},
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert empty.returncode == 3, empty
+    assert "this client is granted no site" in empty.stderr
