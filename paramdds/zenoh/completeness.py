@@ -39,7 +39,6 @@ class SiteLedger:
         self._seen: set[str] = set()  # a node or a gateway of the site was seen
         self._answered: set[str] = set()
         self._refused: set[str] = set()
-        self._timeout = 0.0
 
     def gateways_up(self, sites: Iterable[str]) -> None:
         with self._lock:
@@ -50,10 +49,9 @@ class SiteLedger:
         with self._lock:
             self._seen.update(sites)
 
-    def answered(self, sites: Iterable[str], timeout: float) -> None:
-        """The state queries of ``sites`` ended before their ``timeout``."""
+    def answered(self, sites: Iterable[str]) -> None:
+        """The state queries of ``sites`` ended before their timeout."""
         with self._lock:
-            self._timeout = max(self._timeout, timeout)
             self._answered.update(s for s in sites if s in self._up)
 
     def refused(self, sites: Iterable[str]) -> None:
@@ -96,7 +94,7 @@ class SiteLedger:
                         "down, or this client not granted it)"
                     )
                 elif site not in self._answered:
-                    lacks[site] = Lack(f"site {site!r} did not answer within {self._timeout:g} s")
+                    lacks[site] = Lack(f"site {site!r} did not answer in time (its state query did not end)")
                 elif site in short:
                     lacks[site] = Lack(f"site {site!r}: the state of some of its online nodes did not arrive")
             return lacks

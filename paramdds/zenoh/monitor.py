@@ -259,7 +259,7 @@ class ZenohStateFeed:
         sites = [by_pattern[p] for p in answered if p in by_pattern]
         refused = [s for s in sites if s not in replied and self._ledger.is_up(s) and self._refused(s)]
         self._ledger.refused(refused)
-        self._ledger.answered((s for s in sites if s not in refused), self._timeout)
+        self._ledger.answered(s for s in sites if s not in refused)
 
     def _refused(self, site: str) -> bool:
         """Whether ``site`` has an active gateway but none serves its states to this client: the
