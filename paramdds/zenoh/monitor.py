@@ -33,8 +33,9 @@ from ..dds.client import DEFAULT_TIMEOUT
 from ..dds.monitor import EventCallback, ParameterMonitor
 from ..errors import ParamddsError
 from . import codec, keys
+from .completeness import Lack, SiteLedger
 from .monitor_rules import GAP, HELD, RemoteStates
-from .states import ask_states, sites_of
+from .states import ROUTE_WAIT, ask_states, site_active, sites_of
 
 log = logging.getLogger(__name__)
 
@@ -92,6 +93,12 @@ class RemoteParameterMonitor(ParameterMonitor):
         only = remote_filter(nodes) if nodes else None
         feed = ZenohStateFeed(session, sites=sites, nodes=only, timeout=timeout)
         super().__init__(feed, nodes=only, on_event=on_event)
+        self._remote_feed = feed
+
+    def missing_sites(self) -> dict[str, Lack]:
+        """The known sites this monitor lacks (:mod:`.completeness`): site -> why; empty when
+        every site known answered in full (``*``: no site is known at all)."""
+        return self._remote_feed.missing_sites()
 
 
 class ZenohStateFeed:
@@ -124,6 +131,10 @@ class ZenohStateFeed:
         # some sites may not even declare a subscriber on every site's keys); globs filter here
         exact = self._sites is not None and not any("*" in g or "?" in g for g in self._sites)
         self._scopes = [keys.check_site(site) for site in self._sites or ()] if exact else ["*"]
+        # the sites known (the exact ones named, those seen), and those that answered
+        self._ledger = SiteLedger(keys.check_site(s) for s in self._sites or () if not is_node_glob(s))
+        self._exact = exact
+        self._followed: set[str] = set()  # the sites whose states and tokens are subscribed to
         self._entities: list[Any] = []
 
     @property
@@ -134,21 +145,58 @@ class ZenohStateFeed:
 
     def start(self, book: StateBook) -> None:
         self._book = book
-        session = self._session
-        self._entities = [
-            entity
-            for scope in self._scopes
-            for entity in (
-                session.declare_subscriber(keys.site_pattern(scope, keys.STATE), self._on_state),
-                session.liveliness().declare_subscriber(
-                    keys.site_pattern(scope, keys.ALIVE), self._on_alive, history=True
-                ),
-            )
-        ]
+        if self._exact:
+            for site in self._scopes:
+                self._subscribe(site)
         threading.Thread(target=self._first_sync, name="paramdds-zenoh-sync", daemon=True).start()
 
+    def _subscribe(self, site: str) -> bool:
+        """Follow ``site``'s states and node tokens (once; False when followed already). A
+        subscriber per site, never one over every site: a router's access control grants a
+        certificate some sites' keys, and refuses a pattern over all of them."""
+        with self._refresh_lock:
+            if site in self._followed or self._sink.closed:
+                return False
+            self._followed.add(site)
+        session = self._session
+        entities = [
+            session.declare_subscriber(keys.site_pattern(site, keys.STATE), self._on_state),
+            session.liveliness().declare_subscriber(
+                keys.site_pattern(site, keys.ALIVE), self._on_alive, history=True
+            ),
+        ]
+        with self._refresh_lock:
+            self._entities += entities
+        return True
+
+    def _on_gateway(self, sample: Any) -> None:
+        """A gateway's token (every site's are followed once the first sync is done): a site not
+        followed yet is followed, and its states asked for, on a thread of its own."""
+        try:
+            site = keys.check_site(str(sample.key_expr).split("/")[1])
+        except (ParamddsError, IndexError):
+            return
+        if _is_delete(sample) or not self._wanted_site(site):
+            return
+        self._ledger.gateways_up([site])
+        with self._refresh_lock:
+            if site in self._followed:
+                return
+        name = "paramdds-zenoh-site"
+        threading.Thread(target=self._follow_new, args=(site,), name=name, daemon=True).start()
+
+    def _follow_new(self, site: str) -> None:
+        """Follow a site whose gateway came after the first sync, and ask for its states."""
+        try:
+            if self._subscribe(site):
+                self._sync_sites([site], [])
+        except Exception as exc:  # the session closed under us
+            log.debug("following site %s failed: %s", site, exc)
+
     def close(self) -> None:
-        for entity in self._entities:
+        with self._refresh_lock:
+            entities, self._entities = self._entities, []
+        for entity in entities:
             try:
                 entity.undeclare()
             except Exception:
@@ -160,27 +208,73 @@ class ZenohStateFeed:
     def _wanted_site(self, site: str) -> bool:
         return self._sites is None or any(fnmatch.fnmatchcase(site, g) for g in self._sites)
 
+    def missing_sites(self) -> dict[str, Lack]:
+        with self._sink.update() as change:
+            lacking = {n.split("/", 1)[0] for n in self._states.missing(change)}
+        return self._ledger.missing(lacking)
+
     def _first_sync(self) -> None:
         book = self._sink
         bad: list[str] = []
         try:
-            patterns: list[str] = []
-            for scope in self._scopes:  # the tokens first, so that the states below show online exactly
-                alive = _alive_of(self._session, keys.site_pattern(scope, keys.ALIVE), self._timeout)
-                with book.update():
-                    self._states.tokens_found(n for n in alive if self._wanted(n))
-                if scope == "*":  # a query per site (see ask_states), the sites wanted of those up
-                    known = {n.split("/", 1)[0] for n in alive} | set(sites_of(self._session, self._timeout))
-                    up = sorted(site for site in known if self._wanted_site(site))
-                    patterns += [keys.site_pattern(site, keys.STATE) for site in up]
-                else:
-                    patterns.append(keys.site_pattern(scope, keys.STATE))
-            for msg in ask_states(self._session, patterns, self._timeout, bad):
-                self._apply_state(msg)
+            if self._exact:
+                sites = list(self._scopes)
+            else:  # the sites wanted of those whose gateway is up
+                sites = [s for s in sites_of(self._session, self._timeout) if self._wanted_site(s)]
+                for site in sites:
+                    self._subscribe(site)
+            self._sync_sites(sites, bad)
+            if not self._exact:  # and every site whose gateway comes later
+                follow = self._session.liveliness().declare_subscriber(
+                    f"{keys.PREFIX}/*/gateway/*", self._on_gateway, history=True
+                )
+                with self._refresh_lock:
+                    self._entities.append(follow)
         except Exception as exc:  # the session closed under us
             log.debug("the first state query failed: %s", exc)
         self._ask_again(bad)
         book.mark_synced()
+
+    def _sync_sites(self, sites: list[str], bad: list[str]) -> None:
+        """The node tokens of ``sites`` first (so that the states show online exactly), whether
+        their gateways are up, then their states: a query per site (see ask_states)."""
+        book = self._sink
+        for site in sites:
+            alive = _alive_of(self._session, keys.site_pattern(site, keys.ALIVE), self._timeout)
+            with book.update():
+                self._states.tokens_found(n for n in alive if self._wanted(n))
+            self._ledger.gateways_up(sites_of(self._session, self._timeout, site))
+        self._ask_sites([keys.site_pattern(site, keys.STATE) for site in sites], bad)
+
+    def _ask_sites(self, patterns: list[str], bad: list[str]) -> None:
+        """Ask for the states of ``patterns``; a site's pattern whose query ended in time
+        counts as the site answered, unless no gateway of it serves this client (its
+        certificate is not granted the site: :meth:`_refused`)."""
+        answered: set[str] = set()
+        replied: set[str] = set()
+        for msg in ask_states(self._session, patterns, self._timeout, bad, answered):
+            replied.add(msg.site)
+            self._apply_state(msg)
+        by_pattern = {keys.site_pattern(s, keys.STATE): s for s in self._ledger.known()}
+        sites = [by_pattern[p] for p in answered if p in by_pattern]
+        refused = [s for s in sites if s not in replied and self._ledger.is_up(s) and self._refused(s)]
+        self._ledger.refused(refused)
+        self._ledger.answered(s for s in sites if s not in refused)
+
+    def _refused(self, site: str) -> bool:
+        """Whether ``site`` has an active gateway but none serves its states to this client: the
+        router's access control refuses this certificate the site (asked only of a site whose
+        state query came back empty)."""
+        querier = self._session.declare_querier(keys.site_pattern(site, keys.STATE))
+        try:
+            until = time.monotonic() + ROUTE_WAIT
+            while not querier.matching_status.matching:
+                if time.monotonic() >= until:
+                    return site_active(self._session, site)
+                time.sleep(0.01)
+            return False
+        finally:
+            querier.undeclare()
 
     def _on_state(self, sample: Any) -> None:
         try:
@@ -238,8 +332,7 @@ class ZenohStateFeed:
             ]
             bad: list[str] = []
             try:
-                for msg in ask_states(self._session, asked, self._timeout, bad):
-                    self._apply_state(msg)
+                self._ask_sites(asked, bad)
             except Exception as exc:  # the session closed under us
                 log.debug("refreshing %s failed: %s", asked, exc)
             self._ask_again(bad)

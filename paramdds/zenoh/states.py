@@ -19,16 +19,26 @@ from . import codec, keys
 
 log = logging.getLogger(__name__)
 
+ROUTE_WAIT = 1.0  # seconds a first query to a site waits to learn a gateway serves it
+GRANT_ASK = 0.5  # seconds a query with no route asks the router whether the site's gateway is up
 PARALLEL_QUERIES = 4  # state queries in flight at once (see ask_states)
 REPLY_MARGIN = 0.5  # seconds past a query's timeout before its asker stops waiting for Zenoh
 _ALL_GATEWAYS = f"{keys.PREFIX}/*/gateway/*"  # the gateways' tokens (not the active ones': one chunk more)
+ENDED_EARLY = 0.05  # seconds: a query that ended this much before its timeout was answered in full
+_Ended = tuple[str, bool, list[tuple[str, bytes]]]  # a query's pattern, whether it ended in time, its replies
 
 
 def ask_states(
-    session: Any, patterns: Sequence[str], timeout: float, bad: list[str] | None = None
+    session: Any,
+    patterns: Sequence[str],
+    timeout: float,
+    bad: list[str] | None = None,
+    answered: set[str] | None = None,
 ) -> Iterator[codec.NodeStateMsg]:
     """Every node state the gateways answer for ``patterns``, all within ``timeout``, yielded
-    as each query ends; the keys of replies that do not decode are added to ``bad``.
+    as each query ends; the keys of replies that do not decode are added to ``bad``, and the
+    patterns whose query ended before its timeout (every gateway that serves it sent all its
+    replies) to ``answered``.
 
     Up to :data:`PARALLEL_QUERIES` queries are in flight at once, each bounded by what is
     left of ``timeout``. One query for every site at once was measured to fail: 30 sites x
@@ -39,7 +49,7 @@ def ask_states(
     holds up the session."""
     deadline = time.monotonic() + timeout
     waiting = list(patterns)
-    ended: queue.SimpleQueue[list[tuple[str, bytes]]] = queue.SimpleQueue()
+    ended: queue.SimpleQueue[_Ended] = queue.SimpleQueue()
     in_flight = 0
     while waiting or in_flight:
         while waiting and in_flight < PARALLEL_QUERIES:
@@ -53,11 +63,14 @@ def ask_states(
         if not in_flight:
             return
         try:
-            replies = ended.get(timeout=max(0.0, deadline - time.monotonic()) + REPLY_MARGIN)
+            left = max(0.0, deadline - time.monotonic())
+            pattern, complete, replies = ended.get(timeout=left + REPLY_MARGIN)
         except queue.Empty:
             log.warning("%d state queries did not end within %g s", in_flight, timeout)
             return
         in_flight -= 1
+        if complete and answered is not None:
+            answered.add(pattern)
         for key, payload in replies:
             try:
                 yield codec.NodeStateMsg.decode(payload)
@@ -67,12 +80,12 @@ def ask_states(
                     bad.append(key)
 
 
-def _send_query(
-    session: Any, pattern: str, timeout: float, ended: queue.SimpleQueue[list[tuple[str, bytes]]]
-) -> None:
-    """Ask every gateway for the states of ``pattern``: (key, payload) of each reply go to
-    ``ended`` once the query ends (all answered, or ``timeout``)."""
+def _send_query(session: Any, pattern: str, timeout: float, ended: queue.SimpleQueue[_Ended]) -> None:
+    """Ask every gateway for the states of ``pattern``: the pattern, whether the query ended
+    before ``timeout`` (every queryable sent its final reply) and (key, payload) of each reply
+    go to ``ended`` once the query ends."""
     replies: list[tuple[str, bytes]] = []
+    until = time.monotonic() + timeout - ENDED_EARLY
 
     def on_reply(reply: Any) -> None:
         sample = reply.ok
@@ -81,20 +94,33 @@ def _send_query(
 
     session.get(
         pattern,
-        zenoh.handlers.Callback(on_reply, lambda: ended.put(replies)),
+        zenoh.handlers.Callback(on_reply, lambda: ended.put((pattern, time.monotonic() < until, replies))),
         timeout=timeout,
         target=zenoh.QueryTarget.ALL,
         consolidation=zenoh.QueryConsolidation(zenoh.ConsolidationMode.NONE),
     )
 
 
-def sites_of(session: Any, timeout: float) -> list[str]:
-    """The sites whose gateway is up now (a gateway's liveliness token names its site)."""
+def sites_of(session: Any, timeout: float, site: str = "*") -> list[str]:
+    """The sites (of ``site``, a site or ``*``) whose gateway is up now (a gateway's liveliness
+    token names its site)."""
     sites: set[str] = set()
-    for reply in session.liveliness().get(_ALL_GATEWAYS, timeout=timeout):
+    pattern = _ALL_GATEWAYS if site == "*" else f"{keys.PREFIX}/{site}/gateway/*"
+    for reply in session.liveliness().get(pattern, timeout=timeout):
         if reply.ok is not None:
             try:
                 sites.add(keys.check_site(str(reply.ok.key_expr).split("/")[1]))
             except (ParamddsError, IndexError):
                 continue
     return sorted(sites)
+
+
+def site_active(session: Any, site: str) -> bool:
+    """Whether the router shows an active gateway of ``site`` (every certificate may see the
+    gateways' tokens, :mod:`.acl`): then a query that no gateway of it serves was refused
+    this client by the router's access control."""
+    try:
+        replies = session.liveliness().get(f"{keys.gateway_key(site, '*')}/active/*", timeout=GRANT_ASK)
+        return any(r.ok is not None for r in replies)
+    except Exception:  # the session closed under us
+        return False
