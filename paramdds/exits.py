@@ -9,7 +9,8 @@ code   when
        non-atomic set)
 2      usage error or bad local input (unknown flag, unparsable value, unreadable
        or invalid YAML with file and line)
-3      node not present, or no answer within the timeout
+3      node not present, or no answer within the timeout; over Zenoh, an answer that
+       lacks a site (its gateway unreachable, or it did not answer in time)
 4      a failure, not an answer: DDS failed in this process (participant,
        entity, write), or the node or this program hit an internal error
 5      outcome unknown: a write was sent and no answer came in time; it may

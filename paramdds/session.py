@@ -17,6 +17,7 @@ if TYPE_CHECKING:
     from .dds.client import ParameterClient
     from .dds.monitor import EventCallback, ParameterMonitor
     from .dds.qos import QosProfiles
+    from .zenoh.completeness import Lack
 
 log = logging.getLogger(__name__)
 
@@ -34,6 +35,7 @@ class Session:
         self._qos: QosProfiles | None = None
         self._closers: list[Any] = []
         self._zenoh: Any = None  # --zenoh: the Zenoh session the remote client and monitor share
+        self._remote_monitors: list[Any] = []  # the RemoteParameterMonitors made (see missing_sites)
 
     @property
     def participant(self) -> Any:
@@ -99,12 +101,21 @@ class Session:
                 self.zenoh, sites=sites_from_env(), nodes=nodes, on_event=on_event, timeout=self.args.timeout
             )
             self._closers.append(remote)
+            self._remote_monitors.append(remote)
             return remote
         from .dds.monitor import ParameterMonitor
 
         monitor = ParameterMonitor(self.participant, self.qos, nodes=nodes or None, on_event=on_event)
         self._closers.append(monitor)
         return monitor
+
+    def missing_sites(self) -> dict[str, Lack]:
+        """With ``--zenoh``: the known sites the monitors made so far lack, and why
+        (:mod:`paramdds.zenoh.completeness`); empty over DDS and when every site answered."""
+        missing: dict[str, Lack] = {}
+        for remote in self._remote_monitors:
+            missing.update(remote.missing_sites())
+        return missing
 
     def assigner(self, on_reply: ReplyCallback | None = None) -> Assigner:
         from .dds.assign import Assigner

@@ -131,7 +131,8 @@ def build_parser(argv: Sequence[str] | None = None) -> Parser:
         prog="paramdds",
         description="ROS 2 parameters over seven keyed DDS topics (Cyclone DDS).",
         epilog="Exit codes: 0 ok, 1 refused by the node, 2 usage or bad input, "
-        "3 node absent or timeout, 4 a failure in this process (DDS, or an internal error), "
+        "3 node absent, timeout, or a fleet answer lacking a site, "
+        "4 a failure in this process (DDS, or an internal error), "
         "5 outcome unknown (a write sent and not answered: it may have been applied), 130 interrupted.",
     )
     top.add_argument("--version", action=_Version, nargs=0, help="show the version and exit")

@@ -10,9 +10,22 @@ what to do next. The rules:
   once to a peer matched since the last look) and after ``resend_after`` seconds
   without a reply, doubling up to :data:`MAX_RESEND` (a copy is sent again; before
   that, a node gone is a failure). A lost copy then costs a fraction of a second.
-* A write that may have reached its node (:attr:`Call.may_apply`) never fails as
-  "not there": without an answer its outcome is unknown (OUTCOME_UNKNOWN), at the
-  deadline or when the client is closed.
+* A write that may have reached its node never fails as "not there": without an
+  answer its outcome is unknown (OUTCOME_UNKNOWN), at the deadline or when the client
+  is closed. A write whose copies went to a peer (:attr:`Call.may_apply`) may have
+  reached its node unless the client is *sure* no server that took a copy hosted it:
+* **Sure never to land** (:meth:`Call.lost`). A server takes a request only for a node
+  it hosts, and publishes that node's presence (TRANSIENT_LOCAL) before it takes any
+  request for it; requests are VOLATILE, so a server that matches later gets only the
+  copies sent after. So a write is sure never to land when no server ever announced its
+  node (it was ABSENT at every look, never ONLINE or OFFLINE) and the transport's
+  discovery is *sure* (:class:`Mark`: every server matched has told its nodes; one
+  excused as dead before it did may hold a copy), once the client has stopped sending
+  it for :data:`IN_FLIGHT` seconds (a copy on its way, to a server that starts hosting
+  the node meanwhile, would have brought that node's presence back by then). The call
+  then *holds* (sends no copy, not even to a new peer) and fails NOT_SEEN. A node that
+  was ever announced may hold a copy (offline can be a stalled process that resumes),
+  so such a write still ends OUTCOME_UNKNOWN.
 * Any other call fails NOT_SEEN as soon as its node is known gone (offline, or absent
   once discovery settled) at a discovery change or a resend, and at the deadline when
   the node is not online; else TIMEOUT.
@@ -23,18 +36,21 @@ from __future__ import annotations
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass, field
 from enum import Enum
+from typing import NamedTuple
 
 from ..errors import OutcomeUnknownError, ParamddsError, UnavailableError
 from .request import ParamsArg
 from .revision import Revision
 
 __all__ = [
+    "IN_FLIGHT",
     "MAX_RESEND",
     "Call",
     "Failure",
     "GetRequest",
     "ListRequest",
     "Mark",
+    "Presence",
     "Request",
     "SetRequest",
     "Wake",
@@ -43,8 +59,26 @@ __all__ = [
 
 MAX_RESEND = 1.0  # seconds between two copies at most (a big, merely slow request is not resent often)
 EARLY_END = 0.9  # a copy that ended without an answer before this share of the timeout: its route went
+IN_FLIGHT = 0.5  # seconds after its last copy before a write is sure not to land (the discovery quiet period)
 
-Mark = tuple[bool, Hashable]  # a transport's discovery, as (settled, what changes when a server dies)
+
+class Presence(str, Enum):
+    """What a client can say about a node right now."""
+
+    ONLINE = "online"  # its presence instance is alive
+    OFFLINE = "offline"  # it was seen and has gone (instance not alive)
+    ABSENT = "absent"  # never seen, and discovery has settled: it is not there
+    UNKNOWN = "unknown"  # never seen, and discovery is still going on: it may yet appear
+
+
+class Mark(NamedTuple):
+    """A transport's discovery, as a call watches it."""
+
+    settled: bool
+    changes: Hashable  # what changes when a server dies
+    # every server matched has told its nodes (none was excused as dead before it did):
+    # "absent" then means no server that took a copy of a request hosted the node
+    sure: bool = True
 
 
 @dataclass(frozen=True)
@@ -111,6 +145,10 @@ class Call:
     match_poll: float = 0.02
     grace: float = 0.0
     reached: bool = False  # a copy went out while the transport had a peer for it
+    announced: bool = False  # its node's presence was seen (online or offline) during the call
+    in_flight: float = IN_FLIGHT
+    holding: bool = False  # a write sure never to land as long as it sends no more copies: it sends none
+    _last_copy: float = field(default=float("-inf"), repr=False)
     _step: float = field(default=0.0, repr=False)
     _next_resend: float = field(default=0.0, repr=False)
     _seen: Mark | None = field(default=None, repr=False)
@@ -130,12 +168,21 @@ class Call:
 
     @property
     def may_apply(self) -> bool:
-        """A write that can have reached its node: without an answer, its outcome is unknown."""
+        """A write that went to a peer: without an answer, its outcome is unknown unless
+        :meth:`lost` makes sure its node was never hosted by any of them."""
         return self.write and self.reached
 
-    def sent(self, reached: bool) -> None:
-        """A copy went out; ``reached``: the transport had a peer for it then."""
+    def sent(self, reached: bool, now: float | None = None) -> None:
+        """A copy went out at ``now``; ``reached``: the transport had a peer for it then
+        (``now`` None: when is not known, so the copy never counts as landed nowhere)."""
         self.reached = self.reached or reached
+        if reached:
+            self._last_copy = float("inf") if now is None else now
+
+    def saw(self, presence: Presence) -> None:
+        """What a look at its node found (a presence instance: a server announced it)."""
+        if presence is Presence.ONLINE or presence is Presence.OFFLINE:
+            self.announced = True
 
     def waited(self, now: float) -> float:
         return now - self.started
@@ -164,23 +211,45 @@ class Call:
     def news(self, mark: Mark) -> bool:
         """Whether the call should look at its node now: discovery has just settled, or a
         server's liveliness changed (one died), since the last look. A write that may have
-        reached its node waits on (the node may come back and answer)."""
+        reached a node that was announced waits on (the node may come back and answer)."""
         seen, self._seen = self._seen, mark
-        settled, liveliness = mark
-        news = settled if seen is None else (settled and not seen[0]) or liveliness != seen[1]
-        return news and not self.may_apply
+        if seen is None:
+            news = mark.settled
+        else:
+            news = (mark.settled and not seen.settled) or mark.changes != seen.changes
+        return news and not self._committed
 
-    def lost(self, gone: Callable[[], bool]) -> bool:
-        """At a resend: whether the call fails NOT_SEEN (``gone`` asks whether its node is
-        offline or absent; a write that may have reached it is never lost)."""
-        return not self.may_apply and gone()
+    @property
+    def _committed(self) -> bool:
+        """A write that may have reached a node that was announced: no look can end it."""
+        return self.may_apply and self.announced
 
-    def verdict(self, online: Callable[[], bool]) -> Failure:
-        """How the call ends at its deadline (``online`` asks the transport, only when it
+    def lost(self, look: Callable[[], Presence], now: float) -> bool:
+        """At a look at its node (a discovery change, a resend, any wake while it holds):
+        whether the call fails NOT_SEEN now. ``look`` asks the transport for the node's
+        presence. A read, or a write no peer took, fails once its node is offline or absent;
+        a write a peer took only once it is sure never to land (see the module's rules),
+        holding its copies until then."""
+        if self._committed:
+            return False
+        presence = look()
+        self.saw(presence)
+        gone = presence is Presence.OFFLINE or presence is Presence.ABSENT
+        if not self.may_apply or not gone:
+            self.holding = False
+            return gone
+        sure = presence is Presence.ABSENT and self._seen is not None and self._seen.sure
+        self.holding = sure and not self.announced
+        return self.holding and now - self._last_copy >= self.in_flight
+
+    def verdict(self, look: Callable[[], Presence], now: float) -> Failure:
+        """How the call ends at its deadline (``look`` asks the transport, only when it
         resends: one that does not bounds its copy itself and knows no more)."""
         if self.may_apply:
+            if self.resends and self.lost(look, now):
+                return Failure.NOT_SEEN
             return Failure.OUTCOME_UNKNOWN
-        if self.resends and not online():
+        if self.resends and look() is not Presence.ONLINE:
             return Failure.NOT_SEEN
         return Failure.TIMEOUT
 

@@ -10,7 +10,8 @@ is its asyncio form.
 No call ever hangs: each has a timeout (default :data:`DEFAULT_TIMEOUT`). A node that
 is not present is reported UNAVAILABLE; a node that goes offline while a call waits
 fails that call with UNAVAILABLE; otherwise a missing answer is a TIMEOUT naming the
-node and the time waited, and a set that may have reached its node is OUTCOME_UNKNOWN.
+node and the time waited, and a set that may have reached its node is OUTCOME_UNKNOWN
+(a set whose node no server ever announced is held and fails UNAVAILABLE: it cannot land).
 On DDS a request without a reply is sent again (same ids) with backoff, from
 :data:`RESEND_AFTER` seconds, and at once when a new peer matches (checked every
 :data:`MATCH_POLL` seconds): the server answers repeats from its reply cache, so a
@@ -40,7 +41,7 @@ from ..core.values import NOT_SET, Parameter, ParameterValue
 from ..errors import NotFoundError, ParamddsError
 from .client_protocol import ClientTransport, PendingCall
 from .client_transport import ONLINE_FRESH, PRESENCE_GRACE, PRESENCE_POLL, REQUEST_TOPICS, DdsClientTransport
-from .discovery import DiscoveryState, DiscoveryWatch, Presence
+from .discovery import DiscoveryState, Presence
 from .qos import QosProfiles
 
 __all__ = [
@@ -65,7 +66,6 @@ log = logging.getLogger(__name__)
 DEFAULT_TIMEOUT = 5.0
 RESEND_AFTER = 0.2  # seconds without a reply before a call checks presence and resends
 MATCH_POLL = 0.02  # seconds between checks, while a call waits, for a newly matched server
-_GONE = (Presence.OFFLINE, Presence.ABSENT)
 
 
 class ParameterClient:
@@ -198,27 +198,6 @@ class ParameterClient:
             raise ParamddsError(f"discovery is DDS's; this client is carried by {carrier}")
         return self.transport
 
-    # the DDS transport's entities, for tests that look inside a client
-    @property
-    def _dp(self) -> DomainParticipant:
-        return self._dds().participant
-
-    @property
-    def _reply_filter(self) -> Any:
-        return self._dds().reply_filter
-
-    @property
-    def _presence(self) -> Any:
-        return self._dds().presence_reader
-
-    @property
-    def _presence_filter(self) -> Any:
-        return self._dds().presence_filter
-
-    @property
-    def _discovery(self) -> DiscoveryWatch | None:
-        return self._dds().discovery_watch
-
     # -- a call's life, for this client and an event loop's (AsyncParameterClient) ------------
 
     def begin(self, request: Request, timeout: float | None) -> PendingCall:
@@ -241,30 +220,26 @@ class ParameterClient:
         once the call cannot succeed (the rules are :mod:`paramdds.core.call`'s)."""
         t, call = self.transport, pending.call
 
-        def online() -> bool:
-            return t.presence(call.node) is Presence.ONLINE
-
-        def gone() -> bool:
-            return t.presence(call.node) in _GONE
+        def look() -> Presence:
+            return t.presence(call.node)
 
         if call.resends:
             call.watch(t.discovery_mark())
         while True:
             now = time.monotonic()
             if call.expired(now):
-                raise t.error(pending, call.verdict(online), call.timeout)
+                raise t.error(pending, call.verdict(look, now), call.timeout)
             yield call.wait(now)
             if not call.resends:
                 continue
             now = time.monotonic()
             mark = t.discovery_mark()
-            if mark is not None and call.news(mark) and gone():
+            news = mark is not None and call.news(mark)
+            resend = call.wake(now) is Wake.RESEND
+            if (news or resend or call.holding) and call.lost(look, now):
                 raise t.error(pending, Failure.NOT_SEEN, call.waited(now))
-            if call.wake(now) is Wake.RESEND:
-                if call.lost(gone):
-                    raise t.error(pending, Failure.NOT_SEEN, call.waited(now))
-            elif not t.newly_matched(pending):
-                continue
+            if call.holding or not (resend or t.newly_matched(pending)):
+                continue  # a write held to make sure it never lands sends no copy
             try:
                 t.send(pending)
             except Exception as exc:

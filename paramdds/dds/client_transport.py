@@ -209,7 +209,8 @@ class DdsClientTransport:
         else:
             expected = _expected(request.if_revision)
             parameters = [parameter_to_wire(p) for p in to_parameters(request.params)]
-            self._check_unsent(node)
+            if self._check_unsent(node):
+                call.saw(Presence.ONLINE)
             topic = "SetParametersRequest"
             sample = wire.SetParametersRequest(
                 node_id=node,
@@ -241,12 +242,13 @@ class DdsClientTransport:
         writer: Any = pending.via  # the binding's status getters are untyped
         call = pending.call
         try:
-            if not call.write or call.reached:
+            if not call.write:
                 writer.write(pending.message)
                 return
             before = writer.get_publication_matched_status().current_count
             writer.write(pending.message)
-            call.sent(bool(before or writer.get_publication_matched_status().current_count))
+            reached = bool(before or writer.get_publication_matched_status().current_count)
+            call.sent(reached, time.monotonic())
         except Exception as exc:
             raise ParamddsError(f"could not send the request to {call.node!r}: {exc}") from exc
 
@@ -267,7 +269,8 @@ class DdsClientTransport:
         if self.discovery_watch is None:
             return None
         state = self.discovery_watch.state()  # keeps the time of the last discovery change precise
-        return (state.settled, state.liveliness)
+        # a server excused as dead before it delivered may host any node: no absence is sure
+        return Mark(state.settled, state.liveliness, sure=state.dead_writers == 0)
 
     def finish(self, pending: PendingCall) -> None:
         self._pending.pop(pending.call.request_id, None)
@@ -280,19 +283,24 @@ class DdsClientTransport:
             return CallTimeoutError(f"no answer from node {node!r} within {waited:g} s{self._mismatched()}")
         if failure is Failure.CLOSED:
             return closed_error(pending.call)
-        return self._not_seen(node, waited)
+        # a write a peer took, held and sure never to land (paramdds.core.call): say so
+        held = "; no server hosting it took the request, which is sent no more"
+        return self._not_seen(node, waited, held if pending.call.may_apply else "")
 
-    def _check_unsent(self, node: str) -> None:
+    def _check_unsent(self, node: str) -> bool:
         """A write to a node this client already knows to be offline or absent is not sent:
         UNAVAILABLE is then true (the request never left this process). A client that does not
-        watch presence yet (``one_shot``) sends at once, and learns later.
+        watch presence yet (``one_shot``) sends at once, and learns later. True: it is (or was
+        just) online, so a copy may reach it.
 
         The verdict "online" is trusted for :data:`ONLINE_FRESH` seconds (presence itself lags
         by up to the 1 s lease): a write that is sent is never reported failed, so a stale
         "online" costs only a slower, still true, answer; the lookup costs ~25 µs a set."""
         seen = self._online_at.get(node)
-        if self.discovery_watch is None or (seen is not None and time.monotonic() - seen < ONLINE_FRESH):
-            return
+        if self.discovery_watch is None:
+            return False
+        if seen is not None and time.monotonic() - seen < ONLINE_FRESH:
+            return True
         state = self.presence(node)
         if state is Presence.ONLINE:
             self._online_at[node] = time.monotonic()
@@ -301,6 +309,7 @@ class DdsClientTransport:
         if state is Presence.ABSENT:
             why = self.watch().state().describe()
             raise UnavailableError(f"node {node!r} is not present ({why}): the request was not sent")
+        return state is Presence.ONLINE
 
     def _on_replies(self, samples: Sequence[Any]) -> None:
         me = self.client_id
@@ -311,16 +320,17 @@ class DdsClientTransport:
             if pending is not None and not pending.future.done():
                 pending.future.set_result(reply)
 
-    def _not_seen(self, node: str, waited: float) -> ParamddsError:
+    def _not_seen(self, node: str, waited: float, held: str = "") -> ParamddsError:
         """The error for a node not (or no longer) online after ``waited`` seconds."""
         state = self.presence(node)
         if state is Presence.OFFLINE:
-            return UnavailableError(f"node {node!r} is offline (waited {waited:.2g} s)")
+            return UnavailableError(f"node {node!r} is offline (waited {waited:.2g} s){held}")
         why = self.watch().state().describe()
         also = self._mismatched()
         if state is Presence.ABSENT:
-            return UnavailableError(f"node {node!r} is not present ({why}; waited {waited:.2g} s){also}")
-        return CallTimeoutError(f"node {node!r} not seen within {waited:.2g} s: {why}{also}")
+            waited_for = f"waited {waited:.2g} s"
+            return UnavailableError(f"node {node!r} is not present ({why}; {waited_for}){held}{also}")
+        return CallTimeoutError(f"node {node!r} not seen within {waited:.2g} s: {why}{held}{also}")
 
     def _outcome_unknown(self, node: str, waited: float) -> OutcomeUnknownError:
         """The error for a write sent and not answered within its caller's ``waited`` seconds."""

@@ -90,13 +90,13 @@ import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
-from enum import Enum
 from typing import Any
 
 from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsParticipant
 from cyclonedds.core import DDSException, Entity, InstanceState, ReadCondition, SampleState, ViewState
 from cyclonedds.domain import DomainParticipant
 
+from ..core.call import Presence
 from ._binding import matched_publications, read_new_infos, read_participant_keys
 
 log = logging.getLogger(__name__)
@@ -122,15 +122,6 @@ POLL_INTERVAL = 0.05  # seconds: the watch refreshes at most this often
 _NEW = SampleState.NotRead | ViewState.Any | InstanceState.Any
 _BATCH = 4096  # infos read per call while catching up
 _U64 = (1 << 64) - 1
-
-
-class Presence(str, Enum):
-    """What a client can say about a node right now."""
-
-    ONLINE = "online"  # its presence instance is alive
-    OFFLINE = "offline"  # it was seen and has gone (instance not alive)
-    ABSENT = "absent"  # never seen, and discovery has settled: it is not there
-    UNKNOWN = "unknown"  # never seen, and discovery is still going on: it may yet appear
 
 
 def quiet_needed(burst: float, min_quiet: float) -> float:

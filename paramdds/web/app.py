@@ -4,7 +4,7 @@ Routes (all JSON unless said; writes take a JSON body and are absent with --read
 
 =======  =================  ==========================================================
 GET      /                  the console page (static files under /static/)
-GET      /api/info          ``{"read_only", "token_required", "domain"}``
+GET      /api/info          ``{"read_only", "token_required", "domain", "zenoh"}``
 GET      /api/nodes         ``?q=&offset=&limit=`` → ``{"total", "offset", "nodes": [summary]}``
 GET      /api/node          ``?node=`` → ``{"summary", "rows": [row]}``
 GET      /api/dump          ``?node=&descriptors=0|1`` → a ROS 2 parameter file (text/yaml)
@@ -79,6 +79,7 @@ class WebOptions:
     read_only: bool = False
     token: str | None = None
     domain: int = 0
+    zenoh: str | None = None  # the router's endpoint when the console reaches sites over Zenoh
     allowed_hosts: tuple[str, ...] = LOOPBACK_NAMES  # the Host names accepted (DNS rebinding)
     timeout: float = 5.0
     token_for_reads: bool = False  # a bind other machines reach: reads need the token as well
@@ -151,7 +152,7 @@ class Console:
         ---
         summary: The console's options
         responses:
-          200: {description: '{"read_only": bool, "token_required": bool, "domain": int}'}
+          200: {description: '{"read_only": bool, "token_required": bool, "domain": int, "zenoh": str|null}'}
         """
         o = self.options
         return JSONResponse(
@@ -160,6 +161,7 @@ class Console:
                 "token_required": o.token is not None,
                 "token_for_reads": o.token_for_reads,
                 "domain": o.domain,
+                "zenoh": o.zenoh,
             }
         )
 

@@ -130,6 +130,7 @@ def options_from(args: argparse.Namespace, host: str) -> WebOptions:
         read_only=args.read_only,
         token=token,
         domain=args.domain,
+        zenoh=getattr(args, "zenoh", None),
         allowed_hosts=tuple(dict.fromkeys(h.lower() for h in allowed)),
         timeout=args.timeout,
         token_for_reads=not loopback,
@@ -211,7 +212,8 @@ async def _serve(args: argparse.Namespace, options: WebOptions, sock: socket.soc
             if options.read_only
             else ("writes need the token" if options.token else "writes allowed")
         )
-        sys.stdout.write(f"[WEB] Console on http://{shown}:{port}/ (domain {args.domain}, {mode})\n")
+        where = f"zenoh {options.zenoh}" if options.zenoh else f"domain {args.domain}"
+        sys.stdout.write(f"[WEB] Console on http://{shown}:{port}/ ({where}, {mode})\n")
         sys.stdout.flush()
         await server.serve(sockets=[sock])
     finally:

@@ -7,6 +7,11 @@ configuration: default deny, and for each name every message kind on
 own site may publish, answer and hold tokens only there; an operator's granted some
 sites reaches only those; a session whose certificate is not named reaches nothing
 (and one without a valid certificate does not even connect under mutual TLS).
+
+Every named certificate may also see the gateways' liveliness tokens of every site
+(``paramdds/*/gateway/**``: ask for them and follow them, never declare one), so that a
+client told no gateway of a site answers its call can say whether the site is down or
+not granted to it (:mod:`.client`).
 """
 
 from __future__ import annotations
@@ -42,8 +47,27 @@ def parse_grant(text: str) -> tuple[str, list[str]]:
     return name.strip(), out
 
 
+GATEWAYS = f"{keys.PREFIX}/*/gateway/**"  # every site's gateway tokens: visible to every named certificate
+_SEE_GATEWAYS = [
+    {  # ask for the gateways' tokens and follow them ...
+        "id": "gateways_in",
+        "messages": ["liveliness_query", "declare_liveliness_subscriber"],
+        "flows": ["ingress"],
+        "permission": "allow",
+        "key_exprs": [GATEWAYS],
+    },
+    {  # ... and receive them (never declare one: that is a gateway's, on its granted site)
+        "id": "gateways_out",
+        "messages": ["liveliness_token", "liveliness_query", "declare_liveliness_subscriber", "reply"],
+        "flows": ["egress"],
+        "permission": "allow",
+        "key_exprs": [GATEWAYS],
+    },
+]
+
+
 def access_control(grants: Mapping[str, Sequence[str]]) -> dict[str, Any]:
-    rules: list[dict[str, Any]] = []
+    rules: list[dict[str, Any]] = [dict(rule) for rule in _SEE_GATEWAYS]
     subjects: list[dict[str, Any]] = []
     policies: list[dict[str, Any]] = []
     for k, (name, sites) in enumerate(sorted(grants.items())):
@@ -58,7 +82,7 @@ def access_control(grants: Mapping[str, Sequence[str]]) -> dict[str, Any]:
             }
         )
         subjects.append({"id": subject_id, "cert_common_names": [name]})
-        policies.append({"rules": [rule_id], "subjects": [subject_id]})
+        policies.append({"rules": [rule_id, *(r["id"] for r in _SEE_GATEWAYS)], "subjects": [subject_id]})
     return {
         "enabled": True,
         "default_permission": "deny",

@@ -28,15 +28,20 @@ from ..core.revision import Revision
 from ..dds.client import DEFAULT_TIMEOUT, ParameterClient
 from ..dds.client_protocol import PendingCall
 from ..dds.discovery import Presence
-from ..errors import CallTimeoutError, OutcomeUnknownError, ParamddsError, UnavailableError
+from ..errors import (
+    CallTimeoutError,
+    NotPermittedError,
+    OutcomeUnknownError,
+    ParamddsError,
+    UnavailableError,
+)
 from . import codec, keys
-from .states import REPLY_MARGIN, ask_states, sites_of
+from .states import REPLY_MARGIN, ROUTE_WAIT, ask_states, site_active, sites_of
 
 log = logging.getLogger(__name__)
 
 __all__ = ["REPLY_MARGIN", "ROUTE_WAIT", "RemoteParameterClient", "ZenohClientTransport"]
 
-ROUTE_WAIT = 1.0  # seconds the first call of a verb to a site waits to learn a gateway serves it
 
 
 def RemoteParameterClient(session: Any, *, timeout: float = DEFAULT_TIMEOUT) -> ParameterClient:
@@ -146,6 +151,12 @@ class ZenohClientTransport:
         while not self._matching(querier, pending):
             if time.monotonic() >= until:
                 site = keys.split_remote(pending.node)[0]
+                if site_active(self._session, site) and not self._matching(querier, pending):
+                    raise NotPermittedError(
+                        f"node {pending.node!r}: site {site!r} is not granted to this client (its "
+                        "gateway is up, but the router's access control refuses this certificate "
+                        "the site); the call was not sent"
+                    )
                 raise UnavailableError(
                     f"node {pending.node!r}: no gateway of site {site!r} is reachable (site not "
                     "connected, or its uplink is down); the call was not sent"

@@ -7,23 +7,33 @@ else (the options given here override its keys). Multicast scouting is off unles
 file turns it on: sessions meet only where they are told to.
 
 Every wait is bounded: opening a session that cannot reach any ``connect`` endpoint
-fails after ``open_timeout`` seconds with UnavailableError (the CLI's exit 3).
+fails after ``open_timeout`` seconds with UnavailableError (the CLI's exit 3). A gateway
+instead waits for its WAN (:func:`open_session_waiting`): it tries again and again, with a
+pause doubling from :data:`RETRY_FIRST` to :data:`RETRY_MAX` seconds between tries, forever
+unless given a bound.
 """
 
 from __future__ import annotations
 
 import json
+import logging
 import re
-from collections.abc import Sequence
-from dataclasses import dataclass, field
+import time
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 from ..errors import FileFormatError, ParamddsError, UnavailableError
 
+log = logging.getLogger(__name__)
+
 MODES = ("client", "peer", "router")
 PROTOCOLS = ("tcp", "udp", "tls", "quic", "unixsock-stream", "ws")
 LEASE_MS = 3000  # a session that stops answering is dropped (and its tokens with it) after this
+RETRY_FIRST = 0.5  # seconds: the pause after a gateway's first failed try to reach its router
+RETRY_MAX = 10.0  # seconds: the longest pause between two tries
+TRY_TIMEOUT = 2.0  # seconds: how long one try waits for a router to answer
 _ENDPOINT = re.compile(r"(?P<proto>[a-z][a-z0-9-]*)/(?P<addr>[^#?]+)(?P<rest>[#?].*)?")
 
 
@@ -38,8 +48,10 @@ def check_endpoint(text: str, *, error: type[Exception] = ParamddsError) -> str:
     addr = m["addr"]
     if m["proto"] in ("tcp", "udp", "tls", "quic"):
         host, sep, port = addr.rpartition(":")
-        if not sep or not host or not port.isdigit() or not 0 < int(port) < 65536:
+        if not sep or not host or not port.isdigit():
             raise error(f"invalid Zenoh endpoint {text!r}: the address needs HOST:PORT")
+        if not 0 < int(port) < 65536:
+            raise error(f"invalid Zenoh endpoint {text!r}: port {int(port)} is not within 1-65535")
     return text.strip()
 
 
@@ -154,6 +166,60 @@ def open_session(options: ZenohOptions) -> Any:
                 f"no Zenoh router reachable at {where} within {options.open_timeout:g} s ({text})"
             ) from None
         raise ParamddsError(f"could not open a Zenoh session: {text}") from None
+
+
+def retry_delays(first: float = RETRY_FIRST, most: float = RETRY_MAX) -> Iterator[float]:
+    """The pauses between tries: ``first``, doubling, then ``most`` forever."""
+    delay = first
+    while True:
+        yield min(delay, most)
+        delay = min(delay * 2, most)
+
+
+def open_session_waiting(
+    options: ZenohOptions,
+    wait: float | None,
+    *,
+    sleep: Callable[[float], None] = time.sleep,
+    clock: Callable[[], float] = time.monotonic,
+) -> Any:
+    """A Zenoh session, trying until a ``connect`` endpoint answers: each try waits up to
+    :data:`TRY_TIMEOUT` seconds, each failure is logged (a warning) with the pause before the
+    next (:func:`retry_delays`). ``wait`` bounds the whole (UnavailableError after it, as
+    :func:`open_session`); None waits forever. Other errors (a refused configuration) end it
+    at once."""
+    started = clock()
+    delays = retry_delays()
+    where = ", ".join(options.connect) or "the configured endpoints"
+    tries = 0
+    while True:
+        tries += 1
+        left = None if wait is None else wait - (clock() - started)
+        try_for = TRY_TIMEOUT if left is None else max(0.05, min(TRY_TIMEOUT, left))
+        try:
+            session = open_session(replace(options, open_timeout=try_for))
+        except UnavailableError as exc:
+            waited = clock() - started
+            if wait is not None and waited + 1e-3 >= wait:
+                raise UnavailableError(
+                    f"no Zenoh router reachable at {where} within {wait:g} s "
+                    f"({tries} {'try' if tries == 1 else 'tries'})"
+                ) from exc
+            pause = next(delays)
+            if wait is not None:
+                pause = min(pause, wait - waited)
+            log.warning(
+                "no Zenoh router reachable at %s (try %d, %.1f s since start): trying again in %.1f s",
+                where,
+                tries,
+                waited,
+                pause,
+            )
+            sleep(pause)
+            continue
+        if tries > 1:
+            log.warning("reached the Zenoh router at %s at try %d", where, tries)
+        return session
 
 
 def import_zenoh() -> Any:

@@ -4,9 +4,11 @@
 fed by a :class:`ZenohStateFeed` instead of a DDS reader, so the CLI's verbs and the web
 console take it as they take the DDS one. The feed:
 
-* subscribes to every node's ``state`` and liveliness token first, then asks each site's
-  gateway for the current state of all its nodes (one query, answered from the
-  gateway's current state, never from history), and marks the monitor synced;
+* follows the gateways' tokens, and each site on its own (the sites named, or those
+  whose gateway is up, now or later): subscribes to its nodes' ``state`` and liveliness
+  tokens first, then asks its gateway for the current state of all its nodes (one query
+  per site, every site's at once, answered from the gateway's current state, never from
+  history), and marks the monitor synced;
 * applies each state and token by the rules of :mod:`.monitor_rules` (the newest state
   of a node's gateway is held; a node is online while its gateway says so *and* its
   token is alive *and* a gateway of its site is up): a gateway killed, or an uplink cut,
@@ -34,8 +36,9 @@ from ..dds.client import DEFAULT_TIMEOUT
 from ..dds.monitor import EventCallback, ParameterMonitor
 from ..errors import ParamddsError
 from . import codec, keys
+from .completeness import Lack, SiteLedger
 from .monitor_rules import GAP, HELD, SITE_GRACE, RemoteStates
-from .states import ask_states, gateways_of
+from .states import ROUTE_WAIT, ask_states, gateways_of, site_active
 
 log = logging.getLogger(__name__)
 
@@ -93,6 +96,12 @@ class RemoteParameterMonitor(ParameterMonitor):
         only = remote_filter(nodes) if nodes else None
         feed = ZenohStateFeed(session, sites=sites, nodes=only, timeout=timeout)
         super().__init__(feed, nodes=only, on_event=on_event)
+        self._remote_feed = feed
+
+    def missing_sites(self) -> dict[str, Lack]:
+        """The known sites this monitor lacks (:mod:`.completeness`): site -> why; empty when
+        every site known answered in full (``*``: no site is known at all)."""
+        return self._remote_feed.missing_sites()
 
 
 class ZenohStateFeed:
@@ -128,6 +137,10 @@ class ZenohStateFeed:
         # some sites may not even declare a subscriber on every site's keys); globs filter here
         exact = self._sites is not None and not any("*" in g or "?" in g for g in self._sites)
         self._scopes = [keys.check_site(site) for site in self._sites or ()] if exact else ["*"]
+        # the sites known (the exact ones named, those seen), and those that answered
+        self._ledger = SiteLedger(keys.check_site(s) for s in self._sites or () if not is_node_glob(s))
+        self._exact = exact
+        self._followed: set[str] = set()  # the sites whose states and tokens are subscribed to
         self._entities: list[Any] = []
 
     @property
@@ -139,24 +152,51 @@ class ZenohStateFeed:
     def start(self, book: StateBook) -> None:
         self._book = book
         session = self._session
+        # the gateways' tokens (a site is offline when its last gateway's goes; a site whose first
+        # gateway comes is followed), without history: a liveliness get on this session (the first
+        # sync's, a client's) crossing a liveliness subscriber with history on the same keys returned
+        # nothing (Zenoh 1.10). Every named certificate may follow them (:mod:`.acl`).
         self._entities = [
-            entity
+            session.liveliness().declare_subscriber(keys.gateways_pattern(scope), self._on_gateway)
             for scope in self._scopes
-            for entity in (
-                session.declare_subscriber(keys.site_pattern(scope, keys.STATE), self._on_state),
-                session.liveliness().declare_subscriber(
-                    keys.site_pattern(scope, keys.ALIVE), self._on_alive, history=True
-                ),
-                # the gateways' tokens (a site is offline when its last gateway's goes), without
-                # history: a liveliness get on this session (the first sync's, a client's) crossing
-                # a liveliness subscriber with history on the same keys returned nothing (Zenoh 1.10)
-                session.liveliness().declare_subscriber(keys.gateways_pattern(scope), self._on_gateway),
-            )
         ]
+        if self._exact:
+            for site in self._scopes:
+                self._subscribe(site)
         threading.Thread(target=self._first_sync, name="paramdds-zenoh-sync", daemon=True).start()
 
+    def _subscribe(self, site: str) -> bool:
+        """Follow ``site``'s states and node tokens (once; False when followed already). A
+        subscriber per site, never one over every site: a router's access control grants a
+        certificate some sites' keys, and refuses a pattern over all of them."""
+        with self._refresh_lock:
+            if site in self._followed or self._sink.closed:
+                return False
+            self._followed.add(site)
+        session = self._session
+        entities = [
+            session.declare_subscriber(keys.site_pattern(site, keys.STATE), self._on_state),
+            session.liveliness().declare_subscriber(
+                keys.site_pattern(site, keys.ALIVE), self._on_alive, history=True
+            ),
+        ]
+        with self._refresh_lock:
+            self._entities += entities
+        return True
+
+    def _follow_new(self, site: str) -> None:
+        """Follow a site whose first gateway came after the first sync chose its sites, and ask
+        for its states."""
+        try:
+            if self._subscribe(site):
+                self._sync_sites([site], [])
+        except Exception as exc:  # the session closed under us
+            log.debug("following site %s failed: %s", site, exc)
+
     def close(self) -> None:
-        for entity in self._entities:
+        with self._refresh_lock:
+            entities, self._entities = self._entities, []
+        for entity in entities:
             try:
                 entity.undeclare()
             except Exception:
@@ -168,35 +208,74 @@ class ZenohStateFeed:
     def _wanted_site(self, site: str) -> bool:
         return self._sites is None or any(fnmatch.fnmatchcase(site, g) for g in self._sites)
 
+    def missing_sites(self) -> dict[str, Lack]:
+        with self._sink.update() as change:
+            lacking = {n.split("/", 1)[0] for n in self._states.missing(change)}
+        return self._ledger.missing(lacking)
+
     def _first_sync(self) -> None:
         book = self._sink
         bad: list[str] = []
         try:
-            patterns: list[str] = []
-            chosen: set[str] = set()
-            for scope in self._scopes:  # the tokens first, so that the states below show online exactly
-                alive = _alive_of(self._session, keys.site_pattern(scope, keys.ALIVE), self._timeout)
-                with book.update():
-                    self._states.tokens_found(n for n in alive if self._wanted(n))
-                found = gateways_of(self._session, self._timeout, scope)
-                found = {site: gws for site, gws in found.items() if self._wanted_site(site)}
-                with book.update():
-                    self._states.gateways_found(found)
-                if scope == "*":  # a query per site (see ask_states), the sites wanted of those up
-                    known = {n.split("/", 1)[0] for n in alive} | set(found)
-                    asked = {site for site in known if self._wanted_site(site)}
-                else:
-                    asked = {scope}
-                patterns += [keys.site_pattern(site, keys.STATE) for site in sorted(asked)]
-                chosen |= asked
-            for site in self._chosen(chosen):  # a gateway seen while the sites were chosen, of another site
-                self._refresh(site, "")
-            for msg in ask_states(self._session, patterns, self._timeout, bad):
-                self._apply_state(msg)
+            if self._exact:
+                sites = list(self._scopes)
+            else:  # the sites wanted of those whose gateway is up
+                found = gateways_of(self._session, self._timeout)
+                sites = sorted(s for s in found if self._wanted_site(s))
+                for site in sites:
+                    self._subscribe(site)
+            early = self._chosen(set(sites))
+            self._sync_sites(sites, bad)
+            for site in sorted(early):  # a gateway seen while the sites were chosen, of another site
+                self._site_up(site)
         except Exception as exc:  # the session closed under us
             log.debug("the first state query failed: %s", exc)
         self._ask_again(bad)
         book.mark_synced()
+
+    def _sync_sites(self, sites: list[str], bad: list[str]) -> None:
+        """The node tokens of ``sites`` first (so that the states show online exactly), whether
+        their gateways are up, then their states: a query per site (see ask_states)."""
+        book = self._sink
+        for site in sites:
+            alive = _alive_of(self._session, keys.site_pattern(site, keys.ALIVE), self._timeout)
+            with book.update():
+                self._states.tokens_found(n for n in alive if self._wanted(n))
+            found = gateways_of(self._session, self._timeout, site)
+            with book.update():
+                self._states.gateways_found(found)
+            self._ledger.gateways_up(list(found))
+        self._ask_sites([keys.site_pattern(site, keys.STATE) for site in sites], bad)
+
+    def _ask_sites(self, patterns: list[str], bad: list[str]) -> None:
+        """Ask for the states of ``patterns``; a site's pattern whose query ended in time
+        counts as the site answered, unless no gateway of it serves this client (its
+        certificate is not granted the site: :meth:`_refused`)."""
+        answered: set[str] = set()
+        replied: set[str] = set()
+        for msg in ask_states(self._session, patterns, self._timeout, bad, answered):
+            replied.add(msg.site)
+            self._apply_state(msg)
+        by_pattern = {keys.site_pattern(s, keys.STATE): s for s in self._ledger.known()}
+        sites = [by_pattern[p] for p in answered if p in by_pattern]
+        refused = [s for s in sites if s not in replied and self._ledger.is_up(s) and self._refused(s)]
+        self._ledger.refused(refused)
+        self._ledger.answered(s for s in sites if s not in refused)
+
+    def _refused(self, site: str) -> bool:
+        """Whether ``site`` has an active gateway but none serves its states to this client: the
+        router's access control refuses this certificate the site (asked only of a site whose
+        state query came back empty)."""
+        querier = self._session.declare_querier(keys.site_pattern(site, keys.STATE))
+        try:
+            until = time.monotonic() + ROUTE_WAIT
+            while not querier.matching_status.matching:
+                if time.monotonic() >= until:
+                    return site_active(self._session, site)
+                time.sleep(0.01)
+            return False
+        finally:
+            querier.undeclare()
 
     def _on_state(self, sample: Any) -> None:
         try:
@@ -230,12 +309,15 @@ class ZenohStateFeed:
         try:
             gateway, active_since = keys.parse_gateway_key(key)
             site = keys.check_site(key.split("/")[1])
-        except ParamddsError:
+        except (ParamddsError, IndexError):
             return
         if active_since is not None or not self._wanted_site(site):
             return
+        alive = not _is_delete(sample)
+        if alive:
+            self._ledger.gateways_up([site])
         with self._sink.update() as change:
-            up = self._states.gateway(change, site, gateway, not _is_delete(sample))
+            up = self._states.gateway(change, site, gateway, alive)
         if not up:
             return
         # a site's first gateway, or one back (what it published meanwhile is lost): ask for the
@@ -244,7 +326,18 @@ class ZenohStateFeed:
             if self._early is not None:
                 self._early.add(site)
                 return
-        self._refresh(site, "")
+        self._site_up(site)
+
+    def _site_up(self, site: str) -> None:
+        """A gateway of ``site`` is up after none: a site followed has its states asked for
+        again; one not followed yet is followed, and asked for, on a thread of its own."""
+        with self._refresh_lock:
+            followed = site in self._followed
+        if followed:
+            self._refresh(site, "")
+        else:
+            name = "paramdds-zenoh-site"
+            threading.Thread(target=self._follow_new, args=(site,), name=name, daemon=True).start()
 
     def _chosen(self, asked: set[str]) -> set[str]:
         """The first sync asks ``asked``: from now on a site's first gateway asks for the site's
@@ -304,8 +397,7 @@ class ZenohStateFeed:
             ]
             bad: list[str] = []
             try:
-                for msg in ask_states(self._session, asked, self._timeout, bad):
-                    self._apply_state(msg)
+                self._ask_sites(asked, bad)
             except Exception as exc:  # the session closed under us
                 log.debug("refreshing %s failed: %s", asked, exc)
             self._ask_again(bad)

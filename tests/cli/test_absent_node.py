@@ -56,3 +56,14 @@ def test_with_nothing_running_the_answer_is_a_timeout_that_says_so() -> None:
     assert code == 3
     assert "not seen within 1 s: no parameter server discovered" in err
     assert took < 4.0
+
+
+def test_a_set_to_a_node_never_announced_is_not_present_as_fast_as_a_get(served: int) -> None:
+    get_took, code, err = _timed(served, "get", "ghost", "robot.max_velocity", "--timeout", "10")
+    assert code == 3 and "not present" in err
+    took, code, err = _timed(served, "set", "ghost", "robot.max_velocity=1.0", "--timeout", "10")
+    # exit 3, not 5 (outcome unknown): the copies went only to servers not hosting it, and are
+    # sent no more, so it cannot land; a half second more than get, for the last copy's way
+    assert code == 3, (code, err)
+    assert "node 'ghost' is not present" in err and "sent no more" in err
+    assert took < get_took + 2.0 and took < 5.0, (took, get_took)

@@ -2,16 +2,21 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
 from paramdds.core.call import (
+    IN_FLIGHT,
     MAX_RESEND,
     Call,
     Failure,
     GetRequest,
     ListRequest,
+    Mark,
+    Presence,
     SetRequest,
     Wake,
     closed_error,
@@ -27,8 +32,12 @@ def one_copy_call(*, write: bool = False, timeout: float = 5.0) -> Call:
     return Call("s/n", 1, write, timeout, 100.0, grace=0.5)
 
 
-def never() -> bool:
+def never() -> Presence:
     raise AssertionError("must not be asked")
+
+
+def always(presence: Presence) -> Callable[[], Presence]:
+    return lambda: presence
 
 
 # -- requests -------------------------------------------------------------------------------
@@ -102,55 +111,159 @@ def test_a_write_reaches_its_node_only_once_a_copy_went_to_a_peer() -> None:
     assert not read.may_apply  # a read is never applied
 
 
-def test_at_the_deadline_a_write_that_may_apply_is_outcome_unknown_without_asking() -> None:
+def test_at_the_deadline_a_write_that_reached_an_announced_node_is_outcome_unknown_without_asking() -> None:
     call = dds_call(write=True)
-    call.sent(True)
-    assert call.verdict(never) is Failure.OUTCOME_UNKNOWN
+    call.sent(True, 100.0)
+    call.saw(Presence.ONLINE)
+    assert call.verdict(never, 105.0) is Failure.OUTCOME_UNKNOWN
 
 
 @pytest.mark.parametrize("write", [False, True])
 def test_at_the_deadline_a_call_that_cannot_apply_is_not_seen_or_timeout(write: bool) -> None:
     call = dds_call(write=write)
-    call.sent(False)
-    assert call.verdict(lambda: False) is Failure.NOT_SEEN
-    assert call.verdict(lambda: True) is Failure.TIMEOUT
+    call.sent(False, 100.0)
+    assert call.verdict(always(Presence.OFFLINE), 105.0) is Failure.NOT_SEEN
+    assert call.verdict(always(Presence.UNKNOWN), 105.0) is Failure.NOT_SEEN
+    assert call.verdict(always(Presence.ONLINE), 105.0) is Failure.TIMEOUT
 
 
 def test_a_one_copy_transport_is_never_asked_about_presence() -> None:
-    assert one_copy_call().verdict(never) is Failure.TIMEOUT
+    assert one_copy_call().verdict(never, 105.0) is Failure.TIMEOUT
     write = one_copy_call(write=True)
     write.sent(True)
-    assert write.verdict(never) is Failure.OUTCOME_UNKNOWN
+    assert write.verdict(never, 105.0) is Failure.OUTCOME_UNKNOWN
 
 
-def test_at_a_resend_a_gone_node_ends_a_call_unless_a_write_may_have_reached_it() -> None:
+@pytest.mark.parametrize("gone", [Presence.OFFLINE, Presence.ABSENT])
+def test_at_a_look_a_gone_node_ends_a_call_that_cannot_apply(gone: Presence) -> None:
     call = dds_call()
-    assert call.lost(lambda: True)
-    assert not call.lost(lambda: False)
+    call.watch(Mark(True, 0))
+    assert call.lost(always(gone), 100.2)
+    assert not call.lost(always(Presence.ONLINE), 100.2)
+    assert not call.lost(always(Presence.UNKNOWN), 100.2)
+    unsent = dds_call(write=True)
+    unsent.sent(False, 100.0)
+    assert unsent.lost(always(gone), 100.2)
+
+
+def test_a_write_to_a_node_that_was_announced_is_never_lost_once_a_peer_took_it() -> None:
+    for announced in (Presence.ONLINE, Presence.OFFLINE):
+        write = dds_call(write=True)
+        write.watch(Mark(True, 0))
+        write.sent(True, 100.0)
+        assert not write.lost(always(announced), 100.2)
+        assert not write.lost(never, 103.0)  # offline may be a stalled node: it may still apply it
+        assert write.verdict(never, 105.0) is Failure.OUTCOME_UNKNOWN
+        assert not write.news(Mark(True, 1))
+
+
+# -- sure never to land -----------------------------------------------------------------------
+
+
+def test_a_write_no_server_announced_holds_its_copies_then_fails_not_seen() -> None:
     write = dds_call(write=True)
+    write.watch(Mark(False, 0))
+    write.sent(True, 100.0)
+    write.sent(True, 100.2)  # the first resend
+    assert not write.lost(always(Presence.UNKNOWN), 100.3)  # discovery goes on: it may appear
+    assert not write.holding
+    assert write.news(Mark(True, 0))  # settled: look (a write that may apply looks too)
+    assert not write.lost(always(Presence.ABSENT), 100.5)  # the last copy may still be on its way
+    assert write.holding  # so it sends no more copies
+    assert not write.lost(always(Presence.ABSENT), 100.2 + IN_FLIGHT - 0.01)
+    assert write.lost(always(Presence.ABSENT), 100.2 + IN_FLIGHT)
+
+
+def test_a_held_write_whose_node_appears_meanwhile_goes_on_and_is_never_lost() -> None:
+    write = dds_call(write=True)
+    write.watch(Mark(True, 0))
+    write.sent(True, 100.0)
+    assert not write.lost(always(Presence.ABSENT), 100.1)
+    assert write.holding
+    assert not write.lost(always(Presence.ONLINE), 100.2)  # a server started hosting it
+    assert not write.holding and write.announced
+    assert not write.lost(never, 101.0)
+    assert write.verdict(never, 105.0) is Failure.OUTCOME_UNKNOWN
+
+
+def test_absence_is_not_sure_while_a_server_was_excused_as_dead_before_it_told_its_nodes() -> None:
+    write = dds_call(write=True)  # a stopped server that took the copy may resume and apply it
+    write.watch(Mark(True, 0, sure=False))
+    write.sent(True, 100.0)
+    assert not write.lost(always(Presence.ABSENT), 101.0)
+    assert not write.holding
+    assert write.verdict(always(Presence.ABSENT), 105.0) is Failure.OUTCOME_UNKNOWN
+    unwatched = dds_call(write=True)  # no discovery yet: nothing is sure
+    unwatched.sent(True, 100.0)
+    assert not unwatched.lost(always(Presence.ABSENT), 101.0)
+
+
+def test_a_copy_sent_at_an_unknown_time_is_never_taken_as_landed_nowhere() -> None:
+    write = dds_call(write=True)
+    write.watch(Mark(True, 0))
     write.sent(True)
-    assert not write.lost(never)
+    assert not write.lost(always(Presence.ABSENT), 1e9)
+    assert write.holding
+
+
+def test_at_the_deadline_a_write_sure_never_to_land_is_not_seen() -> None:
+    write = dds_call(write=True)
+    write.watch(Mark(True, 0))
+    write.sent(True, 100.0)
+    assert write.verdict(always(Presence.ABSENT), 105.0) is Failure.NOT_SEEN
+    recent = dds_call(write=True)
+    recent.watch(Mark(True, 0))
+    recent.sent(True, 104.9)
+    assert recent.verdict(always(Presence.ABSENT), 105.0) is Failure.OUTCOME_UNKNOWN
+
+
+@given(
+    st.lists(
+        st.tuples(st.sampled_from(list(Presence)), st.booleans(), st.floats(min_value=0.0, max_value=0.4)),
+        min_size=1,
+        max_size=30,
+    )
+)
+def test_lost_only_unannounced_sure_absent_and_quiet(looks: list[tuple[Presence, bool, float]]) -> None:
+    """Whatever the looks: a write that a peer took fails NOT_SEEN only if no look ever saw its
+    node announced, the look that ends it is sure and absent, and its last copy is old enough."""
+    write = dds_call(write=True, timeout=1000.0)
+    write.sent(True, 100.0)
+    now, last_copy, announced = 100.0, 100.0, False
+    for presence, sure, gap in looks:  # (what the look finds, whether discovery is sure, time since)
+        now += gap
+        write.watch(Mark(True, 0, sure=sure))
+        if not write.holding:
+            write.sent(True, now)
+            last_copy = now
+        lost = write.lost(always(presence), now)
+        announced = announced or presence in (Presence.ONLINE, Presence.OFFLINE)
+        if lost:
+            assert not announced and sure and presence is Presence.ABSENT
+            assert now - last_copy >= IN_FLIGHT
+            return
 
 
 def test_news_is_discovery_settling_or_a_liveliness_change() -> None:
     call = dds_call()
     call.watch(None)
-    assert not call.news((False, 0))  # first look, not settled
-    assert not call.news((False, 0))
-    assert call.news((True, 0))  # settled just now
-    assert not call.news((True, 0))
-    assert call.news((True, 1))  # a server's liveliness changed
-    assert not call.news((True, 1))
+    assert not call.news(Mark(False, 0))  # first look, not settled
+    assert not call.news(Mark(False, 0))
+    assert call.news(Mark(True, 0))  # settled just now
+    assert not call.news(Mark(True, 0))
+    assert call.news(Mark(True, 1))  # a server's liveliness changed
+    assert not call.news(Mark(True, 1))
     fresh = dds_call()
     fresh.watch(None)
-    assert fresh.news((True, 0))  # settled at the first look
+    assert fresh.news(Mark(True, 0))  # settled at the first look
 
 
-def test_news_does_not_end_a_write_that_may_have_reached_its_node() -> None:
+def test_news_does_not_end_a_write_that_may_have_reached_its_announced_node() -> None:
     call = dds_call(write=True)
-    call.watch((False, 0))
+    call.watch(Mark(False, 0))
     call.sent(True)
-    assert not call.news((True, 5))
+    call.saw(Presence.ONLINE)
+    assert not call.news(Mark(True, 5))
 
 
 def test_a_copy_that_ended_without_an_answer() -> None:

@@ -8,7 +8,11 @@ compared with are check-jsonschema's, read from that SOURCES.md. No DDS here.
 from __future__ import annotations
 
 import json
+import logging
 import re
+import shutil
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -19,7 +23,7 @@ from hypothesis import strategies as st
 
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import Parameter, ParameterType, ParameterValue
-from paramdds.errors import ErrorCode, FileFormatError
+from paramdds.errors import ErrorCode, FileFormatError, ParamddsError
 from paramdds.formats.ros import load_ros_params
 from paramdds.formats.schema import NodeSchema, declare_schema, load_schema, load_schema_str
 from paramdds.formats.schema.check import autoware_pairs, check_with_schema, check_with_spec
@@ -339,10 +343,6 @@ def _envelope(params: dict[str, object], **extra: object) -> str:
             ),
             "cycle",
         ),
-        (
-            _envelope({"type": "object", "properties": {"a": {"type": "integer", "default": "x"}}}),
-            'the default "x" is not a integer',
-        ),
         ('{"type": "object"}', "no node key"),
         (
             _envelope({"type": "object", "properties": {"a": {"type": "string", "format": "ros-topic"}}}),
@@ -587,3 +587,72 @@ def test_incremental_checks_give_the_whole_checks_verdict(rel: str, cfg: str, da
         assert [r.successful for r in a.results] == [r.successful for r in b.results], (params, a, b)
         assert fast.snapshot() == whole.snapshot()
         assert schema.violations({n: v for n, v, _ in fast.snapshot()}) == []
+
+
+# --- a default no reader can take as its type ------------------------------------------------
+
+_COMMA = _envelope(
+    {
+        "type": "object",
+        "properties": {
+            "gain": {"type": "number", "default": "0,262"},
+            "rate": {"type": "number", "default": 2.0, "minimum": 0.0},
+        },
+    }
+)
+
+
+def test_a_default_not_of_its_type_is_a_warning_and_the_file_value_is_used(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    path = _write(tmp_path, _COMMA)
+    with caplog.at_level(logging.WARNING, logger="paramdds.formats.schema.describe"):
+        schema = load_schema(path)
+        load_schema(path)  # loaded again (a second node): warned once
+    (warning,) = [r.getMessage() for r in caplog.records]
+    assert str(path) in warning and "properties/gain/default" in warning and '"0,262"' in warning
+    given = {"gain": ParameterValue(T.DOUBLE, 0.5)}
+    table = ParameterTable("n", overrides=given)
+    declare_schema(table, schema, given)
+    assert table.get("gain").value == 0.5 and table.get("rate").value == 2.0
+    bare = ParameterTable("n")
+    declare_schema(bare, schema, {})
+    assert bare.has("gain") and bare.describe_one("gain").type is T.DOUBLE
+    with pytest.raises(ParamddsError, match="no value yet"):  # declared without one, as with no default
+        bare.get("gain")
+    assert table.set([Parameter("rate", ParameterValue(T.DOUBLE, -1.0))]).results[0].successful is False
+
+
+def test_a_required_parameter_whose_default_is_unreadable_and_no_file_gives_fails_naming_it(
+    tmp_path: Path,
+) -> None:
+    gain = {"type": "number", "default": "0,262"}
+    params = {"type": "object", "required": ["gain"], "properties": {"gain": gain}}
+    schema = load_schema(_write(tmp_path, _envelope(params)))
+    with pytest.raises(FileFormatError, match="'gain' is a required property"):
+        declare_schema(ParameterTable("n"), schema, {})
+
+
+@needs_realworld
+def test_a_real_schema_with_a_decimal_comma_default_loads_and_check_agrees_with_check_jsonschema(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """The real obstacle_stop_planner pair, its ``lowpass_gain`` default written "0,262"."""
+    real = AUTOWARE / "autoware_obstacle_stop_planner"
+    text = (real / "schema" / "obstacle_stop_planner.schema.json").read_text()
+    assert text.count('"default": "0.9"') == 1
+    schema_path = _write(tmp_path, text.replace('"default": "0.9"', '"default": "0,262"'), "osp.schema.json")
+    params = tmp_path / "osp.param.yaml"
+    shutil.copy(real / "config" / "obstacle_stop_planner.param.yaml", params)
+    checker = Path(sys.executable).with_name("check-jsonschema")
+    theirs = subprocess.run(
+        [str(checker), "--schemafile", str(schema_path), str(params)], capture_output=True, text=True
+    )
+    assert theirs.returncode == 0, theirs.stdout  # check-jsonschema never judges a default
+    assert _verdict(schema_path, params) is True
+    with caplog.at_level(logging.WARNING, logger="paramdds.formats.schema.describe"):
+        schema, table = _declared(schema_path, params)
+    assert any("lowpass_gain/default" in r.getMessage() and "0,262" in r.getMessage() for r in caplog.records)
+    assert table.get("lowpass_gain").value == 0.9  # the file's value
+    assert table.get("chattering_threshold").value == 0.5
+    assert schema.violations({"lowpass_gain": ParameterValue(T.STRING, "x")})  # the schema still enforces

@@ -69,7 +69,7 @@ def send_foreign(writer: Any, count: int, node: str = "elsewhere") -> None:
 def test_foreign_requests_never_reach_the_handler(dds: DdsSession) -> None:
     server = dds.server(table("a"))
     client = dds.client(timeout=5.0)
-    writer = raw_get_writer(client._dp)
+    writer = raw_get_writer(client.transport.participant)
     assert client.get_value("a", "x") == ParameterValue.from_python(1)  # matched and served
     info = client.node_info("a")
     assert info is not None and info.request_filter == "native"  # what `paramdds nodes -o json` shows
@@ -115,7 +115,7 @@ def test_a_client_receives_only_its_own_replies(dds: DdsSession) -> None:
     for _ in range(30):
         theirs.get("a", ["x"])
     # a retry under load may add a reply; each is read (never accepted blindly) and kept by one side
-    mine_counts, their_counts = mine._reply_filter.counts(), theirs._reply_filter.counts()
+    mine_counts, their_counts = mine.transport.reply_filter.counts(), theirs.transport.reply_filter.counts()
     assert mine_counts[0] >= 20 and their_counts[0] >= 30
     assert mine_counts[2] == their_counts[2] == 0
     assert mine_counts[1] == their_counts[0]  # every one of the other client's replies stopped in Cyclone
@@ -128,8 +128,8 @@ def test_the_presence_reader_holds_presence_only(dds: DdsSession) -> None:
     client = dds.client(timeout=5.0)
     client.wait_for_node("a")
     assert wait_until(lambda: [n.node for n in client.nodes()] == ["a", "b"], timeout=5.0)
-    assert len(client._presence.read(N=100)) == 2  # no parameter samples, only presence
-    assert client._presence_filter.counts()[1] >= 4  # the four parameter samples stopped in Cyclone
+    assert len(client.transport.presence_reader.read(N=100)) == 2  # no parameter samples, only presence
+    assert client.transport.presence_filter.counts()[1] >= 4  # the four parameter samples stopped in Cyclone
     assert client.get_value("b", "q").value == 1
 
 
@@ -169,7 +169,7 @@ def test_without_the_extension_the_handler_filters_and_says_so_once(
         "the native filter extension is not built (test): every request and reply is decoded and checked "
         "in Python (reinstall paramdds with a C compiler present to filter in DDS)"
     ) == 1
-    send_foreign(raw_get_writer(client._dp), 50)
+    send_foreign(raw_get_writer(client.transport.participant), 50)
     assert client.get_value("a", "x") == ParameterValue.from_python(1)
     assert wait_until(lambda: server.foreign_requests == 50, timeout=5.0)  # seen, and dropped
     info = client.node_info("a")

@@ -107,7 +107,7 @@ def test_waiting_for_a_node_asks_again_when_nobody_answered(dds: DDS, domain_id:
     waiter.start()
     try:
         time.sleep(PROBE_AFTER + 1.0)
-        watch = client._discovery
+        watch = client.transport.discovery_watch
         probes = 0 if watch is None else watch.probes  # read while the wait still runs (no poll)
     finally:
         waiter.join()
@@ -210,7 +210,7 @@ def test_a_silent_server_is_waited_for_while_alive_and_not_once_killed(
         with pytest.raises(CallTimeoutError, match="1 of 2 server"):
             client.get("ghost", ["x"], timeout=0.8)
     else:
-        assert client._discovery is None  # no presence reader yet
+        assert client.transport.discovery_watch is None  # no presence reader yet
         time.sleep(0.5)  # the client's participant has met the silent one (loopback: milliseconds)
 
     killed = silent.kill()
@@ -236,7 +236,7 @@ def test_a_client_that_knows_only_other_clients_asks_again(
     assert wait(lambda: client.discovery().participants >= 1, timeout=5.0)  # it knows the peer
     with pytest.raises(CallTimeoutError, match=r"no parameter server discovered yet \(1 remote"):
         client.wait_for_node("nobody", timeout=PROBE_AFTER + 1.0)
-    watch = client._discovery
+    watch = client.transport.discovery_watch
     assert watch is not None and watch.probes == 1
 
 

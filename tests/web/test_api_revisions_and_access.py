@@ -46,9 +46,9 @@ def kill(proc: Proc) -> None:
 def test_compare_and_set_follows_a_restart_and_never_matches_the_old_start(
     domain: int, console: Console
 ) -> None:
-    """Item 1: a node raised from r9 to r11 from the console, killed and restarted (back at
-    r9): the console shows r9 of the new start, not the highest revision ever seen; a set
-    against the old start at r9 conflicts (its reply carries the new state), one against the
+    """A node raised by two revisions from the console, killed and restarted (back at its
+    start revision): the console shows the new start's revision, not the highest ever seen; a
+    set against the old start at that revision conflicts (its reply carries the new state), one against the
     new start applies."""
     first = start_server(domain, "-n", "phoenix", "-p", str(CONSOLE_PARAMS))
     try:
@@ -225,10 +225,11 @@ def test_when_one_of_two_hosts_of_a_node_stops_the_summary_shows_the_other(
     second: Proc | None = None
     try:
         wait_for_nodes(console.url, {"twin"})
+        start = summary(console, "twin")["revision"]
         second = start_server(domain, "-n", "twin", "-p", str(CONSOLE_PARAMS))
         procs = {first.popen.pid: first, second.popen.pid: second}
         assert run_cli(domain, "set", "twin", "gain=5").returncode == 0  # both apply it and write presence
-        shown = wait_summary(console, "twin", lambda s: s["pid"] in procs and s["revision"] == 10)
+        shown = wait_summary(console, "twin", lambda s: s["pid"] in procs and s["revision"] == start + 1)
         doomed = procs.pop(shown["pid"])  # the one shown, whichever wrote last
         (kept,) = procs
         kill(doomed)

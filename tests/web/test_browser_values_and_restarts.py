@@ -213,8 +213,8 @@ def test_doubles_in_the_log_keep_their_point_and_no_request_is_a_404(
 
 
 def test_after_a_restart_the_page_applies_atomically_again(page: Page, console: Console, domain: int) -> None:
-    """Item 1: the page kept r11 after the node came back at r9, and every "Apply atomically"
-    answered "changed meanwhile (revision 11 -> 11)"."""
+    """The page once kept the highest revision after the node came back at its start
+    revision, and every "Apply atomically" answered "changed meanwhile"."""
     first = start_server(domain, "-n", "lazarus", "-p", str(CONSOLE_PARAMS))
     try:
         wait_for_nodes(console.url, {"lazarus"})

@@ -1,8 +1,9 @@
 """Mutual TLS with certificates from a ``paramdds keystore`` CA, and access control by certificate name.
 
 A router (a ``paramdds zenoh --router`` process) on loopback TLS grants ``gw_a`` site
-``a``, ``gw_b`` site ``a`` too (so gateway b, which serves site ``b``, publishes
-nothing), and ``operator`` site ``a``; a client without a certificate does not connect.
+``a``, ``gw_b`` site ``a`` too (so gateway b, which serves site ``b``, publishes nothing),
+``gw_c`` site ``c`` and ``operator`` site ``a`` (site ``c`` is up, but not granted to
+it); a client without a certificate does not connect.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import pytest
 
 pytest.importorskip("cryptography", reason="the secure extra (cryptography) is not installed")
 
-from paramdds.errors import UnavailableError
+from paramdds.errors import NotPermittedError, UnavailableError
 from paramdds.zenoh.client import RemoteParameterClient
 from paramdds.zenoh.config import TlsFiles, ZenohOptions, open_session
 from paramdds.zenoh.monitor import RemoteParameterMonitor
@@ -38,7 +39,9 @@ def test_mutual_tls_and_access_by_certificate_name(tmp_path: Path, procs: list[P
     assert (
         subprocess.run([PARAMDDS, "keystore", "init", str(ks)], env=env, capture_output=True).returncode == 0
     )
-    for name, hosts in (("router", ["127.0.0.1"]), ("gw_a", []), ("gw_b", []), ("operator", [])):
+    names: list[tuple[str, list[str]]] = [("router", ["127.0.0.1"])]
+    names += [(name, []) for name in ("gw_a", "gw_b", "gw_c", "operator")]
+    for name, hosts in names:
         argv = [PARAMDDS, "zenoh", "--issue-cert", name, "--keystore", str(ks), "--out", str(tmp_path / name)]
         for h in hosts:
             argv += ["--host", h]
@@ -49,13 +52,13 @@ def test_mutual_tls_and_access_by_certificate_name(tmp_path: Path, procs: list[P
     router = Proc(
         [
             PARAMDDS, "zenoh", "--router", "--listen", endpoint, *_tls_args(tmp_path / "router"),
-            "--grant", "gw_a=a", "--grant", "gw_b=a", "--grant", "operator=a",
+            "--grant", "gw_a=a", "--grant", "gw_b=a", "--grant", "gw_c=c", "--grant", "operator=a",
         ],
         env,
     )  # fmt: skip
     procs.append(router)
     router.wait_for("[ZENOH] Router", 20)
-    for site, cert in (("a", "gw_a"), ("b", "gw_b")):
+    for site, cert in (("a", "gw_a"), ("b", "gw_b"), ("c", "gw_c")):
         domain_env = make_dds_env(next_domain_id())
         server = Proc([PARAMDDS, "server", "-p", PARAMS, "-n", "robot1"], domain_env)
         procs.append(server)
@@ -82,6 +85,9 @@ def test_mutual_tls_and_access_by_certificate_name(tmp_path: Path, procs: list[P
         assert not wait_for(lambda: "b/robot1" in monitor.snapshot(), 1.5)
         with pytest.raises(UnavailableError):
             client.get("b/robot1", ["robot.max_velocity"], timeout=2.0)
+        # site c is up but not granted to this operator: a refusal by name, not a network fault
+        with pytest.raises(NotPermittedError, match="site 'c' is not granted to this client"):
+            client.get("c/robot1", ["robot.max_velocity"], timeout=2.0)
         monitor.close()
     finally:
         session.close()
@@ -94,8 +100,47 @@ def test_mutual_tls_and_access_by_certificate_name(tmp_path: Path, procs: list[P
         text=True,
         timeout=30,
     )
-    assert cli.returncode == 0, cli.stderr
-    assert [n["node"] for n in json.loads(cli.stdout)] == ["a/robot1"]
+    # site b, named but unreachable (its gateway is not granted it), is said lacking: exit 3
+    assert cli.returncode == 3, cli.stderr
+    assert [n["node"] for n in json.loads(cli.stdout)] == ["a/robot1", "b/*"]
+    assert "lacks site 'b'" in cli.stderr
+
+    refused = subprocess.run(
+        [PARAMDDS, "--zenoh", endpoint, "get", "c/robot1", "robot.max_velocity"],
+        env={**env, "PARAMDDS_ZENOH_TLS": str(op)},
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert refused.returncode == 1 and "not granted" in refused.stderr, refused
+    # naming no site, the operator is shown every site: c as not granted (a refusal: exit 1)
+    unnamed = subprocess.run(
+        [PARAMDDS, "--zenoh", endpoint, "nodes", "-o", "json"],
+        env={**env, "PARAMDDS_ZENOH_TLS": str(op)},
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert unnamed.returncode == 1, unnamed.stderr
+    rows = {r["node"]: r["status"] for r in json.loads(unnamed.stdout)}
+    assert rows == {"a/robot1": None, "c/*": "not granted"}, rows
+    assert "site 'c' is not granted to this client" in unnamed.stderr
+    # and a watch of every site follows the sites granted (it used to print only `synced`)
+    watch = Proc([PARAMDDS, "--zenoh", endpoint, "watch"], {**env, "PARAMDDS_ZENOH_TLS": str(op)})
+    procs.append(watch)
+    watch.wait_for("added    a/robot1 robot.max_velocity", 20)
+    watch.wait_for("synced", 10)
+    session = open_session(
+        ZenohOptions(
+            connect=[endpoint], tls=TlsFiles(str(op / "ca.pem"), str(op / "cert.pem"), str(op / "key.pem"))
+        )
+    )
+    try:
+        client = RemoteParameterClient(session, timeout=3.0)
+        assert client.set("a/robot1", {"robot.max_velocity": 2.5}).successful
+    finally:
+        session.close()
+    watch.wait_for("modified a/robot1 robot.max_velocity = double 2.5", 10)
 
     # no certificate: no session at all, within the bounded wait
     with pytest.raises(UnavailableError, match="no Zenoh router reachable"):
@@ -119,3 +164,13 @@ def test_mutual_tls_and_access_by_certificate_name(tmp_path: Path, procs: list[P
             RemoteParameterClient(session, timeout=2.0).get("a/robot1", ["robot.max_velocity"])
     finally:
         session.close()
+    # ... and its `nodes` says so at once, never an empty fleet with exit 0
+    empty = subprocess.run(
+        [PARAMDDS, "--zenoh", endpoint, "nodes"],
+        env={**env, "PARAMDDS_ZENOH_TLS": str(nobody)},
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert empty.returncode == 3, empty
+    assert "this client is granted no site" in empty.stderr

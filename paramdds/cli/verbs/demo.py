@@ -53,6 +53,8 @@ class DemoPrinter:
 
     def event(self, e: MonitorEvent) -> None:
         kind = e.event.value
+        if kind in ("site_offline", "site_online"):  # a site's event names no node nor parameter
+            return
         with self.lock:
             if kind == "synced":
                 self._synced = True

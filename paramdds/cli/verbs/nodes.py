@@ -1,4 +1,10 @@
-"""``paramdds nodes``: every node alive now, once the monitor holds their state (or a short wait)."""
+"""``paramdds nodes``: every node alive now, once the monitor holds their state (or a short wait).
+
+Over Zenoh, a known site that did not answer is a row of its own (``SITE/*``, status
+``no answer``, or ``not granted`` when the router refuses this client the site; its reason
+under ``missing``) and a line on stderr, and the exit code is 3 (1 when every site lacking
+is only not granted).
+"""
 
 from __future__ import annotations
 
@@ -22,12 +28,13 @@ def run(args: argparse.Namespace) -> int:
     from ...exits import Exit
     from ...session import Session
     from .._live import current_states
-    from .._output import emit
+    from .._output import emit, problem
     from .._values import node_glob_arg
 
     nodes = [node_glob_arg(n) for n in args.nodes]
     with Session(args) as session:
         states = current_states(session, nodes)
+        missing = session.missing_sites()
     rows: list[dict[str, object]] = [
         {
             "node": shown_node(st.node, st.origin),  # a ROS 2 node with its leading slash
@@ -47,8 +54,35 @@ def run(args: argparse.Namespace) -> int:
         for st in sorted(states.values(), key=lambda st: st.node)
         if st.online
     ]
+    rows += [_missing_row(site, lack.reason, lack.refused) for site, lack in missing.items()]
     emit(args.output, rows, _nodes_table(rows))
+    if missing:
+        from ...zenoh.completeness import lacking_exit, lacking_line
+
+        for site, lack in missing.items():
+            problem(lacking_line(site, lack))
+        return lacking_exit(missing)
     return Exit.OK
+
+
+def _missing_row(site: str, reason: str, refused: bool) -> dict[str, object]:
+    """A site lacking, as a row: its nodes are ``SITE/*``, status ``no answer`` (or ``not
+    granted``: the router's access control refuses this client the site)."""
+    return {
+        "node": f"{site}/*",
+        "online": False,
+        "parameters": None,
+        "host": None,
+        "pid": None,
+        "revision": None,
+        "also_hosted_by": [],
+        "request_filter": None,
+        "incarnation": None,
+        "at": None,
+        "origin": None,
+        "status": "not granted" if refused else "no answer",
+        "missing": reason,
+    }
 
 
 def _nodes_table(rows: list[dict[str, object]]) -> str:
@@ -57,14 +91,18 @@ def _nodes_table(rows: list[dict[str, object]]) -> str:
         (
             str(r["node"]),
             str(r["status"] or ("yes" if r["online"] else "no")),
-            str(r["parameters"]),
-            str(r["host"]),
-            str(r["pid"]),
-            str(r["revision"]),
-            str(r["origin"] or "paramdds"),
+            _cell(r["parameters"]),
+            _cell(r["host"]),
+            _cell(r["pid"]),
+            _cell(r["revision"]),
+            str(r["origin"] or ("paramdds" if r["online"] else "-")),
         )
         for r in rows
     ]
     widths = [max(len(row[i]) for row in cells) for i in range(len(header))]
     lines = ("  ".join(c.ljust(w) for c, w in zip(row, widths, strict=True)) for row in cells)
     return "\n".join(line.rstrip() for line in lines)
+
+
+def _cell(value: object) -> str:
+    return "-" if value is None else str(value)

@@ -5,6 +5,7 @@ settled (or ``not synced`` when it did not within ``--timeout``), then every cha
 and node presence event, one line each (a JSON object each with ``-o json``): the
 monitor's rules (:mod:`paramdds.dds.monitor`) make a stall, an offline/online or a
 restart print only what changed, plus one ``restarted`` line for a new incarnation.
+Over Zenoh, each known site that did not answer by then is one line on stderr.
 """
 
 from __future__ import annotations
@@ -40,5 +41,12 @@ def run(args: argparse.Namespace) -> int:
         monitor = session.monitor(nodes or None, on_event=printer)
         settled = settle(monitor, started, args.timeout, lambda: printer.last_event)
         printer.synced(settled, time.monotonic() - started)
+        missing = session.missing_sites()
+        if missing:
+            from ...zenoh.completeness import lacking_line
+            from .._output import problem
+
+            for site, lack in missing.items():
+                problem(lacking_line(site, lack))
         wait_until_interrupted(printer.broken)
     return Exit.OK

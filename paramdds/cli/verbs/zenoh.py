@@ -1,13 +1,16 @@
 """``paramdds zenoh``: a site's gateway to Zenoh (or, with ``--router``, a small Zenoh router).
 
 The gateway is an ordinary participant on the site's DDS domain (``-d``) and a Zenoh
-session dialling out as a client (``--connect``) by default; see docs/zenoh.md.
+session dialling out as a client (``--connect``) by default; see docs/zenoh.md. A gateway
+whose router does not answer yet keeps trying (forever unless ``--open-timeout`` bounds
+it), its DDS side already up, and serves its site once connected.
 """
 
 from __future__ import annotations
 
 import argparse
 
+ROUTER_OPEN_TIMEOUT = 10.0  # seconds: a router's --connect endpoints (other routers) at its start
 HELP = "a site's gateway to Zenoh: its nodes' state and calls for remote clients (zenoh extra)"
 
 
@@ -46,9 +49,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--open-timeout",
         type=float,
-        default=10.0,
+        default=None,
         metavar="SECONDS",
-        help="how long to try the --connect endpoints at start (default 10)",
+        help="give up (exit 3) when no router answered within SECONDS of the start "
+        "(default: try forever, pausing 0.5 s doubling to 10 s between tries)",
     )
     p.add_argument(
         "--grant",
@@ -83,7 +87,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def _options(args: argparse.Namespace) -> object:
     from ...errors import ParamddsError
-    from ...zenoh.config import TlsFiles, ZenohOptions
+    from ...zenoh.config import TRY_TIMEOUT, TlsFiles, ZenohOptions
 
     tls_parts = (args.tls_ca, args.tls_cert, args.tls_key)
     tls = None
@@ -107,7 +111,9 @@ def _options(args: argparse.Namespace) -> object:
         listen=list(args.listen),
         config_file=args.zenoh_config,
         tls=tls,
-        open_timeout=args.open_timeout,
+        open_timeout=(ROUTER_OPEN_TIMEOUT if args.router else TRY_TIMEOUT)
+        if args.open_timeout is None
+        else args.open_timeout,
         extra=extra,
     )
 
@@ -118,16 +124,18 @@ def run(args: argparse.Namespace) -> int:
     from ...errors import ParamddsError
     from ...exits import Exit, UsageError
     from ...session import Session
-    from ...zenoh.config import ZenohOptions, open_session
+    from ...zenoh.config import ZenohOptions, build_config, open_session, open_session_waiting
     from .._live import wait_until_interrupted
 
     if args.issue_cert:
         from pathlib import Path
 
         from ...zenoh.tls import issue
+        from .keystore import need_cryptography
 
         if not args.keystore or not args.out:
             raise UsageError("--issue-cert needs --keystore DIR and --out DIR")
+        need_cryptography("'paramdds zenoh --issue-cert'")
         out = issue(Path(args.keystore), args.issue_cert, args.host, Path(args.out))
         sys.stdout.write(f"[ZENOH] Certificate {args.issue_cert} in {out}: ca.pem cert.pem key.pem\n")
         return Exit.OK
@@ -158,17 +166,17 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(exc.message) from None
     from ...zenoh.gateway import Gateway
 
-    zsession = open_session(options)
-    gateway = None
+    build_config(options)  # a bad configuration file: exit 2 at once, never after a wait
+    with Session(args, app_name="paramdds-zenoh") as session:  # the DDS side first, at once
+        zsession = open_session_waiting(options, args.open_timeout)
 
-    def on_role(active: bool) -> None:
-        sys.stdout.write(
-            f"[ZENOH] Site {args.site}: gateway {zsession.zid()} is {'active' if active else 'standby'}\n"
-        )
-        sys.stdout.flush()
+        def on_role(active: bool) -> None:
+            sys.stdout.write(
+                f"[ZENOH] Site {args.site}: gateway {zsession.zid()} is {'active' if active else 'standby'}\n"
+            )
+            sys.stdout.flush()
 
-    try:
-        with Session(args, app_name="paramdds-zenoh") as session:
+        try:
             gateway = Gateway(session.participant, zsession, args.site, qos=session.qos)
             gateway.on_role = on_role  # changes from now on (the line below says the first role)
             try:
@@ -180,6 +188,6 @@ def run(args: argparse.Namespace) -> int:
                 wait_until_interrupted()
             finally:
                 gateway.close()
-    finally:
-        zsession.close()
+        finally:
+            zsession.close()
     return Exit.OK

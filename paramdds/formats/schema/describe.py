@@ -15,6 +15,9 @@ The mapping (also in docs/schema.md):
   (``"default": "0.5"``, ``"true"``, ``"[1.0, 2.0]"``) is read as a ROS 2 parameter
   file would read that text. A property without a default and without a file value
   is declared without a value (``required`` then refuses the node until it has one);
+  so is one whose default does not read as its type (``"0,262"`` on a ``number``):
+  ``default`` is an annotation that no validator judges, so it is a warning naming the
+  file, the JSON path and the text, not an error;
 * ``description`` is the descriptor's description;
 * ``minimum``/``maximum`` (and ``exclusiveMinimum``/``exclusiveMaximum``, whose bound
   itself the schema keeps out, as generate_parameter_library does for ``gt``/``lt``)
@@ -23,8 +26,6 @@ The mapping (also in docs/schema.md):
   ``required``, ``additionalProperties``, ``dependencies``, ``oneOf``, ``not``…) is
   written into ``additional_constraints`` as text and enforced by the schema.
 
-A default that is not of its type is a :class:`~paramdds.errors.FileFormatError`
-naming the file and the JSON path.
 """
 
 from __future__ import annotations
@@ -59,6 +60,7 @@ _ARRAY_TYPES = {
 }
 # keywords the descriptor itself says (besides the description): not repeated in the text
 _IN_DESCRIPTOR = frozenset({"type", "description", "default", "minimum", "maximum", "$comment", "title"})
+_warned: set[tuple[str, str]] = set()  # (file, JSON path) of each unreadable default warned about
 
 
 @dataclass(frozen=True, slots=True)
@@ -271,5 +273,18 @@ def _default(raw: object, ptype: ParameterType | None, where: str, file: str) ->
         value = ParameterValue.from_python(raw)
         return value.coerce(ptype, name="default") if ptype is not None else value
     except ParamddsError as exc:
-        what = ptype.label if ptype is not None else "parameter value"
-        raise format_error(file, where, f"the default {_show(raw)} is not a {what}: {exc.message}") from None
+        # JSON Schema's `default` is an annotation no validator judges (check-jsonschema, and so
+        # Autoware's CI, accept "0,262" on a number): warn, and leave the parameter to its files
+        if (file, where) not in _warned:
+            _warned.add((file, where))
+            what = ptype.label if ptype is not None else "parameter value"
+            log.warning(
+                "%s: %s: the default %s is not a %s (%s); it is ignored: the parameter takes the "
+                "parameter file's value, or starts without one (the schema's own rules still apply)",
+                file,
+                where,
+                _show(raw),
+                what,
+                exc.message,
+            )
+        return NOT_SET

@@ -599,7 +599,8 @@ function tokenCookie(token) {
 async function start() {
   const { data } = await api("/api/info");
   S.info = data;
-  $("#mode").textContent = data.read_only ? "read-only console" : "domain " + data.domain;
+  const where = data.zenoh ? "zenoh " + data.zenoh : "domain " + data.domain;
+  $("#mode").textContent = data.read_only ? "read-only console" : where;
   const saved = sessionStorage.getItem("paramdds-token");
   $("#token-box").hidden = !data.token_required || !!saved;
   if (saved) tokenCookie(saved);
