@@ -6,11 +6,12 @@ need not import the table, its validation and its callbacks.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import Enum
 
 from ..errors import ErrorCode
 from .descriptors import ParameterDescriptor
+from .origin import Origin, local_origin
 from .values import ParameterValue
 
 
@@ -28,6 +29,7 @@ class ParameterChange:
     name: str
     value: ParameterValue  # NOT_SET for DELETED
     descriptor: ParameterDescriptor
+    old: ParameterValue | None = None  # its value before (None: it did not exist)
 
 
 @dataclass(frozen=True, slots=True)
@@ -35,12 +37,15 @@ class ChangeSet:
     """What one committed request changed. ``revision`` goes up by one per commit.
 
     One change per parameter touched, carrying its final state, in the order the
-    request first applied them.
+    request first applied them; ``origin`` says who made it and through what,
+    ``time_ns`` when (nanoseconds since the Unix epoch, 0: unknown).
     """
 
     node_id: str
     revision: int
     changes: tuple[ParameterChange, ...]
+    origin: Origin = field(default_factory=local_origin)
+    time_ns: int = 0
 
 
 @dataclass(frozen=True, slots=True)

@@ -79,6 +79,7 @@ from __future__ import annotations
 
 import logging
 import threading
+import time
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import replace
@@ -96,6 +97,7 @@ from ..errors import (
     error_for,
 )
 from . import deadline as deadlines
+from . import origin as origins
 from .descriptors import ParameterDescriptor
 from .limits import check_request_size, check_text, check_value
 from .listing import list_names
@@ -778,9 +780,10 @@ class ParameterTable:
                 if entry is before:
                     continue  # planned as "no change" (NOT_SET on an unset parameter)
                 kind = ChangeKind.NEW if before is None else ChangeKind.CHANGED
-                changes.append(ParameterChange(kind, name, entry[0], entry[1]))
+                old = None if before is None else before[0]
+                changes.append(ParameterChange(kind, name, entry[0], entry[1], old))
             elif before is not None:
-                changes.append(ParameterChange(ChangeKind.DELETED, name, NOT_SET, before[1]))
+                changes.append(ParameterChange(ChangeKind.DELETED, name, NOT_SET, before[1], before[0]))
         if not changes:
             return None, ""
         for c in changes:
@@ -791,7 +794,7 @@ class ParameterTable:
             if c.kind is not ChangeKind.CHANGED:
                 self._sorted = None
         self.revision += 1
-        change = ChangeSet(self.node_id, self.revision, tuple(changes))
+        change = ChangeSet(self.node_id, self.revision, tuple(changes), origins.current(), time.time_ns())
         with self._in_callback():
             for handle in list(self._listeners):
                 try:

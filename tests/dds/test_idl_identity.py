@@ -178,12 +178,20 @@ def test_same_type_identifier(compiled: dict[str, list[str]], typename: str) -> 
     assert compiled[typename][1] == minimal, f"{typename}: minimal type id differs from the IDL"
 
 
-def test_a_set_request_ends_with_its_deadline() -> None:
-    # the third wire break before 1.0 (docs/wire.md): int64 deadline, ns since the Unix epoch by the
-    # caller's clock, appended as the last member of SetParametersRequest in both places
-    idl = IDL_FILE.read_text()
-    body = idl.split("struct SetParametersRequest {", 1)[1].split("};", 1)[0]
-    members = [line.strip() for line in body.strip().splitlines() if line.strip()]
-    assert members[-1] == "int64 deadline;"
+def _members(struct: str) -> list[str]:
+    body = IDL_FILE.read_text().split(f"struct {struct} {{", 1)[1].split("};", 1)[0]
+    lines = (line.split("//", 1)[0].strip() for line in body.splitlines())
+    return [line for line in lines if line]
+
+
+def test_a_set_request_ends_with_its_deadline_then_its_author() -> None:
+    # wire breaks before 1.0 (docs/wire.md): int64 deadline (ns since the Unix epoch by the caller's
+    # clock), then the asker's claimed identity and channel, appended in both places
+    assert _members("SetParametersRequest")[-3:] == ["int64 deadline;", "string who;", "string via;"]
     fields = list(types.SetParametersRequest.__dataclass_fields__)
-    assert fields[-1] == "deadline" and types.SetParametersRequest().deadline == 0  # 0: no deadline
+    assert fields[-3:] == ["deadline", "who", "via"] and types.SetParametersRequest().deadline == 0
+
+
+def test_the_state_ends_with_its_blame() -> None:
+    assert _members("ParameterEvent")[-4:] == ["uint64 incarnation;", "string who;", "boolean verified;", "string via;"]
+    assert list(types.ParameterEvent.__dataclass_fields__)[-4:] == ["incarnation", "who", "verified", "via"]

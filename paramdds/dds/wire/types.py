@@ -137,6 +137,11 @@ class ParameterEvent(IdlStruct, typename="paramdds.ParameterEvent"):
     # random, non-zero, new each time a server starts hosting the node: with the revision it
     # never repeats (a revision alone does after a restart); 0 from a writer that has none
     incarnation: uint64 = 0
+    # blame (kind 0): who made this change, whether the node verified it, through what;
+    # with stamp (when) and revision (which change). "" from a writer that keeps none
+    who: str = ""
+    verified: bool = False
+    via: str = ""
 
 
 @fast_cdr
@@ -156,6 +161,8 @@ class SetParametersRequest(IdlStruct, typename="paramdds.SetParametersRequest"):
     expected_incarnation: uint64 = 0  # 0: compare the revision alone (when expected_revision >= 0)
     # ns since the Unix epoch (caller's clock) after which the node must not apply it; 0: none
     deadline: int64 = 0
+    who: str = ""  # a claim, unless DDS Security authenticates the asker
+    via: str = ""  # cli, api, web, zenoh, ros2, load, assign, start
 
 
 @fast_cdr
@@ -190,8 +197,23 @@ class SetParametersResponse(IdlStruct, typename="paramdds.SetParametersResponse"
 @fast_cdr
 @dataclass
 @final
+class HistoryQuery(IdlStruct, typename="paramdds.HistoryQuery"):
+    """A question to a node's history: records after ``after_seq`` matching every filter."""
+
+    since_revision: int64 = -1  # < 0: any
+    since_time: int64 = 0  # ns since the Unix epoch, 0: any
+    until_time: int64 = 0  # likewise
+    who: str = ""  # a glob, "": anyone
+    outcome: byte = 0  # 0 applied and refused, 1 applied, 2 refused
+    limit: uint32 = 0  # records per reply at most, 0: the node's page size
+    after_seq: uint64 = 0
+
+
+@fast_cdr
+@dataclass
+@final
 class GetParametersRequest(IdlStruct, typename="paramdds.GetParametersRequest"):
-    """A get of named parameters of one node (with their descriptors if asked)."""
+    """A get of named parameters of one node (with their descriptors if asked), or of its history."""
 
     node_id: bounded_str[255] = ""
     key("node_id")
@@ -199,6 +221,20 @@ class GetParametersRequest(IdlStruct, typename="paramdds.GetParametersRequest"):
     request_id: uint64 = 0
     with_descriptors: bool = False
     names: sequence[str] = field(default_factory=list)
+    history: sequence[HistoryQuery, 1] = field(default_factory=list)
+
+
+@fast_cdr
+@dataclass
+@final
+class LastChange(IdlStruct, typename="paramdds.LastChange"):
+    """Who last changed a parameter, whether verified, through what, when, at which revision."""
+
+    who: str = ""
+    verified: bool = False
+    via: str = ""
+    stamp: Time = field(default_factory=Time)
+    revision: int64 = 0
 
 
 @fast_cdr
@@ -212,6 +248,27 @@ class GetParameterResult(IdlStruct, typename="paramdds.GetParameterResult"):
     reason: str = ""
     value: ParameterValue = field(default_factory=ParameterValue)
     descriptor: sequence[ParameterDescriptor, 1] = field(default_factory=list)
+    last_change: sequence[LastChange, 1] = field(default_factory=list)  # with descriptors
+
+
+@fast_cdr
+@dataclass
+@final
+class HistoryRecord(IdlStruct, typename="paramdds.HistoryRecord"):
+    """A change a node applied to one parameter, or a write it refused."""
+
+    seq: uint64 = 0
+    name: str = ""
+    revision: int64 = 0
+    stamp: Time = field(default_factory=Time)
+    who: str = ""
+    verified: bool = False
+    via: str = ""
+    old_value: sequence[ParameterValue, 1] = field(default_factory=list)  # empty: did not exist
+    new_value: sequence[ParameterValue, 1] = field(default_factory=list)  # empty: deleted
+    applied: bool = False
+    code: str = ""
+    reason: str = ""
 
 
 @fast_cdr
@@ -229,6 +286,10 @@ class GetParametersResponse(IdlStruct, typename="paramdds.GetParametersResponse"
     reason: str = ""
     results: sequence[GetParameterResult] = field(default_factory=list)
     incarnation: uint64 = 0
+    history: sequence[HistoryRecord] = field(default_factory=list)
+    history_kept: bool = False  # False: the node keeps no history
+    history_more: bool = False  # more records match: ask again after the last seq
+    history_compacted: bool = False  # retention dropped records the query asks for
 
 
 @fast_cdr
