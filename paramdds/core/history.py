@@ -23,12 +23,11 @@ import time
 from collections import deque
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from datetime import datetime, timezone
 from enum import IntEnum
 
 from .jsonform import json_value
 from .origin import Origin
-from .results import ChangeKind, ChangeSet
+from .results import ChangeKind, ChangeSet, LastChange, iso_time
 from .values import ParameterValue
 
 __all__ = [
@@ -57,38 +56,6 @@ class Outcome(IntEnum):
     ALL = 0
     APPLIED = 1
     REFUSED = 2
-
-
-def iso_time(time_ns: int) -> str:
-    """ISO 8601 UTC with microseconds: ``2026-11-29T01:02:03.456789Z``."""
-    moment = datetime.fromtimestamp(time_ns / 1e9, tz=timezone.utc)
-    return moment.strftime("%Y-%m-%dT%H:%M:%S.%fZ")
-
-
-@dataclass(frozen=True, slots=True)
-class LastChange:
-    """Who last changed a parameter, whether verified, through what, when, at which revision."""
-
-    who: str
-    verified: bool
-    via: str
-    time_ns: int
-    revision: int
-
-    @classmethod
-    def of(cls, change: ChangeSet) -> LastChange:
-        o = change.origin
-        return cls(o.who, o.verified, str(getattr(o.via, "value", o.via)), change.time_ns, change.revision)
-
-    def to_json(self) -> dict[str, object]:
-        """``{"who", "verified", "via", "time" (ISO 8601 UTC), "revision"}``."""
-        return {
-            "who": self.who,
-            "verified": self.verified,
-            "via": self.via,
-            "time": iso_time(self.time_ns),
-            "revision": self.revision,
-        }
 
 
 @dataclass(frozen=True, slots=True)

@@ -7,6 +7,7 @@ need not import the table, its validation and its callbacks.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from datetime import datetime, timezone
 from enum import Enum
 
 from ..errors import ErrorCode
@@ -48,6 +49,38 @@ class ChangeSet:
     time_ns: int = 0
 
 
+def iso_time(time_ns: int) -> str:
+    """ISO 8601 UTC with microseconds: ``2026-11-29T01:02:03.456789Z``."""
+    moment = datetime.fromtimestamp(time_ns / 1e9, tz=timezone.utc)
+    return moment.strftime("%Y-%m-%dT%H:%M:%S.%fZ")
+
+
+@dataclass(frozen=True, slots=True)
+class LastChange:
+    """Who last changed a parameter, whether verified, through what, when, at which revision."""
+
+    who: str
+    verified: bool
+    via: str
+    time_ns: int
+    revision: int
+
+    @classmethod
+    def of(cls, change: ChangeSet) -> LastChange:
+        o = change.origin
+        return cls(o.who, o.verified, str(getattr(o.via, "value", o.via)), change.time_ns, change.revision)
+
+    def to_json(self) -> dict[str, object]:
+        """``{"who", "verified", "via", "time" (ISO 8601 UTC), "revision"}``."""
+        return {
+            "who": self.who,
+            "verified": self.verified,
+            "via": self.via,
+            "time": iso_time(self.time_ns),
+            "revision": self.revision,
+        }
+
+
 @dataclass(frozen=True, slots=True)
 class SetResult:
     """What a set did to one parameter: applied, or refused with a code and a reason."""
@@ -76,6 +109,7 @@ class GetResult:
     descriptor: ParameterDescriptor | None  # only when asked for, and found
     code: ErrorCode | None = None  # NOT_FOUND / INVALID_NAME
     reason: str = ""
+    last_change: LastChange | None = None  # with the descriptor, when the node knows it
 
 
 @dataclass(frozen=True, slots=True)
