@@ -16,6 +16,7 @@ Modules:
 * :mod:`.hub`     monitor events → per-subscriber coalesced SSE batches;
 * :mod:`.inputs`  query arguments and JSON bodies, read with a size cap;
 * :mod:`.guard`   the Host check and security headers in front of every route;
+* :mod:`.operator` the bearer tokens, and who a write is made as (a token's name, the page's, the console's);
 * :mod:`.app`     the Starlette application (routes, the write checks);
 * :mod:`.serve`   wiring monitor, client and uvicorn together (the CLI verb).
 

@@ -8,13 +8,15 @@ GET      /api/info          ``{"read_only", "token_required", "domain", "zenoh"}
 GET      /api/nodes         ``?q=&offset=&limit=`` → ``{"total", "offset", "nodes": [summary]}``
 GET      /api/node          ``?node=`` → ``{"summary", "rows": [row]}``
 GET      /api/dump          ``?node=&descriptors=0|1`` → a ROS 2 parameter file (text/yaml)
+GET      /api/history       ``?node=&name=&since=&until=&who=&outcome=&limit=`` → ``{"node", "names",
+                            "kept", "compacted", "more", "records": [record]}``, newest first
 GET      /api/events        ``?node=`` → server-sent events: node, params, nodes, log, resync
 GET      /api/openapi.json  the OpenAPI schema of these routes
 POST     /api/validate      ``{"node", "values": {name: value}}`` → ``{"node", "results": [{"name",
                             "valid", "reason", "code"}]}`` (checks only; sends nothing)
-POST     /api/set           ``{"node", "values": {name: value}, "atomic", "if_revision"}``
-POST     /api/delete        ``{"node", "names": [name]}``
-POST     /api/load          ``{"node", "text", "atomic"}`` (the text of a parameter file)
+POST     /api/set           ``{"node", "values": {name: value}, "atomic", "if_revision", "as"}``
+POST     /api/delete        ``{"node", "names": [name], "as"}``
+POST     /api/load          ``{"node", "text", "atomic", "as"}`` (the text of a parameter file)
 =======  =================  ==========================================================
 
 Safety, checked before a route runs: the ``Host`` header must name this server
@@ -22,12 +24,12 @@ Safety, checked before a route runs: the ``Host`` header must name this server
 (``Origin``/``Sec-Fetch-Site``), carry ``Content-Type: application/json``, the
 bearer token when one is configured, and a body of at most :data:`.inputs.MAX_BODY`
 bytes. Every error is a JSON body with a code; its status comes from
-:data:`paramdds.web.status.STATUS`.
+:data:`paramdds.web.status.STATUS`. A write is made as its operator (``"as"``, or the
+name its token carries: :mod:`.operator`) through ``web``.
 """
 
 from __future__ import annotations
 
-import hmac
 import logging
 from collections.abc import AsyncIterator
 from dataclasses import dataclass
@@ -46,25 +48,39 @@ from starlette.types import ASGIApp
 from ..core.names import validate_name
 from ..core.revision import Revision, incarnation_text
 from ..core.values import NOT_SET, Parameter
-from ..errors import ErrorCode, FileFormatError, ParamddsError
+from ..errors import ErrorCode, FileFormatError, NoHistoryError, ParamddsError
 from ..file_load import unchanged as unchanged_value
 from .guard import LOOPBACK_NAMES, Guard, error_response
 from .hub import Hub, sse
-from .inputs import bool_field, file_entries, int_arg, node_arg, read_body, revision_field
+from .inputs import (
+    bool_field,
+    file_entries,
+    int_arg,
+    names_arg,
+    node_arg,
+    outcome_arg,
+    read_body,
+    revision_field,
+    since_arg,
+    time_arg,
+)
 from .model import (
     Row,
     atomic_refusal,
     checked,
+    history_row,
     parameter_row,
     refused_row,
     result_row,
     summary_json,
     typed_parameters,
 )
+from .operator import Token, claimed_name, matching, operator
 from .status import WebCode, WebError, code_of, error_body, status_of
 from .view import NodeDetail, StateView
 
 if TYPE_CHECKING:
+    from ..core.replies import SetReply
     from ..dds.client import AsyncParameterClient
 
 log = logging.getLogger(__name__)
@@ -72,12 +88,15 @@ log = logging.getLogger(__name__)
 PAGE_LIMIT = 200  # nodes per page at most
 TOKEN_COOKIE = "paramdds-token"  # set by the page where reads need the token (see Console._check_read)
 KEEPALIVE = 15.0  # seconds between comments on an idle event stream
+HISTORY_LIMIT = 200  # records a history answer holds unless asked for more
+MAX_HISTORY = 10_000  # records a history answer may hold at most (a node keeps 10,000 by default)
 
 
 @dataclass(frozen=True)
 class WebOptions:
     read_only: bool = False
-    token: str | None = None
+    tokens: tuple[Token, ...] = ()  # --token-file: the bearer tokens accepted, each maybe naming its operator
+    identity: str = ""  # who a write without an operator's name is made as (the console's own identity)
     domain: int = 0
     zenoh: str | None = None  # the router's endpoint when the console reaches sites over Zenoh
     allowed_hosts: tuple[str, ...] = LOOPBACK_NAMES  # the Host names accepted (DNS rebinding)
@@ -143,7 +162,8 @@ class Console:
 
     @staticmethod
     def _rows(detail: NodeDetail) -> list[Row]:
-        return [parameter_row(n, v, d) for n, (v, d) in sorted(detail.parameters.items())]
+        last = detail.last_changes
+        return [parameter_row(n, v, d, last.get(n)) for n, (v, d) in sorted(detail.parameters.items())]
 
     # -- reads ------------------------------------------------------------------------------
 
@@ -158,7 +178,7 @@ class Console:
         return JSONResponse(
             {
                 "read_only": o.read_only,
-                "token_required": o.token is not None,
+                "token_required": bool(o.tokens),
                 "token_for_reads": o.token_for_reads,
                 "domain": o.domain,
                 "zenoh": o.zenoh,
@@ -169,11 +189,10 @@ class Console:
         """On a bind other machines reach, reads need the token too: the ``Authorization``
         header, or the ``paramdds-token`` cookie the page sets (an EventSource and a download
         link send no header). The cookie is SameSite=Strict; writes still need the header."""
-        token = self.options.token
-        if not self.options.token_for_reads or token is None:
+        if not self.options.token_for_reads or not self.options.tokens:
             return
         given = _bearer(request) or unquote(request.cookies.get(TOKEN_COOKIE, ""))
-        if not hmac.compare_digest(given.encode(), token.encode()):
+        if matching(self.options.tokens, given) is None:
             raise WebError(WebCode.UNAUTHORIZED, "this console needs the bearer token (reads too)")
 
     async def nodes(self, request: Request) -> Response:
@@ -235,6 +254,58 @@ class Console:
             text,
             media_type="text/yaml",
             headers={"Content-Disposition": f'attachment; filename="{filename}"'},
+        )
+
+    async def history(self, request: Request) -> Response:
+        """A node's past, newest first: the changes it applied and the writes it refused.
+        ---
+        summary: A node's history (its parameters' timelines), newest first
+        parameters:
+          - {name: node, in: query, required: true, schema: {type: string}}
+          - {name: name, in: query, schema: {type: string}, description: 'a name (repeatable; none: all)'}
+          - {name: since, in: query, schema: {type: string}, description: 'a revision or an ISO 8601 time'}
+          - {name: until, in: query, schema: {type: string}, description: an ISO 8601 time}
+          - {name: who, in: query, schema: {type: string}, description: 'a glob on who (alice, *@robot1)'}
+          - {name: outcome, in: query, schema: {type: string, enum: [all, applied, refused], default: all}}
+          - {name: limit, in: query, schema: {type: integer, minimum: 1, maximum: 10000, default: 200}}
+        responses:
+          200: {description: '{"node", "names", "kept", "compacted", "more", "records": [record]}'}
+          400: {description: BAD_REQUEST (a malformed since, until, outcome or limit)}
+          404: {description: NOT_FOUND (unknown node)}
+          503: {description: UNAVAILABLE (node offline)}
+        """
+        self._check_read(request)
+        node = node_arg(request.query_params.get("node"))
+        names = names_arg(request)
+        since_revision, since_time = since_arg(request)
+        until = time_arg(request, "until")
+        who = request.query_params.get("who", "")[:200]
+        outcome = outcome_arg(request)
+        limit = int_arg(request, "limit", HISTORY_LIMIT, 1, MAX_HISTORY)
+        self._online(node)
+        body: dict[str, object] = {"node": node, "names": list(names)}
+        try:
+            reply = await self.client.history(
+                node,
+                names,
+                since_revision=since_revision,
+                since_time=since_time,
+                until=until,
+                who=who,
+                outcome=outcome,
+                timeout=self.options.timeout,
+            )
+        except NoHistoryError:  # a node of an older release, or a foreign peer: it keeps none
+            return JSONResponse({**body, "kept": False, "compacted": False, "more": False, "records": []})
+        newest = list(reversed(reply.records))
+        return JSONResponse(
+            {
+                **body,
+                "kept": True,
+                "compacted": reply.compacted,
+                "more": len(newest) > limit,
+                "records": [history_row(r) for r in newest[:limit]],
+            }
         )
 
     async def events(self, request: Request) -> Response:
@@ -310,22 +381,43 @@ class Console:
 
     # -- writes -----------------------------------------------------------------------------
 
-    def _check_write(self, request: Request) -> None:
+    def _check_write(self, request: Request) -> Token | None:
+        """Refuses a write from another origin or without the token; the token it carries."""
         origin = request.headers.get("origin")
         host = request.headers.get("host", "")
         if origin is not None and origin != f"{request.url.scheme}://{host}":
             raise WebError(WebCode.CROSS_ORIGIN, f"a write from origin {origin[:100]!r} is refused")
         if request.headers.get("sec-fetch-site", "same-origin") not in ("same-origin", "none"):
             raise WebError(WebCode.CROSS_ORIGIN, "a write from another site is refused")
-        token = self.options.token
-        if token is not None and not hmac.compare_digest(_bearer(request).encode(), token.encode()):
+        if not self.options.tokens:
+            return None
+        token = matching(self.options.tokens, _bearer(request))
+        if token is None:
             raise WebError(WebCode.UNAUTHORIZED, "this console needs the bearer token for writes")
+        return token
 
-    async def _write_request(self, request: Request) -> tuple[dict[str, Any], str]:
-        """A write's JSON body and its node, once the write is allowed (checked before reading)."""
-        self._check_write(request)
+    async def _write_request(self, request: Request) -> tuple[dict[str, Any], str, str]:
+        """A write's JSON body, its node and who it is made as (:func:`.operator.operator`),
+        once the write is allowed (checked before reading)."""
+        token = self._check_write(request)
         body = await read_body(request)
-        return body, node_arg(body.get("node"))
+        who = operator(token, claimed_name(body), self.options.identity)
+        return body, node_arg(body.get("node")), who
+
+    async def _send(
+        self,
+        node: str,
+        params: list[Parameter],
+        who: str,
+        *,
+        atomic: bool = False,
+        if_revision: int | Revision | None = None,
+    ) -> SetReply:
+        """One write to the node, made as ``who`` (through ``web``: the console's client's channel)."""
+        timeout = self.options.timeout
+        return await self.client.set(
+            node, params, atomic=atomic, if_revision=if_revision, timeout=timeout, as_=who
+        )
 
     async def set(self, request: Request) -> Response:
         """Set parameters (plain or atomic, optionally compare-and-set).
@@ -345,7 +437,7 @@ class Console:
           503: {description: UNAVAILABLE (not sent)}
           504: {description: 'OUTCOME_UNKNOWN: sent, not answered in time; it may have been applied'}
         """
-        body, node = await self._write_request(request)
+        body, node, who = await self._write_request(request)
         values = body.get("values")
         if not isinstance(values, dict) or not values:
             raise WebError(WebCode.BAD_REQUEST, "'values' must be a non-empty object of name: value")
@@ -358,19 +450,12 @@ class Console:
             refused += unfit
         if refused and atomic:  # nothing is sent: each row says why, as the node's would
             rows = atomic_refusal(values, _in_order(values, refused))
-            return self._set_response(node, detail.summary.at, rows, atomic)
+            return self._set_response(node, detail.summary.at, rows, atomic, who)
         if not params:
-            return self._set_response(node, detail.summary.at, _in_order(values, refused))
-        reply = await self.client.set(
-            node,
-            params,
-            atomic=atomic,
-            if_revision=if_revision,
-            timeout=self.options.timeout,
-        )
-        return self._set_response(
-            node, reply.at, _in_order(values, [result_row(r) for r in reply.results] + refused), atomic
-        )
+            return self._set_response(node, detail.summary.at, _in_order(values, refused), who=who)
+        reply = await self._send(node, params, who, atomic=atomic, if_revision=if_revision)
+        rows = _in_order(values, [result_row(r) for r in reply.results] + refused)
+        return self._set_response(node, reply.at, rows, atomic, who)
 
     def _precheck(
         self, node: str, detail: NodeDetail, params: list[Parameter], atomic: bool
@@ -391,7 +476,7 @@ class Console:
         responses:
           200: {description: '{"node", "revision", "results"}'}
         """
-        body, node = await self._write_request(request)
+        body, node, who = await self._write_request(request)
         names = body.get("names")
         if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
             raise WebError(WebCode.BAD_REQUEST, "'names' must be a non-empty list of strings")
@@ -407,11 +492,10 @@ class Console:
         deletes, unfit = self._precheck(node, detail, named, False)
         refused += unfit
         if not deletes:
-            return self._set_response(node, detail.summary.at, _in_order(asked, refused))
-        reply = await self.client.delete(node, [p.name for p in deletes], timeout=self.options.timeout)
-        return self._set_response(
-            node, reply.at, _in_order(asked, [result_row(r) for r in reply.results] + refused)
-        )
+            return self._set_response(node, detail.summary.at, _in_order(asked, refused), who=who)
+        reply = await self._send(node, deletes, who)
+        rows = _in_order(asked, [result_row(r) for r in reply.results] + refused)
+        return self._set_response(node, reply.at, rows, who=who)
 
     async def load(self, request: Request) -> Response:
         """Set a node's parameters from the text of a parameter file.
@@ -422,7 +506,7 @@ class Console:
           200: {description: '{"node", "revision", "results"}, one result per parameter'}
           422: {description: FILE_FORMAT (with file and line) or a refused value}
         """
-        body, node = await self._write_request(request)
+        body, node, who = await self._write_request(request)
         text = body.get("text")
         if not isinstance(text, str) or not text.strip():
             raise WebError(WebCode.BAD_REQUEST, "'text' must be the non-empty text of a parameter file")
@@ -448,22 +532,26 @@ class Console:
         refused += unfit
         if refused and atomic:
             rows = atomic_refusal([name for name, _, _ in entries], refused + unchanged)
-            return self._set_response(node, detail.summary.at, rows, atomic)
+            return self._set_response(node, detail.summary.at, rows, atomic, who)
         results: list[Row] = refused + unchanged
         at = detail.summary.at
         if sendable:
-            reply = await self.client.set(node, sendable, atomic=atomic, timeout=self.options.timeout)
+            reply = await self._send(node, sendable, who, atomic=atomic)
             results = [result_row(r) for r in reply.results] + results
             at = reply.at
-        return self._set_response(node, at, results, atomic)
+        return self._set_response(node, at, results, atomic, who)
 
-    def _set_response(self, node: str, at: Revision, results: list[Row], atomic: bool = False) -> Response:
-        """A write's answer; refused, its status is the first refusal's code, or for an atomic
-        write its cause's (the first code other than the INVALID_VALUE of "not applied")."""
+    def _set_response(
+        self, node: str, at: Revision, results: list[Row], atomic: bool = False, who: str = ""
+    ) -> Response:
+        """A write's answer (``who``: the operator it was made as); refused, its status is the
+        first refusal's code, or for an atomic write its cause's (the first code other than the
+        INVALID_VALUE of "not applied")."""
         body: dict[str, object] = {
             "node": node,
             "revision": at.revision,
             "incarnation": incarnation_text(at.incarnation),
+            "who": who,
             "results": results,
         }
         failed = [r for r in results if not r["successful"]]
@@ -519,6 +607,7 @@ def build_app(view: StateView, hub: Hub, client: AsyncParameterClient, options: 
         Route("/api/nodes", console.nodes),
         Route("/api/node", console.node),
         Route("/api/dump", console.dump),
+        Route("/api/history", console.history),
         Route("/api/events", console.events),
         Route("/api/validate", console.validate, methods=["POST"]),
         Mount("/static", StaticFiles(packages=[("paramdds.web", "static")]), name="static"),

@@ -26,6 +26,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 
+from ..core.results import LastChange
 from ..dds.monitor import EventKind, MonitorEvent
 from .model import Row, parameter_row, summary_json
 from .view import StateView
@@ -59,6 +60,7 @@ class Subscriber:
 
 
 def log_entry(e: MonitorEvent) -> Row:
+    last = last_change_of(e)
     return {
         "event": e.event.value,
         "node": e.node,
@@ -70,7 +72,14 @@ def log_entry(e: MonitorEvent) -> Row:
         "value": parameter_row(e.name, e.value, e.descriptor)["value"] if e.value is not None else None,
         "type": e.value.type.label if e.value is not None else None,  # shown as the node shows it (2.0)
         "stamp": e.stamp or time.time(),
+        "who": last.who if last is not None else None,  # who made this change, if the node said
     }
+
+
+def last_change_of(e: MonitorEvent) -> LastChange | None:
+    """Who made the change an event carries (None: not a change, or the node did not say)."""
+    last = getattr(e, "last_change", None)  # TODO(web-history): A's field, once merged
+    return last if isinstance(last, LastChange) else None
 
 
 class Hub:
@@ -152,7 +161,7 @@ class Hub:
                 rows.pop(e.name, None)
                 deleted[e.name] = None
             elif e.value is not None:
-                rows[e.name] = parameter_row(e.name, e.value, e.descriptor)
+                rows[e.name] = parameter_row(e.name, e.value, e.descriptor, last_change_of(e))
                 deleted.pop(e.name, None)
         summaries = self._view.summaries([node])
         return sse(

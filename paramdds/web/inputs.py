@@ -7,18 +7,21 @@ UNSUPPORTED_MEDIA) or the core's own error (INVALID_NAME, FILE_FORMAT), never a 
 from __future__ import annotations
 
 import json
+from datetime import datetime, timezone
 from typing import Any
 
 from starlette.requests import Request
 
 from ..core.descriptors import ParameterDescriptor
-from ..core.names import canonical_node_id
+from ..core.history import Outcome
+from ..core.names import canonical_node_id, validate_name
 from ..core.revision import Revision
 from ..core.values import ParameterValue
 from ..errors import ErrorCode, ParamddsError
 from .status import WebCode, WebError
 
 MAX_BODY = 1024 * 1024  # bytes
+LAST_TIME = (2**63 - 1) / 1e9  # seconds since the epoch: a time the wire carries (int64 nanoseconds)
 
 
 def node_arg(raw: object) -> str:
@@ -98,3 +101,53 @@ def file_entries(text: str, node: str) -> list[tuple[str, ParameterValue, Parame
 
         return [(p.name, p.value, None) for p in load_param_list_str(text, source=source)]
     return parse_ros_text(text, source, node)
+
+
+def since_arg(request: Request) -> tuple[int | None, datetime | None]:
+    """``since``: a revision (the records after it) or an ISO 8601 time (the records at or after
+    it); (revision, time), at most one of them given."""
+    text = request.query_params.get("since")
+    if text is None or not text.strip():
+        return None, None
+    if text.strip().isdigit():
+        return int(text), None
+    return None, _iso_time("since", text, "a revision or ")
+
+
+def time_arg(request: Request, name: str) -> datetime | None:
+    """An ISO 8601 time (``2026-11-29T14:32:00Z``; one without a zone is UTC), or None when absent."""
+    text = request.query_params.get(name)
+    return _iso_time(name, text) if text is not None and text.strip() else None
+
+
+def _iso_time(name: str, text: str, other: str = "") -> datetime:
+    try:
+        moment = datetime.fromisoformat(text.strip())
+    except ValueError:
+        raise WebError(
+            WebCode.BAD_REQUEST,
+            f"{name!r} must be {other}an ISO 8601 time such as 2026-11-29T14:32:00Z, got {text[:40]!r}",
+        ) from None
+    moment = moment if moment.tzinfo is not None else moment.replace(tzinfo=timezone.utc)
+    if not 0 <= moment.timestamp() < LAST_TIME:
+        raise WebError(WebCode.BAD_REQUEST, f"{name!r} must be a time from 1970 to 2262, got {text[:40]!r}")
+    return moment
+
+
+def names_arg(request: Request) -> tuple[str, ...]:
+    """Every ``name`` argument, each a valid parameter name (INVALID_NAME otherwise)."""
+    names = tuple(dict.fromkeys(request.query_params.getlist("name")))
+    for n in names:
+        validate_name(n)
+    return names
+
+
+OUTCOMES = {"all": Outcome.ALL, "applied": Outcome.APPLIED, "refused": Outcome.REFUSED}
+
+
+def outcome_arg(request: Request) -> Outcome:
+    text = request.query_params.get("outcome", "all")
+    if text not in OUTCOMES:
+        shown = ", ".join(OUTCOMES)
+        raise WebError(WebCode.BAD_REQUEST, f"'outcome' must be one of {shown}, got {text[:40]!r}")
+    return OUTCOMES[text]

@@ -4,11 +4,15 @@ Shapes (documented in docs/web.md):
 
 * a node summary: ``{"node", "online", "host", "pid", "revision", "parameters",
   "request_filter", "incarnation", "origin", "status"}`` (the incarnation in 16 hex digits);
-* a parameter row: ``{"name", "value", "type", "descriptor", "choices"}`` with the value
+* a parameter row: ``{"name", "value", "type", "descriptor", "choices", "last_change"}`` with the value
   and descriptor in the CLI's JSON shapes (:mod:`paramdds.core.jsonform`: byte arrays as
   lists of ints, non-finite doubles as ``"nan"``/``"inf"``/``"-inf"``) and the choices its
-  editor offers (:func:`choices`: a ``one_of`` or a schema ``enum``), or null;
-* a set result: ``{"name", "successful", "reason", "code"}``.
+  editor offers (:func:`choices`: a ``one_of`` or a schema ``enum``), or null, and who last
+  changed it (:meth:`LastChange.to_json`: ``{"who", "verified", "via", "time", "revision"}``),
+  or null when the node did not say;
+* a set result: ``{"name", "successful", "reason", "code"}``;
+* a history record (:func:`history_row`): the CLI's ``history -o json`` record, with ``seq``,
+  ``code`` and the type of each of ``old`` and ``new`` (how the page writes them).
 
 Values sent by a browser are typed by the parameter's descriptor
 (:func:`typed_value`, with the rule every front end shares, :mod:`paramdds.core.fit`):
@@ -28,10 +32,11 @@ from dataclasses import asdict
 
 from ..core.descriptors import ParameterDescriptor
 from ..core.fit import EMPTY_LIST, EmptyList, fit_value
+from ..core.history import HistoryRecord
 from ..core.jsonform import json_descriptor, json_value
 from ..core.limits import check_value
 from ..core.names import validate_name
-from ..core.results import SetResult
+from ..core.results import LastChange, SetResult
 from ..core.revision import incarnation_text
 from ..core.validation import validate
 from ..core.values import Parameter, ParameterType, ParameterValue
@@ -65,7 +70,12 @@ def summary_json(info: NodeInfo) -> Row:
     return row
 
 
-def parameter_row(name: str, value: ParameterValue, descriptor: ParameterDescriptor | None) -> Row:
+def parameter_row(
+    name: str,
+    value: ParameterValue,
+    descriptor: ParameterDescriptor | None,
+    last_change: LastChange | None = None,
+) -> Row:
     described = json_descriptor(descriptor or ParameterDescriptor(name, value.type))
     return {
         "name": name,
@@ -73,7 +83,19 @@ def parameter_row(name: str, value: ParameterValue, descriptor: ParameterDescrip
         "type": value.type.label,
         "descriptor": described,
         "choices": choices(described, value.type),
+        "last_change": last_change.to_json() if last_change is not None else None,
     }
+
+
+def history_row(record: HistoryRecord) -> Row:
+    """One record of a parameter's timeline: as ``paramdds history -o json`` prints it, plus
+    its ``seq``, its refusal ``code`` and the types its ``old`` and ``new`` values are of."""
+    row = record.to_json()
+    row["seq"] = record.seq
+    row["code"] = record.code or None
+    row["old_type"] = record.old.type.label if record.old is not None else None
+    row["new_type"] = record.new.type.label if record.new is not None else None
+    return row
 
 
 def choices(descriptor: Mapping[str, object], value_type: ParameterType) -> list[object] | None:

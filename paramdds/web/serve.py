@@ -23,11 +23,13 @@ import h11
 import uvicorn
 from uvicorn.protocols.http.h11_impl import H11Protocol
 
+from ..core.origin import Via, local_identity
 from ..exits import Exit, UsageError
 from ..session import Session
 from .app import WebOptions, build_app
 from .guard import LOOPBACK_NAMES, SECURITY_HEADERS
 from .hub import Hub
+from .operator import Token, parse_tokens
 from .status import WebCode, error_body
 from .view import StateView
 
@@ -58,14 +60,13 @@ def is_loopback(host: str) -> bool:
         return False
 
 
-def read_token(path: str) -> str:
+def read_tokens(path: str) -> tuple[Token, ...]:
+    """The tokens of ``--token-file``: one word of 16+ characters, or ``NAME TOKEN`` per line
+    (:mod:`.operator`); a file that is neither is a usage error naming it."""
     try:
-        token = Path(path).read_text(encoding="utf-8").strip()
-    except (OSError, UnicodeDecodeError) as exc:
+        return parse_tokens(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:  # unreadable, not UTF-8, or not a token file
         raise UsageError(f"--token-file {path}: {exc}") from exc
-    if len(token) < 16 or any(c.isspace() for c in token):
-        raise UsageError(f"--token-file {path}: the token must be one word of at least 16 characters")
-    return token
 
 
 def bind_socket(host: str, port: int) -> socket.socket:
@@ -117,10 +118,10 @@ class _Server(uvicorn.Server):
 def options_from(args: argparse.Namespace, host: str) -> WebOptions:
     """The console's options; on a bind other machines can reach, a token is required (for
     reads as well as writes) and the ``Host`` check names the bind address and ``--allow-host``."""
-    token = read_token(args.token_file) if args.token_file else None
+    tokens = read_tokens(args.token_file) if args.token_file else ()
     loopback = is_loopback(host)
     extra = tuple(getattr(args, "allow_host", None) or ())
-    if not loopback and token is None:
+    if not loopback and not tokens:
         raise UsageError(
             f"--bind {host} is reachable from other machines: give --token-file "
             "(there the token is needed to read as well as to write)"
@@ -128,13 +129,14 @@ def options_from(args: argparse.Namespace, host: str) -> WebOptions:
     allowed = (*LOOPBACK_NAMES, host, *extra) if loopback else (*served_names(host), *extra)
     return WebOptions(
         read_only=args.read_only,
-        token=token,
+        tokens=tokens,
         domain=args.domain,
         zenoh=getattr(args, "zenoh", None),
         allowed_hosts=tuple(dict.fromkeys(h.lower() for h in allowed)),
         timeout=args.timeout,
         token_for_reads=not loopback,
         schemas=_schemas(getattr(args, "schema", None) or ()),
+        identity=getattr(args, "as_name", None) or local_identity(),
     )
 
 
@@ -194,7 +196,7 @@ async def _serve(args: argparse.Namespace, options: WebOptions, sock: socket.soc
     try:
         monitor = session.monitor(on_event=hub.on_event)
         view.attach(monitor)
-        client = AsyncParameterClient(session.client())
+        client = AsyncParameterClient(session.client(Via.WEB))
         app = build_app(view, hub, client, options)
         config = uvicorn.Config(
             app,
@@ -210,7 +212,7 @@ async def _serve(args: argparse.Namespace, options: WebOptions, sock: socket.soc
         mode = (
             "read-only"
             if options.read_only
-            else ("writes need the token" if options.token else "writes allowed")
+            else ("writes need the token" if options.tokens else "writes allowed")
         )
         where = f"zenoh {options.zenoh}" if options.zenoh else f"domain {args.domain}"
         sys.stdout.write(f"[WEB] Console on http://{shown}:{port}/ ({where}, {mode})\n")

@@ -42,6 +42,7 @@ STATUS: dict[str, int] = {
     ErrorCode.NOT_PERMITTED: 403,  # secure mode: DDS Security refuses this identity the action
     ErrorCode.INTERNAL: 500,  # the node (or this console) failed: not a refusal of the value
     ErrorCode.UNKNOWN: 502,  # the node answered with a code this version does not know
+    ErrorCode.NO_HISTORY: 404,  # the node keeps no history (/api/history answers "kept": false instead)
     WebCode.BAD_REQUEST: 400,
     WebCode.UNAUTHORIZED: 401,
     WebCode.CROSS_ORIGIN: 403,

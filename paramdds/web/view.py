@@ -18,10 +18,11 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, TypeVar
 
 from ..core.descriptors import ParameterDescriptor
+from ..core.results import LastChange
 from ..core.values import ParameterValue
 from ..dds.client import NodeInfo
 from .model import matches
@@ -44,6 +45,13 @@ class NodePage:
 class NodeDetail:
     summary: NodeInfo
     parameters: Table
+    last_changes: dict[str, LastChange] = field(default_factory=dict)  # who last changed each, if said
+
+
+def held_last_changes(st: NodeState) -> dict[str, LastChange]:
+    """Who last changed each parameter of ``st``, as the monitor holds it (from the state samples)."""
+    held = getattr(st, "last_changes", None)  # TODO(web-history): A's field, once merged
+    return dict(held) if held else {}
 
 
 class StateView:
@@ -110,6 +118,8 @@ class StateView:
     def detail(self, node: str) -> NodeDetail | None:
         def build(states: dict[str, NodeState]) -> NodeDetail | None:
             st = states.get(node)
-            return None if st is None else NodeDetail(self._summary(st), dict(st.parameters))
+            if st is None:
+                return None
+            return NodeDetail(self._summary(st), dict(st.parameters), held_last_changes(st))
 
         return self._peek(build)

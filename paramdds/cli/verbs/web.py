@@ -21,7 +21,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--token-file",
         metavar="FILE",
-        help="a bearer token (one word, 16+ characters) required for writes; "
+        help="the bearer token required for writes (one word, 16+ characters), or one line "
+        "NAME TOKEN per operator (writes with that token are recorded as NAME); "
         "required on a non-loopback --bind, where reads need it too",
     )
     p.add_argument(

@@ -19,6 +19,8 @@ const S = {
   checkTimers: new Map(),  // name -> the timer of its pending validation (debounced edits)
   checks: new Map(),       // name -> sequence number of its newest validation (older answers are dropped)
   refusedTogether: null,   // the names of an atomic apply the node refused: its verdict on their combination
+  timeline: null,          // the parameter whose timeline is open (null: none)
+  timelineTimer: null,
 };
 const $ = (sel, root = document) => root.querySelector(sel);
 
@@ -143,8 +145,15 @@ function parseEditor(row, raw) {
 
 // -- API --------------------------------------------------------------------------------
 
+// The operator's name, sent with every write as "as" and kept by this browser (localStorage);
+// a token that names its operator wins over it at the console.
+const OPERATOR_KEY = "paramdds-operator";
+function operatorName() { return $("#operator").value.trim(); }
+const WRITES = ["/api/set", "/api/delete", "/api/load"];
+
 async function api(path, body) {
   const opts = { headers: {} };
+  if (body !== undefined && WRITES.includes(path) && operatorName()) body = { ...body, as: operatorName() };
   const token = sessionStorage.getItem("paramdds-token") || $("#token").value;
   if (token) opts.headers["Authorization"] = "Bearer " + token;  // reads need it too off loopback
   if (body !== undefined) {
@@ -214,7 +223,7 @@ function shownNode(node, origin) { return origin === "ros2" ? "/" + node : node;
 
 function select(node) {
   node = node.replace(/^\/+/, "");
-  if (S.selected !== node) { S.dirty.clear(); S.baseRevision = null; S.refusedTogether = null; banner(null); }
+  if (S.selected !== node) { S.dirty.clear(); S.baseRevision = null; S.refusedTogether = null; banner(null); closeTimeline(); }
   checkNode(node);
   S.selected = node;
   if (location.hash !== "#node=" + encodeURIComponent(node)) history.replaceState(null, "", "#node=" + encodeURIComponent(node));
@@ -281,14 +290,75 @@ function editable(row) { return !S.info.read_only && !row.descriptor.read_only; 
 
 function rowElement(row) {
   const d = row.descriptor;
+  // the name opens the parameter's timeline (a focusable span: the row's only button is its editor's Set)
+  const name = el("span", { class: "pname", role: "button", tabIndex: 0, title: "show its history", text: row.name });
+  name.addEventListener("click", () => openTimeline(row.name));
+  name.addEventListener("keydown", (e) => { if (e.key === "Enter" || e.key === " ") { e.preventDefault(); openTimeline(row.name); } });
   const tr = el("tr", { "data-name": row.name },
-    el("td", { class: "name" }, row.name, d.read_only ? el("span", { class: "lock", title: "read-only: no editor", text: "read-only" }) : null),
+    el("td", { class: "name" }, name, d.read_only ? el("span", { class: "lock", title: "read-only: no editor", text: "read-only" }) : null),
     el("td", { class: "value" }, el("span", { class: "current", text: cellText(row.value, row.type) }),
       editable(row) ? editorFor(row) : null, el("div", { class: "error" })),
     el("td", { class: "type", text: row.type }),
     el("td", { class: "desc", text: d.description }),
-    el("td", { class: "constraints", text: constraintsText(d) }));
+    el("td", { class: "constraints", text: constraintsText(d) }),
+    lastChangeCell(row.last_change));
   return tr;
+}
+
+// -- who changed what, and when -------------------------------------------------------------------
+
+// An author as the node recorded it: the name, and "claimed" unless the node verified it
+// (in plain mode every name is the writer's own word; DDS Security verifies the writer's certificate).
+function author(who, verified) {
+  return [el("span", { class: "who", text: visible(who) }),
+    verified ? el("span", { class: "verified", title: "verified by the node (the writer's certificate)", text: "verified" })
+      : el("span", { class: "claimed", title: "the writer's own word: not verified by the node", text: "claimed" })];
+}
+function shortTime(iso) {
+  const t = new Date(iso);
+  return t.toDateString() === new Date().toDateString() ? t.toLocaleTimeString() : t.toLocaleString();
+}
+function lastChangeCell(lc) {
+  if (!lc) return el("td", { class: "last muted", title: "the node did not say who last changed it" });
+  return el("td", { class: "last", title: `revision ${lc.revision} at ${lc.time} (UTC)` },
+    ...author(lc.who, lc.verified), el("div", { class: "muted", text: `${lc.via} · r${lc.revision} · ${shortTime(lc.time)}` }));
+}
+
+// A parameter's timeline, newest first: the changes its node applied and the writes it refused.
+async function openTimeline(name) {
+  S.timeline = name;
+  $("#timeline").hidden = false;
+  $("#timeline-title").textContent = `History of ${name}`;
+  await loadTimeline();
+}
+function closeTimeline() { S.timeline = null; $("#timeline").hidden = true; }
+function timelineSoon() {
+  if (S.timeline === null) return;
+  clearTimeout(S.timelineTimer);
+  S.timelineTimer = setTimeout(loadTimeline, 100);
+}
+async function loadTimeline() {
+  const node = S.selected, name = S.timeline;
+  if (!node || name === null) return;
+  const { ok, data } = await api(`/api/history?node=${encodeURIComponent(node)}&name=${encodeURIComponent(name)}`);
+  if (node !== S.selected || name !== S.timeline) return;
+  const list = $("#timeline-list"), note = $("#timeline-note");
+  if (!ok) { list.replaceChildren(); note.textContent = `No history: ${data.error ? data.error.message : "no answer"}`; return; }
+  if (!data.kept) { list.replaceChildren(); note.textContent = `Node ${node} keeps no history (a node of an older release, or a foreign peer).`; return; }
+  const notes = [];
+  if (!data.records.length) notes.push("No change recorded.");
+  if (data.more) notes.push(`The newest ${data.records.length} are shown.`);
+  if (data.compacted) notes.push("Older history was dropped by retention: what follows is not the whole past.");
+  note.textContent = notes.join(" ");
+  list.replaceChildren(...data.records.map(timelineItem));
+}
+function timelineItem(r) {
+  const old = r.old === null ? null : cellText(r.old, r.old_type), now = r.new === null ? null : cellText(r.new, r.new_type);
+  const change = r.outcome === "refused" ? `refused ${now === null ? "delete" : now}: ${r.reason}`
+    : old === null ? `added ${now}` : now === null ? `deleted (was ${old})` : `${old} → ${now}`;
+  return el("li", { class: r.outcome, "data-seq": String(r.seq), title: `${r.time} (UTC)` },
+    el("span", { class: "muted", text: `${shortTime(r.time)}  r${r.revision}  ` }), ...author(r.who, r.verified),
+    el("span", { class: "muted", text: ` via ${r.via}` }), el("div", { class: "change", text: change }));
 }
 
 function editorText(row) {
@@ -463,6 +533,7 @@ async function applyOne(name) {
   const { ok, data } = await api("/api/set", { node, values: { [name]: value } });
   if (node !== S.selected) return;
   showResults(data, [name]);
+  if (name === S.timeline) timelineSoon();  // a refusal is in the timeline too, and sends no event
   if (!ok) return;
   // the page's own write moves the base of the other edits: this change is not "the node
   // changed meanwhile" (it went from the base to base + 1, and nobody else wrote in between)
@@ -486,6 +557,7 @@ async function applyAll() {
   const if_revision = expected ? `${expected.incarnation}:${expected.revision}` : null;
   const { ok, status, data } = await api("/api/set", { node, values, atomic: true, if_revision });
   if (node !== S.selected) return;
+  if (names.includes(S.timeline)) timelineSoon();
   if (ok) {
     const unchecked = mirrored ? ` Not compared with the values you started from: node ${node} is mirrored from ${S.summary.origin}, which has no revisions.` : "";
     banner(`Applied ${names.length} changes atomically (revision ${data.revision}).${unchecked}`, "ok"); clearDirty(names); acked(names);
@@ -530,6 +602,8 @@ function applyRow(row) {
   const tr = rowOf(row.name);
   if (!tr) { $("#params tbody").append(rowElement(row)); filterRows(); return; }
   $(".current", tr).textContent = cellText(row.value, row.type);
+  if (row.name === S.timeline) timelineSoon();
+  if (S.dirty.has(row.name)) $("td.last", tr)?.replaceWith(lastChangeCell(row.last_change));
   if (!S.dirty.has(row.name)) {
     const fresh = rowElement(row);
     tr.replaceWith(fresh);
@@ -548,6 +622,7 @@ function log(events, skipped) {
     }
     const who = shownNode(e.node, e.origin);
     const what = e.name ? `${who} ${e.name}` + (e.value !== null && e.value !== undefined ? ` = ${cellText(e.value, e.type)}` : "")
+      + (e.who ? ` by ${visible(e.who)}` : "")
       : e.event === "status" ? `${who} ${e.status || "ok"}` : who;
     list.prepend(el("li", { class: "k-" + e.event, text: `${when}  ${e.event.padEnd(8)} r${e.revision}  ${what}` }));
   }
@@ -577,7 +652,7 @@ function openStream() {
     const d = parseJSON(m.data);
     if (d.node !== S.selected) return;
     for (const row of d.rows) applyRow(row);
-    for (const n of d.deleted) { S.rows.delete(n); rowOf(n)?.remove(); clearDirty([n]); }
+    for (const n of d.deleted) { S.rows.delete(n); rowOf(n)?.remove(); clearDirty([n]); if (n === S.timeline) timelineSoon(); }
     if (d.summary) setSummary(d.summary);
   });
   es.addEventListener("nodes", (m) => {
@@ -605,6 +680,10 @@ async function start() {
   $("#token-box").hidden = !data.token_required || !!saved;
   if (saved) tokenCookie(saved);
   $("#load-label").hidden = data.read_only;
+  $("#operator").hidden = data.read_only;
+  $("#operator").value = localStorage.getItem(OPERATOR_KEY) || "";
+  $("#operator").addEventListener("input", () => localStorage.setItem(OPERATOR_KEY, operatorName()));
+  $("#timeline-close").addEventListener("click", closeTimeline);
   $("#apply").hidden = data.read_only;
   $("#discard").hidden = data.read_only;
   let gotToken = null;

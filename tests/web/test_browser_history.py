@@ -1,0 +1,54 @@
+"""Who changed what, in real headless Chromium: the operator's name and a parameter's timeline.
+
+One browser, one console and two nodes (``arm``, ``base``) for the module (conftest.py).
+"""
+
+from __future__ import annotations
+
+import pytest
+from playwright.sync_api import Page, expect
+
+from ._support import Console
+from .test_api import post
+from .test_browser import current, open_node, row
+
+pytestmark = pytest.mark.slow
+
+
+def test_a_set_made_as_the_operator_shows_in_its_timeline(page: Page, console: Console) -> None:
+    post(console, "set", {"node": "arm", "values": {"gain": 5}, "as": "setup"}).raise_for_status()
+    open_node(page, console, "arm")
+    page.fill("#operator", "carol")
+    field = row(page, "gain").locator('[data-role="input"]')
+    field.fill("8")
+    field.press("Enter")
+    expect(current(page, "gain")).to_have_text("8")
+
+    row(page, "gain").locator(".pname").click()
+    expect(page.locator("#timeline-title")).to_have_text("History of gain")
+    newest = page.locator("#timeline-list li").first
+    expect(newest.locator(".who")).to_have_text("carol")
+    expect(newest.locator(".change")).to_have_text("5 → 8")
+    expect(newest).to_contain_text("via web")
+    expect(page.locator("#timeline-list li").nth(1).locator(".change")).to_have_text("4 → 5")
+
+    field = row(page, "gain").locator('[data-role="input"]')
+    field.fill("9")
+    field.press("Enter")  # the open timeline follows the change
+    expect(page.locator("#timeline-list li").first.locator(".change")).to_have_text("8 → 9")
+
+    page.reload()  # the operator's name is remembered by the browser
+    expect(page.locator("#operator")).to_have_value("carol")
+
+
+def test_the_timeline_shows_a_refused_write_with_its_reason(page: Page, console: Console) -> None:
+    r = post(console, "set", {"node": "base", "values": {"serial": "SN-7"}, "as": "mallory"})
+    assert r.status_code == 403, r.text
+    open_node(page, console, "base")
+    row(page, "serial").locator(".pname").click()
+    refused = page.locator("#timeline-list li.refused").first
+    expect(refused.locator(".who")).to_have_text("mallory")
+    expect(refused.locator(".change")).to_contain_text("refused 'SN-7': ")
+    expect(page.locator("#timeline-close")).to_be_visible()
+    page.click("#timeline-close")
+    expect(page.locator("#timeline")).to_be_hidden()
