@@ -78,7 +78,7 @@ def log_entry(e: MonitorEvent) -> Row:
 
 def last_change_of(e: MonitorEvent) -> LastChange | None:
     """Who made the change an event carries (None: not a change, or the node did not say)."""
-    last = getattr(e, "last_change", None)  # TODO(web-history): A's field, once merged
+    last = getattr(e, "last_change", None)  # TODO(web-history): MonitorEvent.last_change, from state-blame
     return last if isinstance(last, LastChange) else None
 
 

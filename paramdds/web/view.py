@@ -50,8 +50,10 @@ class NodeDetail:
 
 def held_last_changes(st: NodeState) -> dict[str, LastChange]:
     """Who last changed each parameter of ``st``, as the monitor holds it (from the state samples)."""
-    held = getattr(st, "last_changes", None)  # TODO(web-history): A's field, once merged
-    return dict(held) if held else {}
+    blame = getattr(st, "blame", None)  # TODO(web-history): NodeState.blame, from state-blame once merged
+    if not blame:
+        return {}
+    return {name: LastChange(*b) for name, b in blame.items() if b[0]}  # (who, verified, via, time, revision)
 
 
 class StateView:
