@@ -96,19 +96,36 @@ def test_bad_history_queries_are_refused_with_their_reason(
 def test_a_named_token_names_the_operator_over_what_the_page_claims(
     domain: int, console: Console, tmp_path: Path
 ) -> None:
-    token = "frank-token-0123456789"
+    """Who a write is made as: the name its token carries, else the page's, else the console's own."""
+    named, unnamed = "frank-token-0123456789", "shared-token-0123456789"
     path = tmp_path / "tokens"
-    path.write_text(f"frank {token}\n")
-    guarded = Console(domain, "--token-file", str(path))
+    path.write_text(f"# operators\nfrank {named}\n{unnamed}\n")
+    guarded = Console(domain, "--token-file", str(path), "--as", "console-arm")
     try:
         wait_for_nodes(guarded.url, {"arm", "base"})
         body = {"node": "arm", "values": {"gain": 7}, "as": "mallory"}
         assert error(post(guarded, "set", body)) == (401, "UNAUTHORIZED")
-        r = post(guarded, "set", body, Authorization=f"Bearer {token}")
-        assert r.status_code == 200, r.text
-        assert r.json()["who"] == "frank"
-        newest = history(guarded, node="arm", name="gain", limit=1).json()["records"][0]
-        assert (newest["who"], newest["verified"], newest["new"]) == ("frank", False, 7)
+        cases = [
+            (named, {"as": "mallory"}, "frank"),  # the token's name wins over the page's claim
+            (unnamed, {"as": "gina"}, "gina"),
+            (unnamed, {}, "console-arm"),  # nobody said: the console's --as
+        ]
+        for gain, (token, claim, who) in enumerate(cases, 1):
+            r = post(
+                guarded,
+                "set",
+                {"node": "arm", "values": {"gain": gain}, **claim},
+                Authorization=f"Bearer {token}",
+            )
+            assert r.status_code == 200, r.text
+            assert r.json()["who"] == who
+            newest = history(guarded, node="arm", name="gain", limit=1).json()["records"][0]
+            assert (newest["who"], newest["verified"], newest["via"], newest["new"]) == (
+                who,
+                False,
+                "web",
+                gain,
+            )
     finally:
         guarded.stop()
 
