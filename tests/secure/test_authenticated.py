@@ -10,7 +10,7 @@ import json
 import subprocess
 from pathlib import Path
 
-from paramdds.secure.authenticated import adjusted_prefix, subject_of
+from paramdds.secure.authenticated import adjusted_prefix, load_ca, subject_of
 
 from .conftest import SecureSystem
 
@@ -30,19 +30,19 @@ def _key_of(keystore: Path, name: str) -> bytes:
 
 
 def test_a_certificate_names_the_participant_whose_guid_derives_from_it(keystore: Path) -> None:
-    ca = (keystore / "ca" / "identity_ca.pem").read_bytes()
+    ca = load_ca((keystore / "ca" / "identity_ca.pem").read_bytes())
     assert subject_of(_cert(keystore, "op1"), _key_of(keystore, "op1"), ca) == "O=paramdds,CN=op1"
     assert _key_of(keystore, "op1")[0] & 0x80  # the flag bit of an adjusted GUID
 
 
 def test_another_participants_certificate_names_nobody(keystore: Path) -> None:
-    ca = (keystore / "ca" / "identity_ca.pem").read_bytes()
+    ca = load_ca((keystore / "ca" / "identity_ca.pem").read_bytes())
     # mallory (here: viewer) announces op1's certificate: her GUID derives from her own subject
     assert subject_of(_cert(keystore, "op1"), _key_of(keystore, "viewer"), ca) is None
 
 
 def test_a_certificate_of_another_ca_or_none_names_nobody(keystore: Path, foreign_keystore: Path) -> None:
-    ca = (keystore / "ca" / "identity_ca.pem").read_bytes()
+    ca = load_ca((keystore / "ca" / "identity_ca.pem").read_bytes())
     foreign = _cert(foreign_keystore, "admin")
     assert subject_of(foreign, _key_of(foreign_keystore, "admin"), ca) is None
     assert subject_of("not a certificate", _key_of(keystore, "op1"), ca) is None
