@@ -15,7 +15,9 @@ a dispose): it joins the change being gathered.
 
 A set made through these services is recorded by the paramdds node with ``via`` ros2 and
 ``who`` :data:`ROS2_CALLER`, unverified: rclpy hands a service callback the request
-without its header, so the calling ROS 2 node is not known here.
+without its header, and the header it takes exposes the sequence number only (not the
+writer GUID that would name the caller through the ROS graph), so the calling ROS 2
+node is not known here.
 """
 
 from __future__ import annotations
@@ -72,8 +74,7 @@ class Exposer:
 
         self.ros = ros
         self.timeout = timeout
-        # a ROS 2 tool's write, recorded via ros2; rclpy's service callbacks do not carry the
-        # request's header (the caller's GUID), so the caller is named only as ROS 2
+        # a ROS 2 tool's write, recorded via ros2 (the caller is not known: see the module doc)
         self.client = ParameterClient(participant, qos, timeout=timeout, as_=ROS2_CALLER, via=Via.ROS2)
         self.nodes: dict[str, Exposed] = {}
         self._refused: set[str] = set()  # node ids ROS 2 does not accept as names
