@@ -334,26 +334,34 @@ class MirrorTable(_Held):
         )
         with self._commits:
             self._forwarding.append(forwarding)
+        try:  # until its answer is committed: an event in between is this set's change
+            change = self._send(send, results, atomic, deadline)
+        finally:
+            with self._commits:
+                self._forwarding.remove(forwarding)
+        done = tuple(r for r in results if r is not None)
+        return SetOutcome(done, change.revision if change is not None else self.revision, change)
+
+    def _send(
+        self, send: list[tuple[int, Parameter]], results: list[SetResult | None], atomic: bool, deadline: int
+    ) -> ChangeSet | None:
+        """Forward ``send`` (index in the request, parameter) to the node, fill ``results``
+        with its answers, and commit what it accepted."""
         try:
             answers = self.link.set([p for _, p in send], atomic, deadline) if send else []
         except Unanswered as exc:  # sent, then no answer or a failure: the node may apply it
             raise unanswered(self.link.fqn, exc) from exc
         except ParamddsError as exc:  # not sent (its service is not there)
             answers = [SetResult(p.name, False, exc.message, exc.code) for _, p in send]
-        finally:
-            with self._commits:
-                self._forwarding.remove(forwarding)
         accepted: list[Parameter] = []
         for (i, p), answer in zip(send, answers, strict=True):
             results[i] = answer
             if answer.successful:
                 accepted.append(p)
-        change = None
-        if accepted:
-            with self._commits:
-                change = self.held.mirror({p.name: self._entry_after(p) for p in accepted})
-        done = tuple(r for r in results if r is not None)
-        return SetOutcome(done, change.revision if change is not None else self.revision, change)
+        if not accepted:
+            return None
+        with self._commits:
+            return self.held.mirror({p.name: self._entry_after(p) for p in accepted})
 
     def _screen(self, params: object) -> tuple[list[object], SetOutcome | None]:
         """``params`` as a request list, and the outcome a table gives when the whole request
