@@ -105,3 +105,43 @@ def test_the_server_records_each_writers_certificate_whatever_it_claims(system: 
     assert isinstance(last, dict)
     assert (last["robot.mode"]["who"], last["robot.mode"]["verified"]) == ("O=paramdds,CN=op1", True)
     assert last["robot.max_velocity"]["who"] == "O=paramdds,CN=admin"
+
+
+FORGED_SET = """
+import shutil, sys, tempfile
+from pathlib import Path
+from paramdds.dds.client import ParameterClient
+from paramdds.dds.participant import close_participant, make_participant
+from paramdds.secure.identity import load_identity
+
+domain, own, other = int(sys.argv[1]), load_identity(sys.argv[2]), Path(sys.argv[3])
+announced = Path(tempfile.mkdtemp())
+shutil.copy(other / "cert.pem", announced / "cert.pem")
+
+
+class Forged:  # authenticates as its own identity, announces another's certificate
+    path, name, role, nodes = announced, own.name, own.role, own.nodes
+
+    def security_config(self, domain_id):
+        return own.security_config(domain_id)
+
+
+participant = make_participant(domain, localhost=True, identity=Forged())
+client = ParameterClient(participant, timeout=10, as_="mallory")
+print(client.set("robot1", {"robot.name": "forged"}).successful)
+client.close()
+close_participant(participant)
+"""
+
+
+def test_a_participant_announcing_another_certificate_is_recorded_by_its_claim(system: SecureSystem) -> None:
+    done = subprocess.run(
+        [str(system.bin / "python"), "-c", FORGED_SET, str(system.domain), system.identity("op1"),
+         system.identity("admin")],
+        capture_output=True, text=True, timeout=60, env=system.env(), check=False,
+    )  # fmt: skip
+    assert done.returncode == 0 and done.stdout.split() == ["True"], done.stderr
+    records = _history(system, "viewer", "robot1")["records"]
+    assert isinstance(records, list)
+    (forged,) = [r for r in records if r["name"] == "robot.name" and r["new"] == "forged"]
+    assert (forged["who"], forged["verified"]) == ("mallory", False)  # neither admin nor verified
