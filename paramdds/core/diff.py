@@ -2,13 +2,12 @@
 
 Pure: values in, differences out (``paramdds diff`` renders them). Values are compared
 exactly (:meth:`~.values.ParameterValue.same_as`: NaN equals NaN, ``-0.0`` is not
-``0.0``); a side may give a ``fit`` that reads one side's value as the other side's
-parameter holds it (a file's ``2`` for a node's double is ``2.0``, as ``load`` reads it).
+``0.0``, ``2`` is not ``2.0``: the caller reads a file's values as the node holds them first).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import Enum
 
@@ -41,24 +40,13 @@ class Difference:
         return DiffKind.CHANGED
 
 
-Fit = Callable[[str, ParameterValue], ParameterValue]
-
-
-def compare(
-    a: Mapping[str, ParameterValue], b: Mapping[str, ParameterValue], *, fit_b: Fit | None = None
-) -> list[Difference]:
-    """Every parameter that differs between ``a`` and ``b``, by name.
-
-    ``fit_b(name, value)``, when given, reads B's value as A's parameter ``name`` holds it
-    before the two are compared (the difference still shows B's value as B has it).
-    """
+def compare(a: Mapping[str, ParameterValue], b: Mapping[str, ParameterValue]) -> list[Difference]:
+    """Every parameter that differs between ``a`` and ``b``, by name."""
     out: list[Difference] = []
     for name in sorted(a.keys() | b.keys()):
         va, vb = a.get(name), b.get(name)
-        if va is not None and vb is not None:
-            fitted = fit_b(name, vb) if fit_b is not None else vb
-            if va.same_as(fitted):
-                continue
+        if va is not None and vb is not None and va.same_as(vb):
+            continue
         out.append(Difference(name, va, vb))
     return out
 
