@@ -1,6 +1,7 @@
 """``paramdds history``: who changed what, and when: a node's changes and refused writes, newest last.
 
-One line per record: the time (UTC), the revision, ``NAME: OLD → NEW``, who and through
+One line per record: the time (UTC), the revision, ``NAME: OLD → NEW`` (``(none)``: the
+parameter did not exist; ``(deleted)``: the change deleted it), who and through
 what (``alice (claimed) via cli``: a name the node could not verify is marked
 ``(claimed)``), and for a refused write the node's reason. ``-o json``: a list of
 records (``node, name, revision, time, who, verified, via, old, new, outcome, reason``).
@@ -77,7 +78,7 @@ def compacted_line(node: str, records: list[HistoryRecord]) -> str:
 def history_line(r: HistoryRecord) -> str:
     """``TIME  rev N  NAME: OLD → NEW  by WHO via VIA`` (and ``  REFUSED: REASON``)."""
     who = r.who if r.verified else f"{r.who} (claimed)"
-    change = f"{r.name}: {_shown(r.old)} → {_shown(r.new)}"
+    change = f"{r.name}: {_shown(r.old, '(none)')} → {_shown(r.new, '(deleted)')}"
     line = f"{short_time(r.time_ns)}  rev {r.revision}  {change}  by {who} via {r.via}"
     return line if r.applied else f"{line}  REFUSED: {r.reason or r.code}"
 
@@ -90,5 +91,5 @@ def short_time(time_ns: int) -> str:
     return text[:23] + "Z"
 
 
-def _shown(value: ParameterValue | None) -> str:
-    return "(none)" if value is None else value.show()
+def _shown(value: ParameterValue | None, absent: str) -> str:
+    return absent if value is None else value.show()
