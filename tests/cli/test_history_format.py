@@ -38,10 +38,11 @@ def test_a_history_line_marks_a_claim_and_a_refusal() -> None:
 
 
 def test_the_compacted_line_names_the_oldest_kept() -> None:
-    assert "before revision 3 (2026-11-29T01:52:42.610Z) was dropped by retention" in compacted_line(
-        "robot1", [record()]
+    assert compacted_line("robot1", [record()]) == (
+        "retention dropped part of the history of node 'robot1' asked for: "
+        "the oldest record kept is at revision 3 (2026-11-29T01:52:42.610Z)"
     )
-    assert "nothing of it is kept" in compacted_line("robot1", [])
+    assert "none of it is kept" in compacted_line("robot1", [])
 
 
 def test_difference_lines() -> None:

@@ -67,11 +67,11 @@ def run(args: argparse.Namespace) -> int:
 def compacted_line(node: str, records: list[HistoryRecord]) -> str:
     """What ``history`` says on stderr when retention dropped part of the range asked for."""
     if not records:
-        return f"the history of node {node!r} in this range was dropped by retention: nothing of it is kept"
+        return f"retention dropped the history of node {node!r} asked for: none of it is kept"
     first = records[0]
     return (
-        f"the history of node {node!r} before revision {first.revision} ({short_time(first.time_ns)}) "
-        f"was dropped by retention: the oldest kept is printed first"
+        f"retention dropped part of the history of node {node!r} asked for: the oldest record "
+        f"kept is at revision {first.revision} ({short_time(first.time_ns)})"
     )
 
 
