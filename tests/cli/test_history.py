@@ -165,3 +165,22 @@ def test_watch_since_misses_nothing_across_the_seam_and_a_stall(node: tuple[int,
     expected = [(r["revision"], r["name"], r["new"]) for r in history(domain, "--since", "2")]
     assert seen == expected  # each change once, in revision order, with nothing missed
     assert [r for r, _, _ in seen] == [3, 4, *range(5, 25), *[r for r in range(25, 55) for _ in (0, 1)]]
+
+
+def test_a_node_that_keeps_no_history_is_one_line_and_exit_1() -> None:
+    from paramdds.core.table import ParameterTable
+
+    domain = next_domain()
+    with DdsSession(domain) as dds:
+        table = ParameterTable("old_peer")
+        table.declare("speed", 1.0)
+        server = dds.server(table)
+        server._histories.pop("old_peer")  # what a peer without history answers: history_kept FALSE
+        for args in (
+            ["history", "old_peer"],
+            ["diff", "old_peer@1", "old_peer"],
+            ["watch", "old_peer", "--since", "0"],
+        ):
+            done = run_cli(domain, *args)
+            assert done.returncode == 1, (args, done.stderr)
+            assert done.stderr.count("\n") == 1 and "history" in done.stderr, done.stderr
