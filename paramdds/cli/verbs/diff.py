@@ -13,7 +13,8 @@ the node's parameter holds it (a file's ``2`` for a double is ``2.0``, as ``load
 it). Exit 0 when the sides are the same, 1 when they differ (as diff(1) does), 2 for
 bad usage or a file that is not a parameter file (file and line named), 3 for a node
 that is not there; a point a node's history no longer reaches (retention dropped it) or
-a node that keeps no history is one line, exit 1. ``-o json``: a list of blocks, one per
+a node that keeps no history is one line, exit 1; over Zenoh, a known site a glob did not
+reach is one line each, exit 3 (as ``get``). ``-o json``: a list of blocks, one per
 node compared: ``{"node", "a", "b", "equal", "differences": [{"name", "kind", "a", "b"}]}``.
 """
 
@@ -29,6 +30,7 @@ if TYPE_CHECKING:
     from ...core.values import ParameterValue
     from ...dds.client import ParameterClient
     from ...session import Session
+    from ...zenoh.completeness import Lack
     from .._when import Point
 
     Values = dict[str, ParameterValue]
@@ -89,6 +91,7 @@ def run(args: argparse.Namespace) -> int:
     a, b = parse_side(args.a), parse_side(args.b)
     if a.is_glob and b.is_glob:
         raise UsageError("diff compares a glob with one side: a node, a file or NODE@…, not another glob")
+    missing: dict[str, Lack] = {}
     if a.path is not None and b.path is not None:
         blocks = files_blocks(a, b)
     else:
@@ -96,6 +99,7 @@ def run(args: argparse.Namespace) -> int:
 
         with Session(args) as session:
             blocks = node_blocks(session, a, b)
+            missing = session.missing_sites()  # over Zenoh: a glob's sites that did not answer
     if args.output in ("json", "yaml"):
         emit(
             args.output,
@@ -112,7 +116,15 @@ def run(args: argparse.Namespace) -> int:
         )
     else:
         emit("table", None, blocks_text(blocks, by_node=a.is_glob or b.is_glob))
-    return Exit.REFUSED if any(k.differences for k in blocks) else Exit.OK
+    code: int = Exit.REFUSED if any(k.differences for k in blocks) else Exit.OK
+    if missing:
+        from ...zenoh.completeness import lacking_exit, lacking_line
+        from .._output import problem
+
+        for site, lack in missing.items():
+            problem(lacking_line(site, lack))
+        code = max(code, lacking_exit(missing))
+    return code
 
 
 def blocks_text(blocks: list[Block], *, by_node: bool = False) -> str:
