@@ -26,10 +26,8 @@ HELP = "who changed what, and when: a node's past changes and refused writes"
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("node", metavar="NODE")
     p.add_argument("names", nargs="*", metavar="NAME", help="only these parameters (default: every one)")
-    p.add_argument(
-        "--since", metavar="REV|TIME", help="after this revision, or from this time (ISO 8601, or an age: 2h)"
-    )
-    p.add_argument("--until", metavar="TIME", help="up to this time (ISO 8601, or an age: 10m, 2h)")
+    p.add_argument("--since", metavar="REV|TIME", help="after revision REV, or from TIME (ISO 8601, an age)")
+    p.add_argument("--until", metavar="TIME", help="up to TIME (ISO 8601, or an age: 10m)")
     p.add_argument("--who", metavar="PATTERN", default="", help="only changes by these (a glob: '*@lab')")
     p.add_argument("--refused", action="store_true", help="only the writes the node refused")
 
