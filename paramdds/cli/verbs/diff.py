@@ -198,22 +198,20 @@ def node_blocks(session: Session, a: Side, b: Side) -> list[Block]:
     client = session.client()
     if a.pattern is None or (b.is_glob and not a.is_glob):  # the node (or glob) side first
         return [Block(k.node, k.b, k.a, _swap(k.differences)) for k in node_blocks(session, b, a)]
-    matches = _nodes_of(session, a)
+    fixed: Values | None = None  # B's values when B is one node (or one node as it was)
+    if b.path is None:
+        ((b_node, (b_values, _)),) = _nodes_of(session, b).items()
+        fixed = _rebuilt(client, b_node, b_values, b.point) if b.point is not None else b_values
     blocks: list[Block] = []
-    fixed: tuple[Values, Descriptors] | None = None  # B when it is one node for every match
-    for node, (values, descriptors) in matches.items():
-        label_a = node if a.is_glob else a.text
+    for node, (values, descriptors) in _nodes_of(session, a).items():
         if a.point is not None:
             values = _rebuilt(client, node, values, a.point)
-        if b.path is not None:
-            other = _fitted(file_values(b.path, node), descriptors)
+        if fixed is not None:
+            other = fixed
         else:
-            if fixed is None:
-                assert b.pattern is not None
-                (b_node, b_now), = _nodes_of(session, b).items()
-                fixed = (_rebuilt(client, b_node, b_now[0], b.point) if b.point else b_now[0], b_now[1])
-            other = fixed[0]
-        blocks.append(Block(node, label_a, b.text, compare(values, other)))
+            assert b.path is not None
+            other = _fitted(file_values(b.path, node), descriptors)
+        blocks.append(Block(node, node if a.is_glob else a.text, b.text, compare(values, other)))
     return blocks
 
 
