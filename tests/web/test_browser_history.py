@@ -8,7 +8,9 @@ from __future__ import annotations
 import pytest
 from playwright.sync_api import Page, expect
 
-from ._support import Console
+from ..cli._support import start_server
+from ._support import CONSOLE_PARAMS, Console
+from .conftest import wait_for_nodes
 from .test_api import post
 from .test_browser import current, open_node, row
 
@@ -52,3 +54,19 @@ def test_the_timeline_shows_a_refused_write_with_its_reason(page: Page, console:
     expect(page.locator("#timeline-close")).to_be_visible()
     page.click("#timeline-close")
     expect(page.locator("#timeline")).to_be_hidden()
+
+
+def test_the_timeline_says_when_retention_dropped_older_history(
+    page: Page, console: Console, domain: int
+) -> None:
+    small = start_server(domain, "-n", "tiny", "-p", str(CONSOLE_PARAMS), "--history-records", "2")
+    try:
+        wait_for_nodes(console.url, {"tiny"})
+        for gain in (1, 2, 3):
+            post(console, "set", {"node": "tiny", "values": {"gain": gain}}).raise_for_status()
+        open_node(page, console, "tiny")
+        row(page, "gain").locator(".pname").click()
+        expect(page.locator("#timeline-note")).to_contain_text("Older history was dropped by retention")
+        expect(page.locator("#timeline-list li").first.locator(".change")).to_have_text("2 → 3")
+    finally:
+        small.stop()
