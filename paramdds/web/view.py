@@ -50,10 +50,10 @@ class NodeDetail:
 
 def held_last_changes(st: NodeState) -> dict[str, LastChange]:
     """Who last changed each parameter of ``st``, as the monitor holds it (from the state samples)."""
-    blame = getattr(st, "blame", None)  # TODO(web-history): NodeState.blame, from state-blame once merged
-    if not blame:
+    last = getattr(st, "last_change", None)  # TODO(web-history): NodeState.last_change, from state-blame
+    if last is None:
         return {}
-    return {name: LastChange(*b) for name, b in blame.items() if b[0]}  # (who, verified, via, time, revision)
+    return {name: lc for name in st.parameters if (lc := last(name)) is not None}
 
 
 class StateView:
