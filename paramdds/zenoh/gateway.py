@@ -14,9 +14,15 @@ On the DDS side it is an ordinary paramdds participant: a
   every node of the site exactly, offline nodes included;
 * a liveliness token ``.../alive`` is held per online node, so remote viewers see a
   node, or the whole site when the gateway or its uplink dies, go offline;
-* queryables on ``.../get``, ``.../list`` and ``.../set`` forward calls to the node
-  and reply with per-parameter results and codes; every call is bounded by the
-  request's timeout (capped at :data:`MAX_CALL_TIMEOUT`).
+* queryables on ``.../get``, ``.../list``, ``.../set`` and ``.../history`` forward
+  calls to the node and reply with per-parameter results and codes (history: one page
+  per query); every call is bounded by the request's timeout (capped at
+  :data:`MAX_CALL_TIMEOUT`). A forwarded write is recorded on the node via ``zenoh``,
+  as the identity the remote asker claims, unverified: neither the gateway nor the node
+  can check who asked (the router authenticated the asker's certificate, and tells no
+  one), and the node takes the gateway's word only;
+* each node's state carries each parameter's last change (who, verified, via, when,
+  revision), as the gateway's monitor holds it.
 
 Standby: several gateways may serve one site. Each holds a token
 ``paramdds/<site>/gateway/<start>_<zid>`` (its start time in ns since the epoch and
@@ -38,14 +44,18 @@ import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
 from typing import Any
 
 import zenoh
 
+from ..core.call import HistoryRequest
+from ..core.history import HistoryQuery
+from ..core.origin import Via
 from ..dds.client import ParameterClient
 from ..dds.monitor import MonitorEvent, NodeState, ParameterMonitor
 from ..errors import InternalError, InvalidNameError, ParamddsError
-from . import codec, keys
+from . import codec, history, keys
 
 log = logging.getLogger(__name__)
 
@@ -55,6 +65,7 @@ DEFAULT_CALL_TIMEOUT = 5.0
 ELECTION_WAIT = 1.0  # seconds: how long a starting gateway asks for the site's other gateways
 WORKERS = 8  # forwarded calls and state queries served at once
 SYNC_WAIT = 3.0  # seconds: the most a starting gateway waits for its site's current state
+UNSAID = "unknown"  # who a forwarded write is recorded as when its asker does not say (an older client)
 
 
 class Gateway:
@@ -88,7 +99,8 @@ class Gateway:
         self._declared: list[Any] = []
         self.on_role = on_role
         self._pool = ThreadPoolExecutor(max_workers=WORKERS, thread_name_prefix="paramdds-zenoh")
-        self.client = ParameterClient(participant, qos, timeout=DEFAULT_CALL_TIMEOUT)
+        # every write it forwards is recorded on the node via zenoh, as the remote asker claims
+        self.client = ParameterClient(participant, qos, timeout=DEFAULT_CALL_TIMEOUT, via=Via.ZENOH)
         self.monitor = ParameterMonitor(participant, qos, on_event=self._on_event)
         self._publisher = threading.Thread(target=self._publish_loop, name="paramdds-zenoh-pub", daemon=True)
         self._publisher.start()
@@ -362,13 +374,27 @@ class Gateway:
             if verb == "set":
                 params = codec.parse_parameters(req.get("parameters"))
                 expected = codec.parse_if_revision(req.get("if_revision"))
-                s = c.set(node, params, atomic=bool(req.get("atomic")), if_revision=expected, timeout=timeout)
+                who = str(req.get("who") or UNSAID)
+                atomic = bool(req.get("atomic"))
+                s = c.set(node, params, atomic=atomic, if_revision=expected, timeout=timeout, as_=who)
                 return codec.set_reply(
                     keys.remote_name(self.site, s.node), s.revision, s.incarnation, s.results
                 )
+            if verb == "history":
+                return self._history(node, history.query_in(req), timeout)
         except (KeyError, TypeError, ValueError) as exc:
             raise ParamddsError(f"a malformed {verb} request: {type(exc).__name__}: {exc}") from None
         raise InvalidNameError(f"unknown call {verb!r} (known: {', '.join(keys.VERBS)})")
+
+    def _history(self, node: str, query: HistoryQuery, timeout: float) -> bytes:
+        """One page of ``node``'s history, as the remote asker pages it (``after_seq``); its
+        records named ``SITE/NODE``."""
+        c = self.client
+        # one call: the client's history() walks every page, the asker here walks them itself
+        kept, page = c.transport.history_page(c._run(HistoryRequest(node, query), timeout))
+        remote = keys.remote_name(self.site, node)
+        records = tuple(replace(r, node=keys.remote_name(self.site, r.node)) for r in page.records)
+        return history.history_reply(remote, replace(page, records=records), kept)
 
     # -- the end ----------------------------------------------------------------------------------------
 

@@ -49,7 +49,8 @@ def _opt_int(obj: Mapping[str, Any], key: str) -> int | None:
     return raw
 
 
-def query_out(q: HistoryQuery, timeout: float) -> dict[str, object]:
+def query_out(q: HistoryQuery) -> dict[str, object]:
+    """A history request's body (the asker adds its ``timeout``)."""
     return {
         "names": list(q.names),
         "since_revision": q.since_revision,
@@ -59,7 +60,6 @@ def query_out(q: HistoryQuery, timeout: float) -> dict[str, object]:
         "outcome": q.outcome.name.lower(),
         "after_seq": q.after_seq,
         "limit": q.limit,
-        "timeout": timeout,
     }
 
 

@@ -1,0 +1,97 @@
+"""The past across sites: history of a remote site's node, who over Zenoh, paging on the wire.
+
+Real processes: a ``paramdds server`` and a ``paramdds zenoh`` gateway per site, a router
+session here; the only way to the site is the router.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from paramdds.core.history import Outcome
+from paramdds.core.values import ParameterValue
+from paramdds.errors import ErrorCode
+from paramdds.zenoh import codec, history, keys
+from paramdds.zenoh.client import RemoteParameterClient, remote_identity
+
+from .conftest import Fleet
+
+pytestmark = pytest.mark.timeout(90)
+
+NODE = "s1/robot1"
+fv = ParameterValue.from_python
+
+
+def _ask(session: Any, key: str, body: dict[str, object]) -> dict[str, Any]:
+    """One raw query, as any Zenoh program sends it; its one reply's JSON."""
+    replies = list(session.get(key, payload=codec.dumps({**body, "timeout": 3.0}), timeout=4.0))
+    assert len(replies) == 1 and replies[0].ok is not None, replies
+    return codec.loads(replies[0].ok.payload.to_bytes(), "a reply")
+
+
+@pytest.mark.slow
+def test_history_of_a_remote_sites_node_lists_changes_made_from_the_cloud_via_zenoh(fleet: Fleet) -> None:
+    fleet.server("s1", "robot1")
+    fleet.gateway("s1")
+    session = fleet.remote()
+    alice = RemoteParameterClient(session, timeout=5.0, as_="alice")
+    bob = RemoteParameterClient(session, timeout=5.0, as_="bob")
+    assert alice.set(NODE, {"robot.max_velocity": 2.5}).successful
+    assert bob.set(NODE, {"robot.max_velocity": 3.0, "robot.name": "r2"}).successful
+    refused = bob.set(NODE, {"robot.max_velocity": 9.0})
+    assert refused.results[0].code is ErrorCode.OUT_OF_RANGE
+
+    reply = alice.history(NODE)
+    assert reply.node == NODE and not reply.compacted
+    started = [r for r in reply.records if r.via == "start"]
+    n = len(started)
+    assert n == 8 and all(r.old is None and r.applied for r in started)  # examples/params.yaml
+    assert reply.records[:n] == tuple(started)
+    rows = [(r.node, r.name, r.who, r.verified, r.via, r.old, r.new, r.applied) for r in reply.records[n:]]
+    assert rows == [
+        (NODE, "robot.max_velocity", "alice", False, "zenoh", fv(1.5), fv(2.5), True),
+        (NODE, "robot.max_velocity", "bob", False, "zenoh", fv(2.5), fv(3.0), True),
+        (NODE, "robot.name", "bob", False, "zenoh", fv("my_robot"), fv("r2"), True),
+        (NODE, "robot.max_velocity", "bob", False, "zenoh", fv(3.0), fv(9.0), False),
+    ]
+    assert reply.records[-1].code == ErrorCode.OUT_OF_RANGE.value and "5.0" in reply.records[-1].reason
+    seqs = [r.seq for r in reply.records]
+    assert seqs == sorted(seqs) and len(set(seqs)) == len(seqs)
+
+    # the filters cross the gateway: by name, author, outcome, revision
+    by_bob = alice.history(NODE, ["robot.max_velocity"], who="b*", outcome=Outcome.APPLIED)
+    assert [(r.who, r.new) for r in by_bob.records] == [("bob", fv(3.0))]
+    after = alice.history(NODE, since_revision=reply.records[n].revision)
+    assert [r.who for r in after.records] == ["bob", "bob", "bob"]
+    assert [r.who for r in alice.history(NODE, outcome=Outcome.REFUSED).records] == ["bob"]
+
+    # one page per query on the wire: a Zenoh program pages with after_seq
+    key = keys.node_key("s1", "robot1", "history")
+    first = _ask(session, key, {"limit": 4})
+    assert first["ok"] and first["kept"] and first["more"] and not first["compacted"]
+    assert [r["seq"] for r in first["records"]] == seqs[:4]
+    assert first["records"][0]["node"] == NODE
+    rest = _ask(session, key, {"after_seq": first["records"][-1]["seq"]})
+    assert not rest["more"] and [r["seq"] for r in rest["records"]] == seqs[4:]
+    page, kept = history.page_of(rest)
+    assert kept and page.records == reply.records[4:]
+
+    # a malformed request is a clear error, never silence
+    bad = _ask(session, key, {"outcome": "maybe"})
+    assert not bad["ok"] and "'outcome' must be one of all, applied, refused" in bad["message"]
+
+
+def test_a_remote_client_claims_its_as_name_else_its_certificates_else_user_at_host(tmp_path: Path) -> None:
+    pytest.importorskip("cryptography", reason="the secure extra (cryptography) is not installed")
+    from paramdds.secure.keystore import init_keystore
+    from paramdds.zenoh.tls import issue
+
+    certs = issue(init_keystore(tmp_path / "ks"), "operator", [], tmp_path / "operator")
+    tls = {"PARAMDDS_ZENOH_TLS": str(certs)}
+    assert remote_identity(tls) == "operator"
+    assert remote_identity({**tls, "PARAMDDS_AS": "ops"}) == "ops"
+    assert remote_identity({}) == remote_identity({"PARAMDDS_ZENOH_TLS": str(tmp_path)})  # no cert.pem there
+    assert "@" in remote_identity({})
