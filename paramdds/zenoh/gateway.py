@@ -393,7 +393,7 @@ class Gateway:
         # one call: the client's history() walks every page, the asker here walks them itself
         kept, page = c.transport.history_page(c._run(HistoryRequest(node, query), timeout))
         remote = keys.remote_name(self.site, node)
-        records = tuple(replace(r, node=keys.remote_name(self.site, r.node)) for r in page.records)
+        records = tuple(r._replace(node=keys.remote_name(self.site, r.node)) for r in page.records)
         return history.history_reply(remote, replace(page, records=records), kept)
 
     # -- the end ----------------------------------------------------------------------------------------
