@@ -154,6 +154,7 @@ def test_describe_json_shape(c: Cluster) -> None:
             "floating_point_range": {"from_value": 0.0, "to_value": 5.0, "step": 0.0},
             "additional_constraints": "",
             "validators": [],
+            "last_change": None,  # the node does not say who last changed it
         }
     }
 
