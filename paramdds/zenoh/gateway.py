@@ -52,6 +52,7 @@ import zenoh
 from ..core.call import HistoryRequest
 from ..core.history import HistoryQuery
 from ..core.origin import Via
+from ..core.results import LastChange
 from ..dds.client import ParameterClient
 from ..dds.monitor import MonitorEvent, NodeState, ParameterMonitor
 from ..errors import InternalError, InvalidNameError, ParamddsError
@@ -89,7 +90,8 @@ class Gateway:
         self._role_lock = threading.Lock()
         self._dirty: set[str] = set()
         self._seq: dict[str, int] = {}
-        self._published: dict[str, dict[str, tuple[Any, Any]]] = {}  # node -> parameters last published
+        # node -> its parameters last published: value, descriptor, last change
+        self._published: dict[str, dict[str, tuple[Any, Any, LastChange | None]]] = {}
         self._tokens: dict[str, Any] = {}
         self._gateways: set[str] = set()
         self._actives: dict[str, int] = {}  # the other active gateways: token id -> active since (ns)
@@ -242,15 +244,16 @@ class Gateway:
         if msg is None:
             return
         key = keys.node_key(self.site, node, keys.STATE)
-        full = msg.parameters
+        blame = msg.last_changes
+        full = {n: (v, d, blame.get(n)) for n, (v, d) in msg.parameters.items()}
         before = self._published.get(node)
         if before is not None:  # only what changed since the last publication (codec: "delta")
             msg.kind, msg.base = "delta", msg.seq - 1
             msg.deleted = [n for n in before if n not in full]
             msg.parameters = {
-                n: entry
-                for n, entry in full.items()
-                if n not in before or not before[n][0].same_as(entry[0]) or before[n][1] != entry[1]
+                n: (v, d)
+                for n, (v, d, lc) in full.items()
+                if n not in before or not before[n][0].same_as(v) or before[n][1:] != (d, lc)
             }
         self._session.put(key, msg.encode(), encoding=codec.ENCODING)
         self._published[node] = full
@@ -285,6 +288,7 @@ class Gateway:
                         origin=st.origin,
                         status=st.status,
                         parameters=dict(st.parameters),
+                        blame=dict(st.blame),
                     )
                 )
             return True
@@ -310,6 +314,7 @@ class Gateway:
             origin=st.origin,
             status=st.status,
             parameters=st.parameters,
+            last_changes={n: lc for n in st.blame if (lc := st.last_change(n)) is not None},
         )
 
     def _submit(self, fn: Callable[..., object], *args: Any) -> bool:

@@ -12,12 +12,14 @@ from typing import Any
 import pytest
 
 from paramdds.core.history import Outcome
+from paramdds.core.monitor_events import EventKind, MonitorEvent
 from paramdds.core.values import ParameterValue
 from paramdds.errors import ErrorCode
 from paramdds.zenoh import codec, history, keys
 from paramdds.zenoh.client import RemoteParameterClient, remote_identity
+from paramdds.zenoh.monitor import RemoteParameterMonitor
 
-from .conftest import Fleet
+from .conftest import Fleet, holds_online, wait_for
 
 pytestmark = pytest.mark.timeout(90)
 
@@ -95,3 +97,36 @@ def test_a_remote_client_claims_its_as_name_else_its_certificates_else_user_at_h
     assert remote_identity({**tls, "PARAMDDS_AS": "ops"}) == "ops"
     assert remote_identity({}) == remote_identity({"PARAMDDS_ZENOH_TLS": str(tmp_path)})  # no cert.pem there
     assert "@" in remote_identity({})
+
+
+@pytest.mark.slow
+def test_blame_of_a_change_made_from_the_cloud_reaches_a_remote_monitor_live_and_late(fleet: Fleet) -> None:
+    fleet.server("s1", "robot1")
+    fleet.gateway("s1")
+    session = fleet.remote()
+    events: list[MonitorEvent] = []
+    live = RemoteParameterMonitor(session, on_event=events.append)
+    assert holds_online(live, [NODE], 5.0)
+    start = live.last_change(NODE, "robot.max_velocity")
+    assert start is not None and start.via == "start" and start.verified  # the server's own, at its start
+
+    client = RemoteParameterClient(session, timeout=5.0, as_="alice")
+    done = client.set(NODE, {"robot.max_velocity": 2.5})
+    assert wait_for(lambda: any(e.event is EventKind.MODIFIED for e in events), 3.0)
+    (event,) = [e for e in events if e.event is EventKind.MODIFIED]
+    lc = event.last_change
+    assert lc is not None and event.name == "robot.max_velocity"
+    assert (lc.who, lc.verified, lc.via, lc.revision) == ("alice", False, "zenoh", done.revision)
+    assert live.last_change(NODE, "robot.max_velocity") == lc
+
+    # a late joiner reads it from the gateway's state, with no extra call; the same record's time
+    late = RemoteParameterMonitor(session)
+    assert holds_online(late, [NODE], 5.0)
+    assert late.last_change(NODE, "robot.max_velocity") == lc
+    other = late.last_change(NODE, "robot.name")
+    assert other is not None and (other.who, other.via) == (start.who, "start")
+    (record,) = [r for r in client.history(NODE, ["robot.max_velocity"]).records if r.via == "zenoh"]
+    assert (record.who, record.revision) == ("alice", lc.revision)
+    assert abs(record.time_ns - lc.time_ns) < 2_000  # the same commit's time (a state's stamp is a float)
+    live.close()
+    late.close()
