@@ -26,7 +26,8 @@ with a JSON library. The shapes (docs/zenoh.md repeats them):
   "timeout": s}`` (a not_set value deletes; ``who``: who asks, recorded by the node with
   via ``zenoh``, unverified); history: :mod:`.history`;
 * replies: ``{"ok": true, "node", "revision", "incarnation", "results": [...]}`` (get:
-  ``{"name", "value", "descriptor", "code", "reason"}``; set: ``{"name", "successful",
+  ``{"name", "value", "descriptor", "code", "reason", "last_change"}``, the last change
+  with the descriptor when the node says it, else null; set: ``{"name", "successful",
   "reason", "code"}``), list ``{"ok": true, "names", "prefixes"}``, or an error
   ``{"ok": false, "code": "UNAVAILABLE", "message": "..."}``.
 
@@ -274,6 +275,7 @@ def get_reply(node: str, revision: int, incarnation: int, results: Sequence[GetR
                     "descriptor": None if r.descriptor is None else descriptor_out(r.descriptor),
                     "code": _code_text(r.code),
                     "reason": r.reason,
+                    "last_change": last_change_out(r.last_change),
                 }
                 for r in results
             ],
@@ -318,6 +320,7 @@ def get_results(obj: dict[str, Any]) -> tuple[int, int, tuple[GetResult, ...]]:
             else descriptor_in(str(r["name"]), r["descriptor"]),
             code=code_of(str(r.get("code") or "")),
             reason=str(r.get("reason") or ""),
+            last_change=last_change_in(r.get("last_change")),
         )
         for r in obj["results"]
     )

@@ -6,6 +6,8 @@ session here; the only way to the site is the router.
 
 from __future__ import annotations
 
+import json
+import subprocess
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +21,7 @@ from paramdds.zenoh import codec, history, keys
 from paramdds.zenoh.client import RemoteParameterClient, remote_identity
 from paramdds.zenoh.monitor import RemoteParameterMonitor
 
+from ..reliability.conftest import PARAMDDS, make_dds_env
 from .conftest import Fleet, holds_online, wait_for
 
 pytestmark = pytest.mark.timeout(90)
@@ -70,6 +73,10 @@ def test_history_of_a_remote_sites_node_lists_changes_made_from_the_cloud_via_ze
     assert [r.who for r in after.records] == ["bob", "bob", "bob"]
     assert [r.who for r in alice.history(NODE, outcome=Outcome.REFUSED).records] == ["bob"]
 
+    # a get with descriptors carries each parameter's last change across the gateway
+    (got,) = alice.get(NODE, ["robot.name"], with_descriptors=True).results
+    assert got.last_change is not None and (got.last_change.who, got.last_change.via) == ("bob", "zenoh")
+
     # one page per query on the wire: a Zenoh program pages with after_seq
     key = keys.node_key("s1", "robot1", "history")
     first = _ask(session, key, {"limit": 4})
@@ -84,6 +91,20 @@ def test_history_of_a_remote_sites_node_lists_changes_made_from_the_cloud_via_ze
     # a malformed request is a clear error, never silence
     bad = _ask(session, key, {"outcome": "maybe"})
     assert not bad["ok"] and "'outcome' must be one of all, applied, refused" in bad["message"]
+
+
+    # the CLI over Zenoh: --as names the writer, describe shows the last author
+    cli = [PARAMDDS, "--zenoh", fleet.endpoint, "--timeout", "5"]
+    env = make_dds_env(fleet.domain("cloud"))
+    done = subprocess.run([*cli, "--as", "carol", "set", NODE, "robot.max_acceleration=0.5"], env=env,
+                          capture_output=True, text=True)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    done = subprocess.run([*cli, "describe", NODE, "robot.max_acceleration", "-o", "json"], env=env,
+                          capture_output=True, text=True)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    blame = json.loads(done.stdout)["robot.max_acceleration"]["last_change"]
+    assert (blame["who"], blame["verified"], blame["via"]) == ("carol", False, "zenoh")
+    assert blame["time"].endswith("Z") and blame["revision"] > reply.records[-1].revision
 
 
 def test_a_remote_client_claims_its_as_name_else_its_certificates_else_user_at_host(tmp_path: Path) -> None:
