@@ -92,7 +92,6 @@ def test_history_of_a_remote_sites_node_lists_changes_made_from_the_cloud_via_ze
     bad = _ask(session, key, {"outcome": "maybe"})
     assert not bad["ok"] and "'outcome' must be one of all, applied, refused" in bad["message"]
 
-
     # the CLI over Zenoh: --as names the writer, describe shows the last author
     cli = [PARAMDDS, "--zenoh", fleet.endpoint, "--timeout", "5"]
     env = make_dds_env(fleet.domain("cloud"))
