@@ -35,13 +35,14 @@ from ..dds.client_protocol import PendingCall
 from ..dds.discovery import Presence
 from ..errors import (
     CallTimeoutError,
+    NoHistoryError,
     NotPermittedError,
     OutcomeUnknownError,
     ParamddsError,
     UnavailableError,
 )
 from . import codec, history, keys
-from .states import REPLY_MARGIN, ROUTE_WAIT, ask_states, site_active, sites_of
+from .states import GRANT_ASK, REPLY_MARGIN, ROUTE_WAIT, ask_states, site_active, sites_of
 from .tls import certificate_name
 
 log = logging.getLogger(__name__)
@@ -141,10 +142,10 @@ class ZenohClientTransport:
         self._pending[call.request_id] = pending
         return pending
 
-    def _querier(self, pending: PendingCall) -> tuple[Any, float]:
-        """The querier on the site's pattern for the call's verb (declared on first use), and
-        when it was declared."""
-        pattern = keys.site_pattern(keys.split_remote(pending.node)[0], pending.kind)
+    def _querier(self, pending: PendingCall, verb: str = "") -> tuple[Any, float]:
+        """The querier on the site's pattern for the call's verb (or ``verb``; declared on
+        first use), and when it was declared."""
+        pattern = keys.site_pattern(keys.split_remote(pending.node)[0], verb or pending.kind)
         with self._routes_lock:
             route = self._routes.get(pattern)
             if route is None:
@@ -169,6 +170,8 @@ class ZenohClientTransport:
         call's verb now: Zenoh's matching status of a querier on the site's pattern (learnt
         from the router within milliseconds of its declaration, and lost as soon as the
         gateway's session is). A set that was never sent is a failure, not an unknown outcome.
+        A history call to a site whose gateway serves calls but not history (an older
+        paramdds) fails NO_HISTORY, as a node that keeps none does.
         """
         querier, declared = self._querier(pending)
         until = declared + min(ROUTE_WAIT, pending.call.timeout)
@@ -176,6 +179,11 @@ class ZenohClientTransport:
             if time.monotonic() >= until:
                 site = keys.split_remote(pending.node)[0]
                 if site_active(self._session, site) and not self._matching(querier, pending):
+                    if pending.kind == "history" and self._serves(pending, "get"):
+                        raise NoHistoryError(
+                            f"node {pending.node!r}: the gateway of site {site!r} serves no history "
+                            "(an older paramdds); the call was not sent"
+                        )
                     raise NotPermittedError(
                         f"node {pending.node!r}: site {site!r} is not granted to this client (its "
                         "gateway is up, but the router's access control refuses this certificate "
@@ -187,6 +195,16 @@ class ZenohClientTransport:
                 )
             if self._closing.wait(0.005):
                 raise UnavailableError("the client was closed")
+
+    def _serves(self, pending: PendingCall, verb: str) -> bool:
+        """Whether a gateway of the node's site serves ``verb`` to this client (asked for up
+        to :data:`~.states.GRANT_ASK` seconds)."""
+        querier, _ = self._querier(pending, verb)
+        until = time.monotonic() + GRANT_ASK
+        while not self._matching(querier, pending):
+            if time.monotonic() >= until or self._closing.wait(0.005):
+                return False
+        return True
 
     def send(self, pending: PendingCall) -> None:
         """Send the query; its future gets the reply's JSON object, or the error to raise."""

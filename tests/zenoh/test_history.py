@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import subprocess
+import time
 from pathlib import Path
 from typing import Any
 
@@ -16,10 +17,11 @@ import pytest
 from paramdds.core.history import Outcome
 from paramdds.core.monitor_events import EventKind, MonitorEvent
 from paramdds.core.values import ParameterValue
-from paramdds.errors import ErrorCode
+from paramdds.errors import ErrorCode, NoHistoryError
 from paramdds.zenoh import codec, history, keys
-from paramdds.zenoh.client import RemoteParameterClient, remote_identity
+from paramdds.zenoh.client import ROUTE_WAIT, RemoteParameterClient, remote_identity
 from paramdds.zenoh.monitor import RemoteParameterMonitor
+from paramdds.zenoh.states import GRANT_ASK
 
 from ..reliability.conftest import PARAMDDS, make_dds_env
 from .conftest import Fleet, holds_online, wait_for
@@ -150,3 +152,23 @@ def test_blame_of_a_change_made_from_the_cloud_reaches_a_remote_monitor_live_and
     assert abs(record.time_ns - lc.time_ns) < 2_000  # the same commit's time (a state's stamp is a float)
     live.close()
     late.close()
+
+
+def test_a_site_whose_gateway_serves_no_history_says_so_at_once(fleet: Fleet) -> None:
+    """An older gateway (here a bare session: its tokens and a get queryable) serves calls but
+    not history: NO_HISTORY, never "not granted" or a hang."""
+    old = fleet.remote()
+    live = old.liveliness()
+    tokens = [
+        live.declare_token(k) for k in (keys.gateway_key("old", "1_x"), keys.active_key("old", "1_x", 1))
+    ]
+    get = old.declare_queryable(keys.site_pattern("old", "get"), lambda q: q.drop(), complete=True)
+    client = RemoteParameterClient(fleet.remote(), timeout=5.0)
+    started = time.monotonic()
+    with pytest.raises(NoHistoryError, match="the gateway of site 'old' serves no history"):
+        client.history("old/robot1")
+    assert time.monotonic() - started < ROUTE_WAIT + 2 * GRANT_ASK + 0.5
+    client.close()
+    get.undeclare()
+    for token in tokens:
+        token.undeclare()
