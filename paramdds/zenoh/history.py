@@ -1,8 +1,7 @@
-"""The past over Zenoh: the JSON of last changes (blame), history queries and history pages.
+"""The past over Zenoh: the JSON of history queries and history pages.
 
 Shapes (docs/zenoh.md repeats them), values in the tagged form of :mod:`.codec`:
 
-* a last change (blame): :func:`~.codec.last_change_out`, a parameter's entry of a node state;
 * a history request (``.../history``): ``{"names": [...], "since_revision": n | null,
   "since_time_ns": n | null, "until_time_ns": n | null, "who": glob, "outcome": "all" |
   "applied" | "refused", "after_seq": n, "limit": n, "timeout": s}``;
