@@ -14,7 +14,7 @@ from typing import Any
 
 import pytest
 
-from paramdds.core.history import Outcome
+from paramdds.core.history import Outcome, rewind
 from paramdds.core.monitor_events import EventKind, MonitorEvent
 from paramdds.core.values import ParameterValue
 from paramdds.errors import ErrorCode, NoHistoryError
@@ -74,6 +74,13 @@ def test_history_of_a_remote_sites_node_lists_changes_made_from_the_cloud_via_ze
     after = alice.history(NODE, since_revision=reply.records[n].revision)
     assert [r.who for r in after.records] == ["bob", "bob", "bob"]
     assert [r.who for r in alice.history(NODE, outcome=Outcome.REFUSED).records] == ["bob"]
+
+    # the node as it was before alice's change, rebuilt from its history across the site (what
+    # diff NODE@REV does with the client)
+    before = reply.records[n - 1].revision
+    now = alice.get(NODE, ["robot.max_velocity", "robot.name"]).values()
+    then = rewind(now, alice.history(NODE, since_revision=before).records)
+    assert (then["robot.max_velocity"], then["robot.name"]) == (fv(1.5), fv("my_robot"))
 
     # a get with descriptors carries each parameter's last change across the gateway
     (got,) = alice.get(NODE, ["robot.name"], with_descriptors=True).results
