@@ -148,13 +148,30 @@ def test_blame_of_a_change_made_from_the_cloud_reaches_a_remote_monitor_live_and
     assert (lc.who, lc.verified, lc.via, lc.revision) == ("alice", False, "zenoh", done.revision)
     assert live.last_change(NODE, "robot.max_velocity") == lc
 
+    # the same value set again by bob: no value changed, and the new author still crosses
+    bob = RemoteParameterClient(session, timeout=5.0, as_="bob")
+    again = bob.set(NODE, {"robot.max_velocity": 2.5})
+
+    def by_bob() -> bool:
+        now = live.last_change(NODE, "robot.max_velocity")
+        return now is not None and (now.who, now.revision) == ("bob", again.revision)
+
+    assert wait_for(by_bob, 3.0), live.last_change(NODE, "robot.max_velocity")
+    assert live.snapshot()[NODE].revision == again.revision
+    bob.set(NODE, {"robot.max_velocity": 2.5}, as_="alice")  # a call's own claim
+    assert wait_for(lambda: getattr(live.last_change(NODE, "robot.max_velocity"), "who", "") == "alice", 3.0)
+    lc = live.last_change(NODE, "robot.max_velocity")
+    assert lc is not None
+
     # a late joiner reads it from the gateway's state, with no extra call; the same record's time
     late = RemoteParameterMonitor(session)
     assert holds_online(late, [NODE], 5.0)
     assert late.last_change(NODE, "robot.max_velocity") == lc
     other = late.last_change(NODE, "robot.name")
     assert other is not None and (other.who, other.via) == (start.who, "start")
-    (record,) = [r for r in client.history(NODE, ["robot.max_velocity"]).records if r.via == "zenoh"]
+    records = client.history(NODE, ["robot.max_velocity"]).records
+    assert [(r.who, r.via) for r in records[1:]] == [("alice", "zenoh"), ("bob", "zenoh"), ("alice", "zenoh")]
+    record = records[-1]
     assert (record.who, record.revision) == ("alice", lc.revision)
     assert abs(record.time_ns - lc.time_ns) < 2_000  # the same commit's time (a state's stamp is a float)
     live.close()
