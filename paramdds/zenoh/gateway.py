@@ -94,6 +94,7 @@ class Gateway:
         self._seq: dict[str, int] = {}
         # node -> its parameters last published: value, descriptor, last change
         self._published: dict[str, dict[str, tuple[Any, Any, LastChange | None]]] = {}
+        self._heads: dict[str, tuple[object, ...]] = {}  # node -> the rest of its last publication
         self._tokens: dict[str, Any] = {}
         self._gateways: set[str] = set()
         self._actives: dict[str, int] = {}  # the other active gateways: token id -> active since (ns)
@@ -191,7 +192,7 @@ class Gateway:
             ),
         ]
         with self._lock:
-            self._published = {}  # the first publication of each node from now on is whole
+            self._published, self._heads = {}, {}  # the first publication of each node from now on is whole
             self._declared = declared
             self._dirty.update(self._node_ids())  # publish every node once: the new active one speaks
             self._wake.notify_all()
@@ -257,8 +258,14 @@ class Gateway:
                 for n, (v, d, lc) in full.items()
                 if n not in before or not before[n][0].same_as(v) or before[n][1:] != (d, lc)
             }
+        head = (msg.online, msg.host, msg.pid, msg.revision, msg.incarnation, msg.announced, msg.origin)
+        if not msg.parameters and not msg.deleted and self._heads.get(node) == (*head, msg.status):
+            with self._lock:  # nothing new to say (a write published already): the next one follows the last
+                self._seq[node] -= 1
+            return
         self._session.put(key, msg.encode(), encoding=codec.ENCODING)
         self._published[node] = full
+        self._heads[node] = (*head, msg.status)
         with self._lock:
             token = self._tokens.get(node)
             if msg.online and token is None and self._active:
