@@ -114,6 +114,19 @@ def test_history_of_a_remote_sites_node_lists_changes_made_from_the_cloud_via_ze
     assert (blame["who"], blame["verified"], blame["via"]) == ("carol", False, "zenoh")
     assert blame["time"].endswith("Z") and blame["revision"] > reply.records[-1].revision
 
+    # history and diff over --zenoh: the same records; the node against itself before carol
+    done = subprocess.run([*cli, "history", NODE, "robot.max_acceleration", "-o", "json"], env=env,
+                          capture_output=True, text=True)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    rows = json.loads(done.stdout)
+    last = rows[-1]
+    assert (last["node"], last["who"], last["via"], last["outcome"]) == (NODE, "carol", "zenoh", "applied")
+    assert (last["old"], last["new"]) == (0.8, 0.5)
+    at = blame["revision"] - 1
+    done = subprocess.run([*cli, "diff", f"{NODE}@{at}", NODE], env=env, capture_output=True, text=True)
+    assert done.returncode == 1, done.stderr
+    assert done.stdout.splitlines() == ["robot.max_acceleration: 0.8 → 0.5"], done.stdout
+
 
 def test_a_remote_client_claims_its_as_name_else_its_certificates_else_user_at_host(tmp_path: Path) -> None:
     pytest.importorskip("cryptography", reason="the secure extra (cryptography) is not installed")
