@@ -23,7 +23,7 @@ from paramdds.zenoh.client import ROUTE_WAIT, RemoteParameterClient, remote_iden
 from paramdds.zenoh.monitor import RemoteParameterMonitor
 from paramdds.zenoh.states import GRANT_ASK
 
-from ..reliability.conftest import PARAMDDS, make_dds_env
+from ..reliability.conftest import PARAMDDS, Proc, make_dds_env
 from .conftest import Fleet, holds_online, wait_for
 
 pytestmark = pytest.mark.timeout(90)
@@ -209,3 +209,21 @@ def test_a_site_whose_gateway_serves_no_history_says_so_at_once(fleet: Fleet) ->
     get.undeclare()
     for token in tokens:
         token.undeclare()
+
+
+@pytest.mark.slow
+def test_watch_since_a_revision_over_zenoh_replays_then_goes_live_with_who(fleet: Fleet) -> None:
+    fleet.server("s1", "robot1")
+    fleet.gateway("s1")
+    client = RemoteParameterClient(fleet.remote(), timeout=5.0, as_="alice")
+    assert client.set(NODE, {"robot.max_velocity": 2.0}).successful
+    watch = Proc(
+        [PARAMDDS, "--zenoh", fleet.endpoint, "watch", NODE, "--since", "1"], make_dds_env(fleet.domain("x"))
+    )
+    fleet.procs.append(watch)
+    _, replayed = watch.wait_for(lambda line: "robot.max_velocity" in line, 15.0)
+    assert "2.0" in replayed and "(rev 2)" in replayed and "by alice (claimed) via zenoh" in replayed
+    watch.wait_for("synced", 10.0)
+    assert client.set(NODE, {"robot.max_velocity": 2.5}, as_="bob").successful
+    _, live = watch.wait_for(lambda line: "robot.max_velocity" in line, 10.0)
+    assert "2.5" in live and "(rev 3)" in live and "by bob (claimed) via zenoh" in live
