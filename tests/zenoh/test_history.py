@@ -6,6 +6,7 @@ session here; the only way to the site is the router.
 
 from __future__ import annotations
 
+import asyncio
 import json
 import subprocess
 import time
@@ -17,6 +18,7 @@ import pytest
 from paramdds.core.history import Outcome, rewind
 from paramdds.core.monitor_events import EventKind, MonitorEvent
 from paramdds.core.values import ParameterValue
+from paramdds.dds.client import AsyncParameterClient
 from paramdds.errors import ErrorCode, NoHistoryError
 from paramdds.zenoh import codec, history, keys
 from paramdds.zenoh.client import ROUTE_WAIT, RemoteParameterClient, remote_identity
@@ -67,6 +69,8 @@ def test_history_of_a_remote_sites_node_lists_changes_made_from_the_cloud_via_ze
     assert reply.records[-1].code == ErrorCode.OUT_OF_RANGE.value and "5.0" in reply.records[-1].reason
     seqs = [r.seq for r in reply.records]
     assert seqs == sorted(seqs) and len(set(seqs)) == len(seqs)
+
+    assert asyncio.run(AsyncParameterClient(alice).history(NODE)) == reply  # the web console's form
 
     # the filters cross the gateway: by name, author, outcome, revision
     by_bob = alice.history(NODE, ["robot.max_velocity"], who="b*", outcome=Outcome.APPLIED)
