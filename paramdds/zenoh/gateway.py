@@ -393,7 +393,7 @@ class Gateway:
                 s = c.set(node, params, atomic=atomic, if_revision=expected, timeout=timeout, as_=who)
                 written = [r.name for r in s.results if r.successful]
                 if written:
-                    self._submit(self._publish_written, s.node, written, s.revision)
+                    self._submit(self._publish_written, node, written, s.revision)
                 return codec.set_reply(
                     keys.remote_name(self.site, s.node), s.revision, s.incarnation, s.results
                 )
