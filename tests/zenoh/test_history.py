@@ -231,3 +231,26 @@ def test_watch_since_a_revision_over_zenoh_replays_then_goes_live_with_who(fleet
     assert client.set(NODE, {"robot.max_velocity": 2.5}, as_="bob").successful
     _, live = watch.wait_for(lambda line: "robot.max_velocity" in line, 10.0)
     assert "2.5" in live and "(rev 3)" in live and "by bob (claimed) via zenoh" in live
+
+
+def test_a_remote_node_that_keeps_no_history_says_so_through_its_gateway(
+    fleet: Fleet, domain_id: int
+) -> None:
+    from paramdds.core.table import ParameterTable
+    from paramdds.zenoh.gateway import Gateway
+
+    from ..dds.helpers import DdsSession
+
+    with DdsSession(domain_id) as dds:
+        table = ParameterTable("old_peer")
+        table.declare("speed", 1.0)
+        server = dds.server(table)
+        server._histories.pop("old_peer")  # what a peer without history answers: history_kept FALSE
+        gateway = Gateway(dds.participant("gateway"), fleet.remote(), "s1")
+        try:
+            client = RemoteParameterClient(fleet.remote(), timeout=5.0)
+            client.wait_for_node("s1/old_peer")
+            with pytest.raises(NoHistoryError, match="node 's1/old_peer' keeps no history"):
+                client.history("s1/old_peer")
+        finally:
+            gateway.close()
