@@ -254,3 +254,16 @@ def test_a_remote_node_that_keeps_no_history_says_so_through_its_gateway(
                 client.history("s1/old_peer")
         finally:
             gateway.close()
+
+
+@pytest.mark.slow
+def test_a_range_past_a_remote_nodes_retention_is_said_compacted(fleet: Fleet) -> None:
+    fleet.server("s1", "robot1", extra=("--history-records", "3"))
+    fleet.gateway("s1")
+    client = RemoteParameterClient(fleet.remote(), timeout=5.0, as_="alice")
+    for v in (2.0, 2.5, 3.0):
+        assert client.set(NODE, {"robot.max_velocity": v}).successful
+    everything = client.history(NODE)
+    assert everything.compacted and [r.new for r in everything.records] == [fv(2.0), fv(2.5), fv(3.0)]
+    recent = client.history(NODE, since_revision=everything.records[0].revision)
+    assert not recent.compacted and [r.new for r in recent.records] == [fv(2.5), fv(3.0)]
