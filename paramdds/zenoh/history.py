@@ -4,7 +4,8 @@ Shapes (docs/zenoh.md repeats them), values in the tagged form of :mod:`.codec`:
 
 * a history request (``.../history``): ``{"names": [...], "since_revision": n | null,
   "since_time_ns": n | null, "until_time_ns": n | null, "who": glob, "outcome": "all" |
-  "applied" | "refused", "after_seq": n, "limit": n, "timeout": s}``;
+  "applied" | "refused", "after_seq": n, "limit": n (at most and by default
+  :data:`~paramdds.core.history.PAGE_SIZE`), "timeout": s}``;
 * its reply: ``{"ok": true, "node", "kept": bool, "more": bool, "compacted": bool,
   "records": [record...]}``, a record ``{"seq", "node", "name", "revision", "time",
   "time_ns", "who", "verified", "via", "old", "new", "outcome", "code", "reason"}``
@@ -20,7 +21,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from ..core.history import HistoryPage, HistoryQuery, HistoryRecord, Outcome
+from ..core.history import PAGE_SIZE, HistoryPage, HistoryQuery, HistoryRecord, Outcome
 from ..errors import FileFormatError, ParamddsError
 from .codec import dumps, time_ns_of, value_in, value_out
 
@@ -78,7 +79,7 @@ def query_in(obj: Mapping[str, Any]) -> HistoryQuery:
         who=str(obj.get("who") or ""),
         outcome=outcome,
         after_seq=_opt_int(obj, "after_seq") or 0,
-        limit=max(0, _opt_int(obj, "limit") or 0),
+        limit=min(PAGE_SIZE, max(0, _opt_int(obj, "limit") or 0)),  # one reply stays one page
     )
 
 
