@@ -32,6 +32,7 @@ from collections import deque
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from ..core.history import HistoryRecord, NodeHistory, Retention
 from ..core.jsonform import value_of_row, value_row
@@ -61,13 +62,31 @@ def record_row(r: HistoryRecord) -> list[object]:
     ]  # fmt: skip
 
 
-def record_of_row(node: str, row: Sequence[object]) -> HistoryRecord:
+class _Values:
+    """Values of rows, each decoded once: a history repeats its values (each change's new
+    value is the next one's old), and decoding is most of a reopen's time."""
+
+    def __init__(self) -> None:
+        self._seen: dict[object, ParameterValue] = {}
+
+    def __call__(self, row: Any) -> ParameterValue | None:
+        if row is None:
+            return None
+        t, data = row
+        key = (t, type(data), tuple(data) if isinstance(data, list) else data)
+        value = self._seen.get(key)
+        if value is None:
+            value = self._seen[key] = value_of_row(row)
+        return value
+
+
+def record_of_row(node: str, row: Sequence[object], values: _Values | None = None) -> HistoryRecord:
     """The record of a row of :func:`record_row` (ValueError/TypeError/ParamddsError if bad)."""
     seq, name, revision, time_ns, who, verified, via, old, new, applied, code, reason = row
+    value = values or _Values()
     return HistoryRecord(
         int(seq), node, str(name), int(revision), int(time_ns), str(who), bool(verified),  # type: ignore[call-overload]
-        str(via), None if old is None else value_of_row(old), None if new is None else value_of_row(new),
-        bool(applied), str(code), str(reason),
+        str(via), value(old), value(new), bool(applied), str(code), str(reason),
     )  # fmt: skip
 
 
@@ -116,7 +135,7 @@ class _Kept:
 
     def __init__(self) -> None:
         self.records: deque[HistoryRecord] = deque()
-        self.last: dict[str, LastChange] = {}
+        self.last: dict[str, LastChange | HistoryRecord] = {}  # a record: its change is the last
         self.dropped = (0, -1, 0)  # seq, revision, time_ns
         self.top = 0  # the highest seq seen (dropped or kept)
 
@@ -130,7 +149,7 @@ class _Kept:
             if r.new is None:
                 self.last.pop(r.name, None)
             else:
-                self.last[r.name] = LastChange(r.who, r.verified, r.via, r.time_ns, r.revision)
+                self.last[r.name] = r
         return True
 
     def drop_upto(self, seq: int, revision: int, time_ns: int) -> None:
@@ -145,9 +164,16 @@ class _Kept:
             gone = records.popleft()
             self.drop_upto(gone.seq, gone.revision, gone.time_ns)
 
+    def last_changes(self) -> dict[str, LastChange]:
+        return {n: c if isinstance(c, LastChange) else _last_of(c) for n, c in self.last.items()}
+
     def stored(self) -> StoredHistory:
         seq, revision, time_ns = self.dropped
-        return StoredHistory(tuple(self.records), dict(self.last), seq, revision, time_ns)
+        return StoredHistory(tuple(self.records), self.last_changes(), seq, revision, time_ns)
+
+
+def _last_of(r: HistoryRecord) -> LastChange:
+    return LastChange(r.who, r.verified, r.via, r.time_ns, r.revision)
 
 
 # -- the file ----------------------------------------------------------------------------------
@@ -174,12 +200,13 @@ class HistoryFile:
 
     def load(self, journal_rows: Mapping[str, Sequence[Sequence[object]]]) -> None:
         """Read the file, then the records of the journal that follow it."""
-        self._read_file()
+        values = _Values()
+        self._read_file(values)
         for node, rows in journal_rows.items():
             kept = self._kept(node)
             for row in rows:
                 try:
-                    record = record_of_row(node, row)
+                    record = record_of_row(node, row, values)
                 except (ValueError, TypeError, ParamddsError) as exc:
                     raise PersistError(
                         f"bad history record in the journal: {exc}", file=str(self.path)
@@ -191,7 +218,7 @@ class HistoryFile:
             kept.trim(self.retention, now)
         self.loaded = True
 
-    def _read_file(self) -> None:
+    def _read_file(self, values: _Values) -> None:
         try:
             raw = self.path.read_bytes()
         except FileNotFoundError:
@@ -213,7 +240,7 @@ class HistoryFile:
             try:
                 if not isinstance(item, list) or len(item) < 2:
                     raise ValueError("not a history line")
-                self._take(item)
+                self._take(item, values)
             except (ValueError, TypeError, ParamddsError) as exc:
                 if number == len(lines) + 1:
                     self._rewrite = True  # a damaged last line, as a torn one
@@ -222,11 +249,11 @@ class HistoryFile:
                     f"a history line is damaged ({exc})", file=str(self.path), line=number
                 ) from None
 
-    def _take(self, item: list[object]) -> None:
+    def _take(self, item: list[object], values: _Values) -> None:
         kind, node = item[0], str(item[1])
         kept = self._kept(node)
         if kind == "r":
-            if kept.add(record_of_row(node, item[2:])):
+            if kept.add(record_of_row(node, item[2:], values)):
                 self._lines += 1
         elif kind == "l":
             rows = item[2]
@@ -274,7 +301,7 @@ class HistoryFile:
         out = [HISTORY_HEADER]
         for node, kept in sorted(self._nodes.items()):
             out += [crc_line(["r", node, *record_row(r)]) for r in kept.records]
-            out.append(crc_line(["l", node, {n: _last_row(c) for n, c in kept.last.items()}]))
+            out.append(crc_line(["l", node, {n: _last_row(c) for n, c in kept.last_changes().items()}]))
             if kept.dropped[0]:
                 out.append(crc_line(["w", node, *kept.dropped]))
         atomic_write(self.path, b"".join(out))
