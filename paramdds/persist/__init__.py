@@ -322,6 +322,8 @@ class PersistStore:
         self._text: str | None = None
         self._replayed: dict[str, dict[str, list[object]]] | None = None
         self._replayed_rows: dict[str, list[list[object]]] = {}  # history rows of the journal
+        self._waiting: dict[str, list[HistoryRecord]] = {}  # per node: records for its next append
+        self._waiting_lock = threading.Lock()  # taken alone (a table's change listener takes it)
         self._deleted: dict[str, set[str]] = {}  # node -> names deleted at runtime
         self._journal: _Journal | None = None
         self._lines = 0  # journal lines since the last compaction
@@ -375,6 +377,29 @@ class PersistStore:
             return b""
         except OSError as exc:
             raise PersistError(f"cannot read the journal: {exc.strerror}", file=str(self.path)) from exc
+
+    def set_retention(self, retention: Retention) -> None:
+        """How much history the store keeps per node (before :meth:`attach`; the server's)."""
+        self.history_file.retention = retention
+
+    def recorded(self, node_id: str, records: Sequence[HistoryRecord]) -> None:
+        """A node's history listener (:meth:`NodeHistory.add_listener`): its new records wait
+        for the node's next persist call, which writes them in the line of their changes. A
+        batch of refusals with nothing waiting is written at once (append and
+        ``fdatasync``): no persist call may follow a request that changed nothing."""
+        with self._waiting_lock:
+            waiting = self._waiting.setdefault(node_id, [])
+            idle = not waiting
+            waiting.extend(records)
+        if idle and records and not any(r.applied for r in records):
+            self.write_history(node_id)
+
+    def write_history(self, node_id: str | None = None) -> None:
+        """Write the records waiting (of ``node_id``, or of every node) now, durably."""
+        with self._waiting_lock:
+            nodes = [node_id] if node_id is not None else list(self._waiting)
+        for node in nodes:
+            self._append(node, ())
 
     def history(self, node_id: str) -> StoredHistory:
         """The persisted history of ``node_id``: its records (retention applied with the time
@@ -452,7 +477,12 @@ class PersistStore:
             self._compact()
 
     def close(self) -> None:
-        """Release the lock (the files stay as they are)."""
+        """Write the history records still waiting, release the lock (the files stay as they are)."""
+        if self._journal is not None:
+            try:
+                self.write_history()
+            except OSError:
+                log.exception("%s: history records not written at close", self.path)
         with self._flush, self._lock:
             if self._journal is not None:
                 self._journal.close()
@@ -482,20 +512,28 @@ class PersistStore:
     def record(
         self, table: HostedTable, changes: Sequence[ChangeSet], records: Sequence[HistoryRecord] = ()
     ) -> None:
-        """The server's persister: the changes, and the history ``records`` the node made with
-        them (applied and refused, in seq order), reach the disk before the reply is sent."""
+        """The server's persister: the changes, with the history records waiting for the node
+        (:meth:`recorded`) and ``records``, reach the disk before the reply is sent."""
+        self._append(table.node_id, changes, records)
+
+    def _append(
+        self, node_id: str, changes: Sequence[ChangeSet], records: Sequence[HistoryRecord] = ()
+    ) -> None:
+        with self._waiting_lock:
+            waiting = self._waiting.pop(node_id, [])
+        records = [*waiting, *records]
         if not changes and not records:
             return
         with self._lock:
             if self._journal is None:
                 raise PersistError("the persistence store is closed", file=str(self.path))
             if records:
-                rows = self.history_file.add(table.node_id, records)
+                rows = self.history_file.add(node_id, records)
                 revision = changes[-1].revision if changes else records[-1].revision
-                data = encode_group(table.node_id, revision, changes, rows)
+                data = encode_group(node_id, revision, changes, rows)
             else:
                 data = b"".join(encode_record(c) for c in changes)
-            deleted = self._deleted.setdefault(table.node_id, set())
+            deleted = self._deleted.setdefault(node_id, set())
             for change in changes:
                 for c in change.changes:
                     if c.kind is ChangeKind.DELETED:
