@@ -1,7 +1,7 @@
-"""``server --persist FILE``: runtime changes survive a restart, at a cost per set that
-does not grow with the table.
+"""``server --persist FILE``: runtime changes and the nodes' history survive a restart, at a
+cost per set that does not grow with the table.
 
-Two files, both ours:
+Three files, all ours:
 
 * ``FILE``, the **snapshot**: a ROS 2 parameter file in the dump format (with
   descriptors, so it reloads without loss), one section per hosted node, framed by
@@ -19,7 +19,13 @@ Two files, both ours:
   of the snapshot it follows and the process that holds it
   (``# paramdds journal epoch=… pid=… host=…``); each further line is
   ``<crc32> <json>``: ``[node, revision, [[name, type, value, descriptor] | [name]]]``
-  (a one-element entry is a deletion).
+  (a one-element entry is a deletion), with a fourth member, the history records the
+  node made with those changes (:func:`~paramdds.persist.history.record_row`), when it
+  carries any: a group of sets and the records saying who made them are one line.
+
+* ``FILE.history``, the nodes' **history** (:mod:`paramdds.persist.history`): every
+  compaction moves the journal's records there before it truncates the journal, and
+  retention (count and age per node) bounds it.
 
 Guarantees:
 
