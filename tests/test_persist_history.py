@@ -247,3 +247,38 @@ def test_whatever_happens_a_reopened_store_holds_what_the_node_held(
     assert _all(again) == _all(node.history)
     assert again.last_changes() == node.history.last_changes()
     assert again.next_seq == node.history.next_seq
+
+
+def test_a_crash_between_the_snapshot_and_the_journal_restart_loses_no_record(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import paramdds.persist as persist
+
+    node = _Node(tmp_path / "s.yaml")
+    for v in range(1, 4):
+        node.set("x", v)
+
+    def crash(self: object, epoch: str) -> None:
+        raise KeyboardInterrupt("killed")  # the snapshot has its new epoch; the journal keeps the old
+
+    monkeypatch.setattr(persist._Journal, "restart", crash)
+    with pytest.raises(KeyboardInterrupt):
+        node.store.write()
+    monkeypatch.undo()
+    node.store.close()
+    again = _reopened(tmp_path / "s.yaml")  # the journal is ignored (not the snapshot's epoch)
+    assert [r.new.value for r in _all(again)] == [1, 2, 3]  # type: ignore[union-attr]
+    assert again.last("x").who == "ann"  # type: ignore[union-attr]
+
+
+def test_a_torn_journal_line_drops_the_changes_and_their_records_together(tmp_path: Path) -> None:
+    node = _Node(tmp_path / "s.yaml")
+    node.set("x", 1)
+    node.set("x", 2)
+    node.store.close()
+    journal = Path(f"{tmp_path / 's.yaml'}.journal")
+    raw = journal.read_bytes().split(b"\0", 1)[0]
+    journal.write_bytes(raw[:-10])  # the last append cut by a crash (never acknowledged)
+    store = _store(tmp_path / "s.yaml")
+    assert {name: value.value for name, value, _ in store.read("n")} == {"x": 1}
+    assert [r.new.value for r in store.history("n").records] == [1]  # type: ignore[union-attr]
