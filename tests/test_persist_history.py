@@ -282,3 +282,31 @@ def test_a_torn_journal_line_drops_the_changes_and_their_records_together(tmp_pa
     store = _store(tmp_path / "s.yaml")
     assert {name: value.value for name, value, _ in store.read("n")} == {"x": 1}
     assert [r.new.value for r in store.history("n").records] == [1]  # type: ignore[union-attr]
+
+
+def test_records_told_to_the_store_wait_for_their_changes_and_a_refusal_alone_is_written_at_once(
+    tmp_path: Path,
+) -> None:
+    from functools import partial
+
+    table = ParameterTable("n")
+    table.declare("x", 0)
+    history = NodeHistory("n")
+    store = _store(tmp_path / "s.yaml")
+    store.attach({"n": table})
+    history.add_listener(partial(store.recorded, "n"))
+    changes: list[ChangeSet] = []
+    table.add_change_listener(changes.append)
+    table.add_change_listener(lambda c: None if history.applied(c) else None)
+    with acting(Origin("ann", Via.CLI)):
+        table.set([Parameter("x", ParameterValue.from_python(1))])
+    assert _store(tmp_path / "s.yaml").history("n").records == ()  # waiting for its change's line
+    store.record(table, changes)  # the worker's persist call: the change and its record, one line
+    assert [r.who for r in _store(tmp_path / "s.yaml").history("n").records] == ["ann"]
+    history.refused(Origin("eve", Via.WEB), table.revision, [("x", None, None, "READ_ONLY", "no")])
+    got = _store(tmp_path / "s.yaml").history("n").records  # no persist call needed
+    assert [(r.who, r.applied) for r in got] == [("ann", True), ("eve", False)]
+    history.started([("y", ParameterValue.from_python(2))], table.revision, Origin("me", Via.START), 1)
+    store.write_history()
+    assert _store(tmp_path / "s.yaml").history("n").records[-1].via == "start"
+    store.close()

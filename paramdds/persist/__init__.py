@@ -404,8 +404,11 @@ class PersistStore:
         """Write the records waiting (of ``node_id``, or of every node) now, durably."""
         with self._waiting_lock:
             nodes = [node_id] if node_id is not None else list(self._waiting)
-        for node in nodes:
-            self._append(node, ())
+        last = 0
+        for node in nodes:  # one append per node, one fdatasync for them all
+            last = max(last, self._append(node, (), wait=False))
+        if last:
+            self._wait_flushed(last)
 
     def history(self, node_id: str) -> StoredHistory:
         """The persisted history of ``node_id``: its records (retention applied with the time
@@ -523,13 +526,20 @@ class PersistStore:
         self._append(table.node_id, changes, records)
 
     def _append(
-        self, node_id: str, changes: Sequence[ChangeSet], records: Sequence[HistoryRecord] = ()
-    ) -> None:
+        self,
+        node_id: str,
+        changes: Sequence[ChangeSet],
+        records: Sequence[HistoryRecord] = (),
+        *,
+        wait: bool = True,
+    ) -> int:
+        """Append the node's line; with ``wait``, return once it is on disk. The append's
+        number (0: nothing to wait for)."""
         with self._waiting_lock:
             waiting = self._waiting.pop(node_id, [])
         records = [*waiting, *records]
         if not changes and not records:
-            return
+            return 0
         with self._lock:
             if self._journal is None:
                 raise PersistError("the persistence store is closed", file=str(self.path))
@@ -548,7 +558,7 @@ class PersistStore:
                         deleted.discard(c.name)  # declared again
             if self._broken:
                 self._compact()  # the last append failed: the snapshot covers everything
-                return
+                return 0
             try:
                 self._journal.write(data)
             except OSError:
@@ -559,8 +569,10 @@ class PersistStore:
             self._lines += max(1, len(changes))
             if self._lines >= self.compact_every:
                 self._compact()
-                return
-        self._wait_flushed(mine)
+                return 0
+        if wait:
+            self._wait_flushed(mine)
+        return mine
 
     def _wait_flushed(self, mine: int) -> None:
         """Return once append number ``mine`` is on disk: one thread flushes at a time, and
