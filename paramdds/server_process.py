@@ -258,6 +258,10 @@ class ServerProcess:
             store.attach(self.tables)
         participant = self._participant_factory()
         server = ParameterServer(participant, self._qos, nodes=list(self.tables), retention=self._retention)
+        if getattr(participant.transport, "grants", None) is not None:  # secure: who = the certificate
+            from .secure.authenticated import authenticator_for
+
+            server.authenticate = authenticator_for(participant)
         if store is not None:  # history and blame survive a restart; new records persist with their changes
             server.persisters.append(store.record)
             for node_id, table in self.tables.items():
