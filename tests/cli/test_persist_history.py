@@ -4,6 +4,7 @@ too) and each parameter's blame, and its records go on counting from there."""
 
 from __future__ import annotations
 
+import json
 import signal
 from collections.abc import Iterator
 from pathlib import Path
@@ -91,6 +92,11 @@ def test_history_and_blame_survive_kill_9(
     server = start_server(domain, *args)
     try:
         assert _history(bob) == before  # every record, with its seq, nothing added by the restart
+        out = run_cli(domain, "history", NODE, "robot.max_velocity", "-o", "json")  # the verb says the same
+        assert out.returncode == 0, out.stderr
+        printed = [r for r in json.loads(out.stdout) if r["via"] != "start"]
+        rows = [(r["who"], r["via"], r["old"], r["new"]) for r in printed]
+        assert rows == [("alice", "cli", 1.5, 2.5), ("carol", "cli", 2.5, 3.0)]
         assert _blame(bob, "robot.max_velocity", "robot.name", "sensor.rate_hz", "robot.wheel_count") == {
             "robot.max_velocity": ("carol", "cli"),
             "robot.name": ("bob", "api"),
