@@ -9,9 +9,10 @@ records with their seq, who, via, old and new, and every parameter's last change
 from __future__ import annotations
 
 from pathlib import Path
+from unittest.mock import patch
 
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from paramdds.core.history import HistoryQuery, HistoryRecord, NodeHistory, Retention
@@ -21,6 +22,7 @@ from paramdds.core.table import ParameterTable
 from paramdds.core.values import Parameter, ParameterValue
 from paramdds.formats.files import dump_text, parse_ros_text
 from paramdds.persist import PersistError, PersistStore
+from paramdds.persist import history as persist_history
 
 
 def _store(path: Path, **kw: object) -> PersistStore:
@@ -222,12 +224,23 @@ _OPS = st.lists(
 )
 
 
-@settings(max_examples=60, deadline=None)
-@given(_OPS, st.integers(1, 5), st.integers(2, 12))
+@settings(max_examples=100, deadline=None)
+@given(_OPS, st.integers(1, 5), st.integers(2, 12), st.sampled_from([0, 3, 10_000]))
+@example(  # y's only record is dropped, the file rewritten: its blame must survive the restart
+    [("set", "y", 1, "ann"), *[("set", "x", v, "bob") for v in range(6)], ("restart", "", 0, "")], 1, 2, 0
+)
 def test_whatever_happens_a_reopened_store_holds_what_the_node_held(
-    tmp_path_factory: pytest.TempPathFactory, ops: list[tuple[str, str, int, str]], every: int, keep: int
+    tmp_path_factory: pytest.TempPathFactory,
+    ops: list[tuple[str, str, int, str]],
+    every: int,
+    keep: int,
+    slack: int,
 ) -> None:
-    path = tmp_path_factory.mktemp("h") / "s.yaml"
+    with patch.object(persist_history, "REWRITE_SLACK", slack):  # 0: rewritten at every compaction
+        _run_ops(tmp_path_factory.mktemp("h") / "s.yaml", ops, every, keep)
+
+
+def _run_ops(path: Path, ops: list[tuple[str, str, int, str]], every: int, keep: int) -> None:
     retention = Retention(max_records=keep)
     node = _Node(path, retention, compact_every=every)
     for op, name, value, who in ops:
