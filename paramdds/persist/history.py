@@ -129,22 +129,25 @@ class StoredHistory:
 
 
 class _Kept:
-    """One node's retained records, last changes and dropped watermark."""
+    """One node's retained records (each with its line, so a rewrite encodes nothing), last
+    changes and dropped watermark."""
 
-    __slots__ = ("dropped", "last", "records", "top")
+    __slots__ = ("dropped", "last", "lines", "records", "top")
 
     def __init__(self) -> None:
         self.records: deque[HistoryRecord] = deque()
+        self.lines: deque[bytes] = deque()  # the file line of each record
         self.last: dict[str, LastChange | HistoryRecord] = {}  # a record: its change is the last
         self.dropped = (0, -1, 0)  # seq, revision, time_ns
         self.top = 0  # the highest seq seen (dropped or kept)
 
-    def add(self, r: HistoryRecord) -> bool:
-        """Keep ``r``; False when its seq is not new (a duplicate)."""
+    def add(self, r: HistoryRecord, line: bytes) -> bool:
+        """Keep ``r`` and its file ``line``; False when its seq is not new (a duplicate)."""
         if r.seq <= self.top:
             return False
         self.top = r.seq
         self.records.append(r)
+        self.lines.append(line)
         if r.applied:
             if r.new is None:
                 self.last.pop(r.name, None)
@@ -162,6 +165,7 @@ class _Kept:
         records = self.records
         while records and (len(records) > keep.max_records or records[0].time_ns < oldest):
             gone = records.popleft()
+            self.lines.popleft()
             self.drop_upto(gone.seq, gone.revision, gone.time_ns)
 
     def last_changes(self) -> dict[str, LastChange]:
@@ -211,8 +215,9 @@ class HistoryFile:
                     raise PersistError(
                         f"bad history record in the journal: {exc}", file=str(self.path)
                     ) from exc
-                if kept.add(record):
-                    self._pending.append(crc_line(["r", node, *row]))
+                line = crc_line(["r", node, *row])
+                if kept.add(record, line):
+                    self._pending.append(line)
         now = time.time_ns()
         for kept in self._nodes.values():
             kept.trim(self.retention, now)
@@ -240,7 +245,7 @@ class HistoryFile:
             try:
                 if not isinstance(item, list) or len(item) < 2:
                     raise ValueError("not a history line")
-                self._take(item, values)
+                self._take(item, line + b"\n", values)
             except (ValueError, TypeError, ParamddsError) as exc:
                 if number == len(lines) + 1:
                     self._rewrite = True  # a damaged last line, as a torn one
@@ -249,11 +254,11 @@ class HistoryFile:
                     f"a history line is damaged ({exc})", file=str(self.path), line=number
                 ) from None
 
-    def _take(self, item: list[object], values: _Values) -> None:
+    def _take(self, item: list[object], line: bytes, values: _Values) -> None:
         kind, node = item[0], str(item[1])
         kept = self._kept(node)
         if kind == "r":
-            if kept.add(record_of_row(node, item[2:], values)):
+            if kept.add(record_of_row(node, item[2:], values), line):
                 self._lines += 1
         elif kind == "l":
             rows = item[2]
@@ -273,8 +278,9 @@ class HistoryFile:
         for r in records:
             row = record_row(r)
             rows.append(row)
-            if kept.add(r):
-                self._pending.append(crc_line(["r", node, *row]))
+            line = crc_line(["r", node, *row])
+            if kept.add(r, line):
+                self._pending.append(line)
         kept.trim(self.retention, max(time.time_ns(), records[-1].time_ns if records else 0))
         return rows
 
@@ -300,7 +306,7 @@ class HistoryFile:
         """Replace the file with what retention keeps."""
         out = [HISTORY_HEADER]
         for node, kept in sorted(self._nodes.items()):
-            out += [crc_line(["r", node, *record_row(r)]) for r in kept.records]
+            out += kept.lines
             out.append(crc_line(["l", node, {n: _last_row(c) for n, c in kept.last_changes().items()}]))
             if kept.dropped[0]:
                 out.append(crc_line(["w", node, *kept.dropped]))
