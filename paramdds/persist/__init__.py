@@ -421,6 +421,7 @@ class PersistStore:
         if not self.history_file.loaded:
             self._journal_entries("")  # reads the journal's rows, when it follows the snapshot
             self.history_file.load(self._replayed_rows)
+            self._replayed_rows = {}  # the history file holds them now
 
     def deleted(self, node_id: str) -> list[str]:
         """Names of ``node_id`` deleted at runtime: a restart must not bring them back from
