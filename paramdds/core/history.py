@@ -18,6 +18,7 @@ since.
 from __future__ import annotations
 
 import fnmatch
+import itertools
 import threading
 import time
 from collections import deque
@@ -311,13 +312,25 @@ class NodeHistory:
         with self._lock:
             found: list[HistoryRecord] = []
             more = False
-            for r in self._s.records:
+            for r in itertools.islice(self._s.records, self._first_after(q.after_seq), None):
                 if q.matches(r):
                     if len(found) == limit:
                         more = True
                         break
                     found.append(r)
             return HistoryPage(tuple(found), more, self._compacted(q))
+
+    def _first_after(self, seq: int) -> int:
+        """The index of the first record after ``seq``, or one before it: a page's query starts
+        there instead of rescanning the pages before (records are in seq order; their seqs are
+        consecutive unless a restore gave gaps, then the scan starts earlier)."""
+        records = self._s.records
+        if not records or seq < records[0].seq:
+            return 0
+        i = min(seq - records[0].seq + 1, len(records))
+        while i > 0 and records[i - 1].seq > seq:  # gaps put the seqs further than their index
+            i -= 1
+        return i
 
     def _compacted(self, q: HistoryQuery) -> bool:
         """Whether retention dropped records the query's range covers."""
