@@ -49,7 +49,6 @@ from typing import Any
 
 import zenoh
 
-from ..core.call import HistoryRequest
 from ..core.history import HistoryQuery
 from ..core.origin import Via
 from ..core.results import LastChange
@@ -424,9 +423,8 @@ class Gateway:
     def _history(self, node: str, query: HistoryQuery, timeout: float) -> bytes:
         """One page of ``node``'s history, as the remote asker pages it (``after_seq``); its
         records named ``SITE/NODE``."""
-        c = self.client
-        # one call: the client's history() walks every page, the asker here walks them itself
-        kept, page = c.transport.history_page(c._run(HistoryRequest(node, query), timeout))
+        # one page: the client's history() walks every page, the asker here walks them itself
+        kept, page = self.client.history_page(node, query, timeout=timeout)
         remote = keys.remote_name(self.site, node)
         records = tuple(r._replace(node=keys.remote_name(self.site, r.node)) for r in page.records)
         return history.history_reply(remote, replace(page, records=records), kept)
