@@ -187,19 +187,32 @@ class NodeHistory:
 
     def applied(self, change: ChangeSet) -> list[HistoryRecord]:
         """Record a committed change set: one record per parameter; returns them."""
+        # the hot path of every commit: one record per parameter, made inline (~1 µs each)
         last = LastChange.of(change)
-        author = (last.who, last.verified, last.via)
+        node, revision, t, who, verified, via = (
+            self.node_id, change.revision, change.time_ns, last.who, last.verified, last.via
+        )
+        deleted = ChangeKind.DELETED
+        s = self._s
         with self._lock:
-            out = []
+            seq = s.next_seq
+            out = [
+                HistoryRecord(
+                    seq + i, node, c.name, revision, t, who, verified, via, c.old,
+                    None if c.kind is deleted else c.value,
+                )
+                for i, c in enumerate(change.changes)
+            ]  # fmt: skip
+            s.next_seq = seq + len(out)
+            s.records.extend(out)
             for c in change.changes:
-                new = None if c.kind is ChangeKind.DELETED else c.value
-                out.append(self._add(c.name, change.revision, change.time_ns, author, c.old, new))
-                if new is None:
-                    self._s.last.pop(c.name, None)
+                if c.kind is deleted:
+                    s.last.pop(c.name, None)
                 else:
-                    self._s.last[c.name] = last
-            self._trim(change.time_ns)
-        self._tell(out)
+                    s.last[c.name] = last
+            self._trim(t)
+        if self._listeners:
+            self._tell(out)
         return out
 
     def started(
