@@ -96,7 +96,6 @@ MAX_HISTORY = 10_000  # records a history answer may hold at most (a node keeps 
 class WebOptions:
     read_only: bool = False
     tokens: tuple[Token, ...] = ()  # --token-file: the bearer tokens accepted, each maybe naming its operator
-    identity: str = ""  # who a write without an operator's name is made as (the console's own identity)
     domain: int = 0
     zenoh: str | None = None  # the router's endpoint when the console reaches sites over Zenoh
     allowed_hosts: tuple[str, ...] = LOOPBACK_NAMES  # the Host names accepted (DNS rebinding)
@@ -401,7 +400,7 @@ class Console:
         once the write is allowed (checked before reading)."""
         token = self._check_write(request)
         body = await read_body(request)
-        who = operator(token, claimed_name(body), self.options.identity)
+        who = operator(token, claimed_name(body), self.client.sync.who)  # the client's: --as, or its default
         return body, node_arg(body.get("node")), who
 
     async def _send(

@@ -7,8 +7,9 @@ uploaded file) is recorded by its node as made ``via web``, by :func:`operator`:
 1. the name of the token the request carries, when that token names one (what the page
    claims is then ignored);
 2. else the name the page sends as ``"as"`` (the operator field, kept by the browser);
-3. else the console's own identity (``paramdds web --as NAME``, ``$PARAMDDS_AS``, or
-   ``USER@host`` of the console's process).
+3. else the console's own identity, its client's (``paramdds web --as NAME``, else
+   ``$PARAMDDS_AS``, else ``USER@host`` of the console's process; with ``--zenoh``, the
+   name of its Zenoh certificate before ``USER@host``).
 
 Every one of them is the console's word: the node records it as a claim (``verified``
 false). What a node can verify, in secure mode, is the console's own participant.

@@ -23,7 +23,7 @@ import h11
 import uvicorn
 from uvicorn.protocols.http.h11_impl import H11Protocol
 
-from ..core.origin import Via, local_identity
+from ..core.origin import Via
 from ..exits import Exit, UsageError
 from ..session import Session
 from .app import WebOptions, build_app
@@ -136,7 +136,6 @@ def options_from(args: argparse.Namespace, host: str) -> WebOptions:
         timeout=args.timeout,
         token_for_reads=not loopback,
         schemas=_schemas(getattr(args, "schema", None) or ()),
-        identity=getattr(args, "as_name", None) or local_identity(),
     )
 
 

@@ -44,9 +44,8 @@ def test_a_token_file_that_is_not_one_is_refused_with_its_line(text: str, why: s
 def test_the_console_reads_named_tokens_and_refuses_a_bad_file(tmp_path: Path) -> None:
     path = tmp_path / "tokens"
     path.write_text(f"alice {ALICE}\n")
-    args = argparse.Namespace(token_file=str(path), read_only=False, domain=1, timeout=5.0, as_name="console")
-    options = options_from(args, "127.0.0.1")
-    assert options.tokens == (Token(ALICE, "alice"),) and options.identity == "console"
+    args = argparse.Namespace(token_file=str(path), read_only=False, domain=1, timeout=5.0)
+    assert options_from(args, "127.0.0.1").tokens == (Token(ALICE, "alice"),)
     path.write_text(f"alice {ALICE} {BOB}\n")
     with pytest.raises(UsageError, match=r"--token-file .*tokens: line 1: expected TOKEN or NAME TOKEN"):
         options_from(args, "127.0.0.1")
