@@ -26,7 +26,6 @@ import threading
 import time
 from dataclasses import dataclass, field
 
-from ..core.results import LastChange
 from ..dds.monitor import EventKind, MonitorEvent
 from .model import Row, parameter_row, summary_json
 from .view import StateView
@@ -60,7 +59,7 @@ class Subscriber:
 
 
 def log_entry(e: MonitorEvent) -> Row:
-    last = last_change_of(e)
+    last = e.last_change
     return {
         "event": e.event.value,
         "node": e.node,
@@ -74,12 +73,6 @@ def log_entry(e: MonitorEvent) -> Row:
         "stamp": e.stamp or time.time(),
         "who": last.who if last is not None else None,  # who made this change, if the node said
     }
-
-
-def last_change_of(e: MonitorEvent) -> LastChange | None:
-    """Who made the change an event carries (None: not a change, or the node did not say)."""
-    last = getattr(e, "last_change", None)  # TODO(web-history): MonitorEvent.last_change, from state-blame
-    return last if isinstance(last, LastChange) else None
 
 
 class Hub:
@@ -161,7 +154,7 @@ class Hub:
                 rows.pop(e.name, None)
                 deleted[e.name] = None
             elif e.value is not None:
-                rows[e.name] = parameter_row(e.name, e.value, e.descriptor, last_change_of(e))
+                rows[e.name] = parameter_row(e.name, e.value, e.descriptor, e.last_change)
                 deleted.pop(e.name, None)
         summaries = self._view.summaries([node])
         return sse(

@@ -50,10 +50,7 @@ class NodeDetail:
 
 def held_last_changes(st: NodeState) -> dict[str, LastChange]:
     """Who last changed each parameter of ``st``, as the monitor holds it (from the state samples)."""
-    last = getattr(st, "last_change", None)  # TODO(web-history): NodeState.last_change, from state-blame
-    if last is None:
-        return {}
-    return {name: lc for name in st.parameters if (lc := last(name)) is not None}
+    return {name: lc for name in st.parameters if (lc := st.last_change(name)) is not None}
 
 
 class StateView:
