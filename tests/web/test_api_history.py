@@ -14,7 +14,8 @@ import pytest
 
 from paramdds.core.origin import local_identity
 
-from ..cli._support import start_server
+from ..cli._support import next_domain, start_server
+from ..dds.helpers import DdsSession
 from ._support import CONSOLE_PARAMS, Console
 from .conftest import wait_for_nodes
 from .test_api import error, post
@@ -141,3 +142,26 @@ def test_a_range_past_retention_says_history_was_dropped(domain: int, console: C
         assert body["records"][0]["new"] == 3
     finally:
         small.stop()
+
+
+def test_a_node_that_keeps_no_history_is_said_to_keep_none() -> None:
+    """A peer without history (an older release, a foreign one) answers ``history_kept`` FALSE:
+    the console says so, with no record, instead of an error or a hang."""
+    from paramdds.core.table import ParameterTable
+
+    domain = next_domain()
+    with DdsSession(domain) as dds:
+        table = ParameterTable("old_peer")
+        table.declare("speed", 1.0)
+        server = dds.server(table)
+        server._histories.pop("old_peer")  # what a peer that keeps no history answers
+        console = Console(domain)
+        try:
+            wait_for_nodes(console.url, {"old_peer"}, params=1)
+            body = history(console, node="old_peer", name="speed").json()
+            assert body == {
+                "node": "old_peer", "names": ["speed"], "kept": False, "compacted": False, "more": False,
+                "records": [],
+            }  # fmt: skip
+        finally:
+            console.stop()

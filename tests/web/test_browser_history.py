@@ -8,7 +8,8 @@ from __future__ import annotations
 import pytest
 from playwright.sync_api import Page, expect
 
-from ..cli._support import start_server
+from ..cli._support import next_domain, start_server
+from ..dds.helpers import DdsSession
 from ._support import CONSOLE_PARAMS, Console
 from .conftest import wait_for_nodes
 from .test_api import post
@@ -70,3 +71,25 @@ def test_the_timeline_says_when_retention_dropped_older_history(
         expect(page.locator("#timeline-list li").first.locator(".change")).to_have_text("2 → 3")
     finally:
         small.stop()
+
+
+def test_the_timeline_of_a_node_that_keeps_no_history_says_so(page: Page) -> None:
+    from paramdds.core.table import ParameterTable
+
+    domain = next_domain()
+    with DdsSession(domain) as dds:
+        table = ParameterTable("old_peer")
+        table.declare("speed", 1.0)
+        server = dds.server(table)
+        server._histories.pop("old_peer")  # what a peer that keeps no history answers
+        console = Console(domain)
+        try:
+            wait_for_nodes(console.url, {"old_peer"}, params=1)
+            open_node(page, console, "old_peer")
+            row(page, "speed").locator(".pname").click()
+            expect(page.locator("#timeline-note")).to_have_text(
+                "Node old_peer keeps no history (a node of an older release, or a foreign peer)."
+            )
+            expect(page.locator("#timeline-list li")).to_have_count(0)
+        finally:
+            console.stop()
