@@ -88,8 +88,8 @@ def _typed(kind: str, text: str) -> object:
     return value
 
 
-def _lines(out: str, tag: str) -> list[list[str]]:
-    return [line.split(" ", 4)[1:] for line in out.splitlines() if line.startswith(tag + " ")]
+def _lines(out: str, tag: str, fields: int = 4) -> list[list[str]]:
+    return [line.split(" ", fields)[1:] for line in out.splitlines() if line.startswith(tag + " ")]
 
 
 def test_a_foreign_monitor_joining_late_gets_every_value_exactly(
@@ -328,3 +328,109 @@ def test_a_foreign_node_applies_a_resent_set_once(
     assert len(answers) >= answered + 3
     assert [(a.revision, a.results[0].successful) for a in answers] == [(2, True)] * len(answers)
     assert node.kill().splitlines().count(f"SET {p}count") == 1  # the node applied it once
+
+
+def test_a_foreign_node_stamps_each_change_with_the_askers_claim(
+    vendor: tuple[Vendor, Path], envs: tuple[dict[str, str], dict[str, str]], domain_id: int
+) -> None:
+    """Blame on another vendor's node, read by paramdds's reader: its start values are its own
+    (via start), a change carries the asker's claim unverified, a change from an asker that says
+    nothing carries "" (no last change); its get with descriptors and its own monitor say the
+    same, and its client's set says who and via "api"."""
+    from cyclonedds.sub import DataReader
+    from cyclonedds.topic import Topic
+
+    from paramdds.dds.qos import QosProfiles
+    from paramdds.dds.wire import types as wire
+
+    from ..reliability.rawwire import RawPeer
+
+    info, program = vendor
+    p = info.prefix
+    node_env = dict(envs[0], PARAMDDS_AS="peer-node")
+    node = _Node(program, "fnode", node_env)
+    try:
+        with DdsSession(domain_id) as session:
+            dp = session.participant()
+            peer = RawPeer(dp)
+            state_reader = DataReader(
+                dp,
+                Topic(dp, "ParameterEvents", wire.ParameterEvent),
+                QosProfiles.load().reader("ParameterEvents"),
+            )
+            state: dict[str, Any] = {}
+
+            def blame(name: str) -> tuple[str, bool, str, int] | None:
+                """(who, verified, via, revision) of the parameter's state as read last."""
+                for s in state_reader.take(N=64):
+                    if s.sample_info.valid_data and s.kind == wire.EVENT_PARAMETER:
+                        state[s.name] = s
+                s = state.get(f"{p}{name}")
+                return None if s is None else (s.who, s.verified, s.via, s.revision)
+
+            def becomes(name: str, expected: tuple[str, bool, str, int] | None) -> bool:
+                return wait_until(lambda: blame(name) == expected, 10)
+
+            assert wait_until(lambda: blame("enabled") is not None and len(state) == 4, 10), state
+            for name in ("speed", "count", "label", "enabled"):  # its own start values
+                assert blame(name) == ("peer-node", False, "start", 1), name
+
+            claimed = _count_set(p, 55, 1, 5)
+            claimed.who, claimed.via = "alice@lab", "api"
+            assert peer.first_answer(claimed).results[0].successful
+            assert becomes("count", ("alice@lab", False, "api", 2)), blame("count")
+            silent = wire.SetParametersRequest(  # who and via "": a peer that says nothing
+                node_id="fnode",
+                client_id=55,
+                request_id=2,
+                expected_revision=-1,
+                parameters=[wire.Parameter(f"{p}label", wire.ParameterValue(type=4, string_value="quiet"))],
+            )
+            assert peer.first_answer(silent).results[0].successful
+            assert becomes("label", ("", False, "", 3)), blame("label")
+
+            described = peer.first_answer(
+                wire.GetParametersRequest(
+                    node_id="fnode",
+                    client_id=55,
+                    request_id=3,
+                    with_descriptors=True,
+                    names=[f"{p}count", f"{p}label"],
+                )
+            )
+            count, label = (r.last_change[0] for r in described.results)
+            assert (count.who, count.verified, count.via, count.revision) == ("alice@lab", False, "api", 2)
+            assert (label.who, label.via, label.revision) == ("", "", 3)
+            assert count.stamp == state[f"{p}count"].stamp  # when: the state's stamp
+
+            # the node keeps no history: a history query is answered at once, history_kept FALSE
+            started = time.monotonic()
+            answer = peer.first_answer(
+                wire.GetParametersRequest(
+                    node_id="fnode", client_id=55, request_id=4, history=[wire.HistoryQuery()]
+                )
+            )
+            assert time.monotonic() - started < 3
+            assert (answer.history_kept, answer.history, answer.history_more, answer.history_compacted) == (
+                False,
+                [],
+                False,
+                False,
+            )
+
+            # its own client says who (its claim) and via "api"; the node records them
+            client_env = dict(envs[0], PARAMDDS_AS="peer-client")
+            done = _run([str(program), "set", "fnode", f"{p}speed=4.5"], client_env)
+            assert done.returncode == 0, done.stdout + done.stderr
+            assert becomes("speed", ("peer-client", False, "api", 4)), blame("speed")
+
+        # the vendor's own monitor prints each state's blame; "" prints none
+        seen = _run([str(program), "monitor", "5"], envs[0])
+        assert seen.returncode == 0, seen.stderr
+        assert {rest[1]: rest for rest in _lines(seen.stdout, "BLAME", 6)} == {
+            f"{p}speed": ["fnode", f"{p}speed", "api", "claimed", "4", "peer-client"],
+            f"{p}count": ["fnode", f"{p}count", "api", "claimed", "2", "alice@lab"],
+            f"{p}enabled": ["fnode", f"{p}enabled", "start", "claimed", "1", "peer-node"],
+        }
+    finally:
+        node.kill()
