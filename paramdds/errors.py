@@ -58,6 +58,7 @@ class ErrorCode(str, Enum):
     UNKNOWN = "UNKNOWN"  # a code this version does not know (a newer node's): see RemoteError
     EXPIRED = "EXPIRED"  # a write refused whole: past its deadline at the node's commit point
     OUTCOME_UNKNOWN = "OUTCOME_UNKNOWN"  # a write sent and not answered in time: applied or not
+    NO_HISTORY = "NO_HISTORY"  # the node keeps no history (a peer that does not record it)
 
 
 class ParamddsError(Exception):
@@ -110,6 +111,12 @@ class ConflictError(ParameterError):
 
 class CallbackError(ParameterError):
     code = ErrorCode.IN_CALLBACK
+
+
+class NoHistoryError(ParamddsError):
+    """The node answered, and keeps no history (a peer built without it)."""
+
+    code = ErrorCode.NO_HISTORY
 
 
 class FileFormatError(ParamddsError):

@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from .core.descriptors import ParameterDescriptor
+from .core.history import Retention
 from .core.table import ParameterTable
 from .core.values import ParameterType, ParameterValue
 from .errors import FileFormatError, ParamddsError
@@ -235,8 +236,11 @@ class ServerProcess:
         store: PersistStore | None,
         participant_factory: Callable[[], Any],
         qos: Any = None,
+        *,
+        retention: Retention | None = None,
     ) -> None:
         self.tables = dict(tables)
+        self._retention = retention
         self.store = store
         self._participant_factory = participant_factory
         self._qos = qos
@@ -249,7 +253,7 @@ class ServerProcess:
         if self.store is not None:
             self.store.attach(self.tables)
         participant = self._participant_factory()
-        server = ParameterServer(participant, self._qos, nodes=list(self.tables))
+        server = ParameterServer(participant, self._qos, nodes=list(self.tables), retention=self._retention)
         if self.store is not None:
             server.persisters.append(self.store.record)
         for table in self.tables.values():

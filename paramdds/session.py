@@ -12,6 +12,8 @@ import argparse
 import logging
 from typing import TYPE_CHECKING, Any
 
+from .core.origin import Via
+
 if TYPE_CHECKING:
     from .dds.assign import Assigner, ReplyCallback
     from .dds.client import ParameterClient
@@ -73,7 +75,9 @@ class Session:
             self._zenoh = remote_session(self.args)
         return self._zenoh
 
-    def client(self) -> ParameterClient:
+    def client(self, via: Via = Via.CLI) -> ParameterClient:
+        """The verb's client; its writes are recorded as ``via`` and under ``--as``."""
+        as_ = getattr(self.args, "as_name", None)
         if getattr(self.args, "zenoh", None):  # every site's nodes, as SITE/NODE (paramdds.zenoh)
             from .zenoh.client import RemoteParameterClient
 
@@ -87,7 +91,9 @@ class Session:
         # (paramdds.dds.discovery); until then the call waits, up to --timeout. The presence
         # reader is made when a call needs it: a verb answered at once never receives the
         # system's retained parameter state (every server sends it to each new reader)
-        client = ParameterClient(participant, self.qos, timeout=self.args.timeout, one_shot=True)
+        client = ParameterClient(
+            participant, self.qos, timeout=self.args.timeout, one_shot=True, as_=as_, via=via
+        )
         self._closers.append(client)
         return client
 
@@ -120,7 +126,9 @@ class Session:
     def assigner(self, on_reply: ReplyCallback | None = None) -> Assigner:
         from .dds.assign import Assigner
 
-        assigner = Assigner(self.participant, self.qos, on_reply=on_reply)
+        assigner = Assigner(
+            self.participant, self.qos, on_reply=on_reply, as_=getattr(self.args, "as_name", None)
+        )
         self._closers.append(assigner)
         return assigner
 

@@ -71,6 +71,14 @@ def _add_globals(p: argparse.ArgumentParser, *, top: bool) -> None:
         help=f"how long to wait for an answer (default {DEFAULT_TIMEOUT:g})",
     )
     g.add_argument(
+        "--as",
+        dest="as_name",
+        metavar="NAME",
+        default=default(None),
+        help="the identity your writes are recorded under (default $PARAMDDS_AS, else USER@host); "
+        "a claim, which secure mode replaces with your certificate's subject",
+    )
+    g.add_argument(
         "--log-level",
         choices=LOG_LEVELS,
         type=str.lower,

@@ -11,10 +11,14 @@ from .._lazy import loader
 if TYPE_CHECKING:
     from .custom_validators import register_validator
     from .descriptors import FloatingPointRange, IntegerRange, ParameterDescriptor, Validator
+    from .history import HistoryRecord, Outcome, Retention
+    from .origin import Origin, Via
+    from .replies import HistoryReply
     from .results import (
         ChangeKind,
         ChangeSet,
         GetResult,
+        LastChange,
         ListResult,
         ParameterChange,
         SetOutcome,
@@ -36,6 +40,7 @@ __getattr__ = loader(
                 "ChangeKind",
                 "ChangeSet",
                 "GetResult",
+                "LastChange",
                 "ListResult",
                 "ParameterChange",
                 "SetOutcome",
@@ -45,6 +50,9 @@ __getattr__ = loader(
             f"{__name__}.results",
         ),
         "ParameterTable": f"{__name__}.table",
+        **dict.fromkeys(["HistoryRecord", "Outcome", "Retention"], f"{__name__}.history"),
+        **dict.fromkeys(["Origin", "Via"], f"{__name__}.origin"),
+        "HistoryReply": f"{__name__}.replies",
         "register_validator": f"{__name__}.custom_validators",
         **dict.fromkeys(["NOT_SET", "Parameter", "ParameterType", "ParameterValue"], f"{__name__}.values"),
     },
@@ -56,17 +64,24 @@ __all__ = [
     "ChangeSet",
     "FloatingPointRange",
     "GetResult",
+    "HistoryRecord",
+    "HistoryReply",
     "IntegerRange",
+    "LastChange",
     "ListResult",
+    "Origin",
+    "Outcome",
     "Parameter",
     "ParameterChange",
     "ParameterDescriptor",
     "ParameterTable",
     "ParameterType",
     "ParameterValue",
+    "Retention",
     "SetOutcome",
     "SetResult",
     "SetVeto",
     "Validator",
+    "Via",
     "register_validator",
 ]

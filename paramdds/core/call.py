@@ -39,6 +39,7 @@ from enum import Enum
 from typing import NamedTuple
 
 from ..errors import OutcomeUnknownError, ParamddsError, UnavailableError
+from .history import HistoryQuery
 from .request import ParamsArg
 from .revision import Revision
 
@@ -48,6 +49,7 @@ __all__ = [
     "Call",
     "Failure",
     "GetRequest",
+    "HistoryRequest",
     "ListRequest",
     "Mark",
     "Presence",
@@ -109,10 +111,21 @@ class SetRequest:
     params: ParamsArg
     atomic: bool
     if_revision: int | Revision | None
+    who: str = ""  # the asker's claimed identity
+    via: str = ""  # the channel (core.origin.Via)
     write = True
 
 
-Request = ListRequest | GetRequest | SetRequest
+@dataclass(frozen=True)
+class HistoryRequest:
+    """One page of a node's history (:class:`~paramdds.core.history.HistoryQuery`)."""
+
+    node: str
+    query: HistoryQuery
+    write = False
+
+
+Request = ListRequest | GetRequest | SetRequest | HistoryRequest
 
 
 class Failure(Enum):

@@ -21,7 +21,7 @@ import fnmatch
 import threading
 import time
 from collections import deque
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from enum import IntEnum
 
@@ -170,6 +170,16 @@ class NodeHistory:
         self.retention = retention or Retention()
         self._s = _State()
         self._lock = threading.Lock()
+        self._listeners: list[Callable[[list[HistoryRecord]], None]] = []
+
+    def add_listener(self, fn: Callable[[list[HistoryRecord]], None]) -> None:
+        """Call ``fn(records)`` with every batch of new records, in order, on the recording
+        thread, after they are kept (a store that persists them)."""
+        self._listeners.append(fn)
+
+    def _tell(self, records: list[HistoryRecord]) -> None:
+        for fn in list(self._listeners) if records else []:
+            fn(records)
 
     # -- recording ------------------------------------------------------------------
 
@@ -186,7 +196,26 @@ class NodeHistory:
                 else:
                     self._s.last[c.name] = last
             self._trim(change.time_ns)
-            return out
+        self._tell(out)
+        return out
+
+    def started(
+        self, values: Iterable[tuple[str, ParameterValue]], revision: int, origin: Origin, time_ns: int
+    ) -> list[HistoryRecord]:
+        """Record the values a node starts with (``via`` start), for each parameter whose last
+        change is not known already (a restored history knows it); returns the new records."""
+        with self._lock:
+            out = []
+            for name, value in values:
+                if name not in self._s.last:
+                    out.append(self._add(name, revision, time_ns, origin, None, value))
+                    self._s.last[name] = LastChange(
+                        origin.who, origin.verified, str(getattr(origin.via, "value", origin.via)),
+                        time_ns, revision,
+                    )  # fmt: skip
+            self._trim(time_ns)
+        self._tell(out)
+        return out
 
     def refused(
         self,
@@ -203,7 +232,8 @@ class NodeHistory:
                 for name, old, new, code, reason in refusals
             ]
             self._trim(now)
-            return out
+        self._tell(out)
+        return out
 
     def _add(
         self,

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from .history import HistoryRecord
 from .results import GetResult, SetResult
 from .revision import Revision
 from .values import ParameterValue
 
-__all__ = ["GetReply", "NodeInfo", "SetReply"]
+__all__ = ["GetReply", "HistoryReply", "NodeInfo", "SetReply"]
 
 
 class _At:
@@ -68,3 +69,13 @@ class SetReply(_At):
     @property
     def successful(self) -> bool:
         return all(r.successful for r in self.results)
+
+
+@dataclass(frozen=True)
+class HistoryReply:
+    """A node's history as asked: records oldest first; ``compacted``: retention dropped some
+    of the range asked for, so the records are not its whole past."""
+
+    node: str
+    records: tuple[HistoryRecord, ...]
+    compacted: bool = False

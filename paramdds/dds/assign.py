@@ -23,6 +23,7 @@ from typing import Any
 from cyclonedds.domain import DomainParticipant
 
 from ..core.names import canonical_node_id
+from ..core.origin import Via, local_identity
 from ..core.request import ParamsArg, to_parameters
 from ..core.results import SetResult
 from ..errors import code_of
@@ -46,8 +47,10 @@ class Assigner:
         qos: QosProfiles | None = None,
         *,
         on_reply: ReplyCallback | None = None,
+        as_: str | None = None,
     ) -> None:
         profiles = qos or QosProfiles.load()
+        self.who = as_ or local_identity()  # the identity its assignments claim
         self._qos = profiles.assignment_writer()
         transport = transport_of(participant)
         # plain: the one writer, made now; secure: a writer per node, in its partition, made on use
@@ -92,5 +95,7 @@ class Assigner:
                 request_id=next(self._ids),
                 retained=True,
                 parameters=[parameter_to_wire(p) for p in to_parameters(params)],
+                who=self.who,
+                via=Via.ASSIGN.value,
             )
         )

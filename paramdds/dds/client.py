@@ -33,7 +33,10 @@ from typing import Any
 from cyclonedds.domain import DomainParticipant
 
 from ..core.call import Call, Failure, GetRequest, ListRequest, Request, SetRequest, Wake
-from ..core.replies import GetReply, NodeInfo, SetReply
+from ..core.history import Outcome
+from ..core.history_pages import HistoryPages, TimeArg
+from ..core.origin import Via, local_identity
+from ..core.replies import GetReply, HistoryReply, NodeInfo, SetReply
 from ..core.request import ParamsArg
 from ..core.results import ListResult
 from ..core.revision import Revision
@@ -88,8 +91,14 @@ class ParameterClient:
         presence_grace: float = PRESENCE_GRACE,
         client_id: int | None = None,
         one_shot: bool = False,
+        as_: str | None = None,
+        via: Via | str = Via.API,
     ) -> None:
+        """``as_``: the identity this client's writes claim (default ``$PARAMDDS_AS``, else
+        ``USER@host``); ``via``: the channel they are recorded under."""
         self.timeout = timeout
+        self.who = as_ or local_identity()
+        self.via = str(getattr(via, "value", via))
         self._ids = itertools.count(1)
         self._ids_lock = threading.Lock()
         if isinstance(participant, ClientTransport):
@@ -142,6 +151,7 @@ class ParameterClient:
         atomic: bool = False,
         if_revision: int | Revision | None = None,
         timeout: float | None = None,
+        as_: str | None = None,
     ) -> SetReply:
         """Set parameters: each on its own, or all-or-nothing with ``atomic``.
 
@@ -150,12 +160,49 @@ class ParameterClient:
         carries the node's current :attr:`SetReply.at`. A :class:`Revision` (from
         ``NodeInfo.at``, ``GetReply.at``, ``SetReply.at``) compares the incarnation and
         the revision, so a restarted node never matches; a plain ``int`` compares the
-        revision alone, which a restart can repeat.
+        revision alone, which a restart can repeat. ``as_`` claims another identity than the
+        client's for this write.
         """
-        return self.transport.set_reply(self._run(SetRequest(node, params, atomic, if_revision), timeout))
+        request = self.set_request(node, params, atomic, if_revision, as_)
+        return self.transport.set_reply(self._run(request, timeout))
 
     def delete(self, node: str, names: Sequence[str], *, timeout: float | None = None) -> SetReply:
         return self.set(node, [Parameter(n, NOT_SET) for n in names], timeout=timeout)
+
+    def history(
+        self,
+        node: str,
+        names: Sequence[str] = (),
+        *,
+        since_revision: int | None = None,
+        since_time: TimeArg = None,
+        until: TimeArg = None,
+        who: str = "",
+        outcome: Outcome = Outcome.ALL,
+        timeout: float | None = None,
+    ) -> HistoryReply:
+        """The node's changes (and refused writes) matching every filter given, oldest first:
+        of ``names`` (all when empty), after revision ``since_revision``, from ``since_time``
+        to ``until`` (datetimes or seconds since the epoch), by a ``who`` glob. ``compacted``
+        says retention dropped part of the range. NoHistoryError: the node keeps none."""
+        pages = HistoryPages(
+            node, tuple(names), since_revision=since_revision, since_time=since_time, until=until,
+            who=who, outcome=outcome,
+        )  # fmt: skip
+        while not pages.take(*self.transport.history_page(self._run(pages.request(), timeout))):
+            pass
+        return pages.reply()
+
+    def set_request(
+        self,
+        node: str,
+        params: ParamsArg,
+        atomic: bool = False,
+        if_revision: int | Revision | None = None,
+        as_: str | None = None,
+    ) -> SetRequest:
+        """A set as this client sends it: with its identity (or ``as_``) and its channel."""
+        return SetRequest(node, params, atomic, if_revision, as_ or self.who, self.via)
 
     # -- presence ---------------------------------------------------------------------------
 
@@ -291,9 +338,30 @@ class AsyncParameterClient:
         atomic: bool = False,
         if_revision: int | Revision | None = None,
         timeout: float | None = None,
+        as_: str | None = None,
     ) -> SetReply:
-        reply = await self._run(SetRequest(node, params, atomic, if_revision), timeout)
+        reply = await self._run(self.sync.set_request(node, params, atomic, if_revision, as_), timeout)
         return self.sync.transport.set_reply(reply)
+
+    async def history(
+        self,
+        node: str,
+        names: Sequence[str] = (),
+        *,
+        since_revision: int | None = None,
+        since_time: TimeArg = None,
+        until: TimeArg = None,
+        who: str = "",
+        outcome: Outcome = Outcome.ALL,
+        timeout: float | None = None,
+    ) -> HistoryReply:
+        pages = HistoryPages(
+            node, tuple(names), since_revision=since_revision, since_time=since_time, until=until,
+            who=who, outcome=outcome,
+        )  # fmt: skip
+        while not pages.take(*self.sync.transport.history_page(await self._run(pages.request(), timeout))):
+            pass
+        return pages.reply()
 
     async def delete(self, node: str, names: Sequence[str], *, timeout: float | None = None) -> SetReply:
         return await self.set(node, [Parameter(n, NOT_SET) for n in names], timeout=timeout)

@@ -22,6 +22,7 @@ from concurrent.futures import Future
 from typing import Any, Protocol, runtime_checkable
 
 from ..core.call import Call, Failure, Mark, Request
+from ..core.history import HistoryPage
 from ..core.replies import GetReply, NodeInfo, SetReply
 from ..core.results import ListResult
 from ..errors import ParamddsError
@@ -111,6 +112,10 @@ class ClientTransport(Protocol):
     def get_reply(self, reply: Any) -> GetReply: ...
 
     def set_reply(self, reply: Any) -> SetReply: ...
+
+    def history_page(self, reply: Any) -> tuple[bool, HistoryPage]:
+        """Whether the node keeps history, and the page of it in ``reply``."""
+        ...
 
     # -- presence --------------------------------------------------------------------------
 

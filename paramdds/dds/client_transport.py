@@ -33,8 +33,9 @@ from typing import Any
 from cyclonedds.core import DDSException, InstanceState
 from cyclonedds.domain import DomainParticipant
 
-from ..core.call import Call, Failure, GetRequest, ListRequest, Mark, Request, closed_error
+from ..core.call import Call, Failure, GetRequest, HistoryRequest, ListRequest, Mark, Request, closed_error
 from ..core.deadline import deadline_for
+from ..core.history import HistoryPage
 from ..core.limits import check_request_size
 from ..core.names import canonical_node_id
 from ..core.replies import GetReply, NodeInfo, SetReply
@@ -59,6 +60,7 @@ from .transport import Writers, transport_of
 from .wire import types as wire
 from .wire.cdr import is_malformed
 from .wire.convert import descriptor_from_wire, parameter_to_wire, value_from_wire
+from .wire.history import last_change_from_wire, page_from_wire, query_to_wire
 
 log = logging.getLogger(__name__)
 
@@ -206,6 +208,15 @@ class DdsClientTransport:
                 with_descriptors=request.with_descriptors,
                 names=list(request.names),
             )
+        elif isinstance(request, HistoryRequest):
+            topic = "GetParametersRequest"
+            sample = wire.GetParametersRequest(
+                node_id=node,
+                client_id=me,
+                request_id=rid,
+                names=list(request.query.names),
+                history=[query_to_wire(request.query)],
+            )
         else:
             expected = _expected(request.if_revision)
             parameters = [parameter_to_wire(p) for p in to_parameters(request.params)]
@@ -221,6 +232,8 @@ class DdsClientTransport:
                 parameters=parameters,
                 expected_incarnation=expected.incarnation,
                 deadline=deadline_for(call.timeout),
+                who=request.who,
+                via=request.via,
             )
         writer = self._writer_for(topic, node)
         pending = PendingCall(call, topic, sample, writer, self._match_counts.get(id(writer), 0))
@@ -377,6 +390,7 @@ class DdsClientTransport:
                     descriptor=descriptor_from_wire(r.descriptor[0]) if r.descriptor else None,
                     code=code,
                     reason=r.reason,
+                    last_change=last_change_from_wire(r.last_change[0]) if r.last_change else None,
                 )
             )
         return GetReply(reply.node_id, reply.revision, tuple(results), reply.incarnation)
@@ -385,6 +399,10 @@ class DdsClientTransport:
         self._check(reply)
         results = tuple(SetResult(r.name, r.successful, r.reason, code_of(r.code)) for r in reply.results)
         return SetReply(reply.node_id, reply.revision, results, reply.incarnation)
+
+    def history_page(self, reply: Any) -> tuple[bool, HistoryPage]:
+        self._check(reply)
+        return page_from_wire(reply)
 
     # -- presence -------------------------------------------------------------------
     #

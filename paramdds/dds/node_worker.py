@@ -41,6 +41,7 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Protocol
 
+from ..core.history import NodeHistory
 from ..core.hosted import HostedTable
 from ..core.results import ChangeSet
 
@@ -102,8 +103,10 @@ class NodeWorker:
         table: HostedTable,
         *,
         replied: Callable[[], None] = lambda: None,
+        history: NodeHistory | None = None,
     ) -> None:
         self.table = table
+        self.history = history or NodeHistory(table.node_id)  # what the node applied and refused
         self._replied = replied  # after a group's replies are written: sends them together
         self._persistence = persistence
         self._publication = publication
@@ -137,7 +140,9 @@ class NodeWorker:
         self._jobs.put(job)
 
     def _on_change(self, change: ChangeSet) -> None:
-        """Change listener (under the table's lock, on any thread): queue it, in revision order."""
+        """Change listener (under the table's lock, on any thread): record it in the history and
+        queue it, in revision order."""
+        self.history.applied(change)
         with self._lock:
             self._pending.append(change)
             first = len(self._pending) == 1

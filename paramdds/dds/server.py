@@ -67,12 +67,14 @@ from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
 from ..core import deadline as deadlines
+from ..core import origin as origins
+from ..core.history import NodeHistory, Retention
 from ..core.hosted import HostedTable
 from ..core.limits import check_request_size
 from ..core.names import canonical_node_id
 from ..core.results import SetResult
 from ..core.revision import incarnation_text
-from ..core.values import Parameter, ParameterType
+from ..core.values import Parameter, ParameterType, ParameterValue
 from ..errors import ErrorCode, ParamddsError
 from ._binding import BatchingWriter, flush_writes, take_serialized
 from .dispatch import SERIALIZED, Dispatcher
@@ -84,7 +86,8 @@ from .qos import QosProfiles
 from .transport import transport_of
 from .wire import types as wire
 from .wire.cdr import MalformedSample, encode
-from .wire.convert import descriptor_to_wire, parameter_from_wire, value_to_wire
+from .wire.convert import descriptor_to_wire, parameter_from_wire, value_from_wire, value_to_wire
+from .wire.history import last_change_to_wire, query_from_wire, record_to_wire
 from .wire.state import StateKey, StateSample, decode_key, decode_state
 
 log = logging.getLogger(__name__)
@@ -93,6 +96,7 @@ DEDUP_WINDOW = 4096  # replies kept for retried requests, per server
 DEDUP_BYTES = 16 * 1024 * 1024  # and at most this many bytes of request content
 RETAINED_NODES = 1024  # nodes not hosted (yet) whose retained assignments are kept
 DUPLICATE_CHECK = 2.0  # seconds after start() during which another host of our nodes is looked for
+REFUSALS_KEPT = 16  # refused parameters of one request kept in its node's history, at most
 LEASE = 1.0  # seconds: the state writer's liveliness lease, asserted from the dispatch loop
 
 
@@ -106,11 +110,18 @@ class ParameterServer:
         *,
         nodes: Iterable[str] | None = None,
         tags: Sequence[str] = (),
+        retention: Retention | None = None,
     ) -> None:
         """``nodes``: the node ids this server will host; needed in secure mode only, where
         its writers are created in those nodes' partitions (see :mod:`.transport`).
-        ``tags``: more ``name=value`` items for its presence value (``origin=ros2``)."""
+        ``tags``: more ``name=value`` items for its presence value (``origin=ros2``).
+        ``retention``: how much history each node keeps (:class:`~paramdds.core.history.Retention`)."""
         self._dp = participant
+        self._retention = retention or Retention()
+        self._histories: dict[str, NodeHistory] = {}
+        # request sample -> the identity DDS Security authenticated for its writer, or None
+        # (then the request's ``who`` is recorded as a claim, unverified)
+        self.authenticate: Callable[[Any], str | None] | None = None
         self._qos = qos or QosProfiles.load()
         self._tables: dict[str, HostedTable] = {}
         self._workers: dict[str, NodeWorker] = {}
@@ -187,7 +198,12 @@ class ParameterServer:
         self._where.admit(node_id)
         if node_id in self._tables:
             raise ParamddsError(f"node {node_id!r} is already hosted by this server")
-        worker = NodeWorker(self.persistence, self.publication, table, replied=self._send_set_replies)
+        history = self.history(node_id)
+        start = origins.local_origin(origins.Via.START)
+        history.started(((n, v) for n, v, _ in table.snapshot()), table.revision, start, time.time_ns())
+        worker = NodeWorker(
+            self.persistence, self.publication, table, replied=self._send_set_replies, history=history
+        )
         self.publication.begin(table)
         with self._hosting:  # against _on_assignment: no assignment falls between the two
             self._workers[node_id] = worker
@@ -219,6 +235,15 @@ class ParameterServer:
     @property
     def nodes(self) -> dict[str, HostedTable]:
         return dict(self._tables)
+
+    def history(self, node_id: str) -> NodeHistory:
+        """The history of ``node_id`` (made on first use: a store restores into it before
+        the node is added)."""
+        with self._hosting:
+            history = self._histories.get(node_id)
+            if history is None:
+                history = self._histories[node_id] = NodeHistory(node_id, self._retention)
+            return history
 
     def incarnation(self, node_id: str) -> int:
         """The incarnation of a node hosted here (0 for one that is not)."""
@@ -476,18 +501,55 @@ class ParameterServer:
             request_id=request.request_id,
             incarnation=self.incarnation(table.node_id),
         )
+        origin = self._origin_of(request, reply)
         try:
-            response.results, response.revision = self._apply_set(table, request)
+            with origins.acting(origin):
+                response.results, response.revision = self._apply_set(table, request)
         except ParamddsError as exc:
             response.code, response.reason, response.revision = exc.code.value, exc.message, table.revision
         except Exception as exc:  # never let a bad request take the server down
             log.exception("set request on %s failed", table.node_id)
             response.code, response.reason = ErrorCode.INTERNAL.value, f"internal error: {exc}"
             response.revision = table.revision
+        self._record_refusals(worker, origin, request, response)
         changes = worker.take_pending()
         if reply:  # known at once, so a retry committed in the same group is not applied again
             self._remember(key, content, response)
         return Staged(changes, partial(self._finish_set, table, response, changes, reply))
+
+    def _origin_of(self, request: Any, interactive: bool) -> origins.Origin:
+        """Who asks, verified when DDS Security authenticated the request's writer."""
+        default = origins.Via.API if interactive else origins.Via.ASSIGN
+        via = origins.parse_via(request.via) or request.via or default.value
+        subject = None
+        if self.authenticate is not None:
+            try:
+                subject = self.authenticate(request)
+            except Exception:
+                log.exception("could not authenticate a request's writer")
+        if subject:
+            return origins.Origin(subject, via, verified=True)
+        return origins.Origin(request.who or f"client {request.client_id:016x}", via)
+
+    def _record_refusals(
+        self, worker: NodeWorker, origin: origins.Origin, request: Any, response: Any
+    ) -> None:
+        """Keep the writes the node refused in its history: what was asked, what is, why
+        (the first REFUSALS_KEPT of a request: a flood of bad requests cannot push the
+        node's changes out of a history bounded by count any faster than that)."""
+        if response.code:
+            refused = [(p.name, response.code, response.reason) for p in request.parameters]
+        else:
+            refused = [(r.name, r.code, r.reason) for r in response.results if not r.successful]
+        del refused[REFUSALS_KEPT:]
+        if not refused:
+            return
+        asked = {p.name: p.value for p in request.parameters}
+        table = worker.table
+        names = [n for n, _, _ in refused]
+        now = {r.name: r.value for r in table.get_many(names) if r.value is not None}
+        records = [(n, now.get(n), _value_or_none(asked.get(n)), code, why) for n, code, why in refused]
+        worker.history.refused(origin, table.revision, records)
 
     def _resend(self, response: Any, _failure: str) -> None:
         self._send_reply("SetParametersResponse", response)
@@ -578,7 +640,7 @@ class ParameterServer:
                 self._replies_bytes -= len(dropped)
 
     def _on_get(self, samples: Sequence[Any]) -> None:
-        self._answer(samples, "GetParametersResponse", _fill_get)
+        self._answer(samples, "GetParametersResponse", self._fill_get)
 
     def _on_list(self, samples: Sequence[Any]) -> None:
         self._answer(samples, "ListParametersResponse", _fill_list)
@@ -601,6 +663,23 @@ class ParameterServer:
                         self._fill_and_reply(worker.table, request, reply_topic, fill)
                         continue
             worker.submit(partial(self._fill_and_reply, worker.table, request, reply_topic, fill))
+
+    def _fill_get(self, table: HostedTable, request: Any, response: Any) -> None:
+        history = self._histories.get(table.node_id)
+        if request.history:
+            if history is None:
+                return  # history_kept stays FALSE
+            page = history.query(query_from_wire(list(request.names), request.history[0]))
+            response.history = [record_to_wire(r) for r in page.records]
+            response.history_kept, response.history_more = True, page.more
+            response.history_compacted = page.compacted
+            return
+        _fill_get(table, request, response)
+        if request.with_descriptors and history is not None:
+            for r in response.results:
+                last = history.last(r.name) if not r.code else None
+                if last is not None:
+                    r.last_change = [last_change_to_wire(last)]
 
     def _fill_and_reply(self, table: HostedTable, request: Any, reply_topic: str, fill: Fill) -> None:
         """``fill(table, request, response)`` does the work; a refusal becomes the reply's code."""
@@ -638,8 +717,20 @@ def _content(request: Any) -> bytes:
         parameters=request.parameters,
         expected_incarnation=request.expected_incarnation,
         deadline=request.deadline,
+        who=request.who,
+        via=request.via,
     )
     return encode(sample)
+
+
+def _value_or_none(w: Any) -> ParameterValue | None:
+    """A requested value as the core holds it; None if it is none (an unknown type byte)."""
+    if w is None:
+        return None
+    try:
+        return value_from_wire(w)
+    except ParamddsError:
+        return None
 
 
 def _not_persisted(result: Any, revision: int, failure: str) -> Any:

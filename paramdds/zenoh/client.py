@@ -20,7 +20,8 @@ from typing import Any
 
 import zenoh
 
-from ..core.call import Call, Failure, GetRequest, ListRequest, Mark, Request, closed_error
+from ..core.call import Call, Failure, GetRequest, HistoryRequest, ListRequest, Mark, Request, closed_error
+from ..core.history import HistoryPage
 from ..core.replies import GetReply, NodeInfo, SetReply
 from ..core.request import to_parameters
 from ..core.results import ListResult
@@ -100,6 +101,8 @@ class ZenohClientTransport:
             verb, body = "list", {"prefixes": list(request.prefixes), "depth": request.depth}
         elif isinstance(request, GetRequest):
             verb, body = "get", {"names": list(request.names), "with_descriptors": request.with_descriptors}
+        elif isinstance(request, HistoryRequest):
+            raise ParamddsError("history is not carried over Zenoh yet")
         else:
             items = to_parameters(request.params)
             expected: object = None
@@ -249,6 +252,9 @@ class ZenohClientTransport:
         obj = codec.check_reply(reply)
         revision, incarnation, results = codec.set_results(obj)
         return SetReply(str(obj["node"]), revision, results, incarnation)
+
+    def history_page(self, reply: Any) -> tuple[bool, HistoryPage]:
+        raise ParamddsError("history is not carried over Zenoh yet")
 
     # -- presence -------------------------------------------------------------------------
 

@@ -127,6 +127,14 @@ def test_every_verb_is_one_module_with_its_help_arguments_and_run() -> None:
         assert callable(module.add_arguments) and callable(module.run), name
 
 
+def test_the_server_verbs_history_defaults_are_the_cores() -> None:
+    from paramdds.cli.verbs import server
+    from paramdds.core.history import Retention
+
+    assert Retention().max_records == server.HISTORY_RECORDS
+    assert Retention().max_age_s == server.HISTORY_DAYS * 86400
+
+
 def test_help_imports_the_verbs_and_nothing_they_run() -> None:
     # a verb's module imports argparse at its top, everything else in run()
     code = (

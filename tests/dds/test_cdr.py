@@ -35,7 +35,7 @@ def _binding_bytes(sample: Any, endianness: Endianness = Endianness.Little) -> b
 
 
 def test_every_wire_type_is_covered() -> None:
-    assert len(WIRE_TYPES) == 16 and wire.ParameterEvent in WIRE_TYPES
+    assert len(WIRE_TYPES) == 19 and wire.ParameterEvent in WIRE_TYPES
 
 
 @pytest.mark.parametrize("cls", WIRE_TYPES, ids=lambda c: c.__name__)

@@ -193,5 +193,6 @@ def test_a_set_request_ends_with_its_deadline_then_its_author() -> None:
 
 
 def test_the_state_ends_with_its_blame() -> None:
-    assert _members("ParameterEvent")[-4:] == ["uint64 incarnation;", "string who;", "boolean verified;", "string via;"]
+    blame = ["uint64 incarnation;", "string who;", "boolean verified;", "string via;"]
+    assert _members("ParameterEvent")[-4:] == blame
     assert list(types.ParameterEvent.__dataclass_fields__)[-4:] == ["incarnation", "who", "verified", "via"]

@@ -18,6 +18,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ...core.origin import Via
     from ...exits import UsageError
     from ...file_load import load
     from ...formats.files import read_values
@@ -30,5 +31,5 @@ def run(args: argparse.Namespace) -> int:
     if not params:
         raise UsageError(f"{args.file}: no parameters for node {node!r} in this file")
     with Session(args) as session:
-        reply = load(session.client(), node, params, atomic=args.atomic)
+        reply = load(session.client(Via.LOAD), node, params, atomic=args.atomic)
     return report_set(args.output, node, reply)

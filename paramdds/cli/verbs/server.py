@@ -17,6 +17,11 @@ import argparse
 
 from .._parser import DEFAULT_NODE
 
+# core.history's Retention defaults (tests/cli/test_cli_local.py checks they agree): written
+# here so that --help imports no more than the verbs
+HISTORY_RECORDS = 10_000
+HISTORY_DAYS = 30.0
+
 HELP = "host one or more nodes and serve their parameters"
 
 
@@ -66,6 +71,20 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="FILE",
         help="keep runtime changes in FILE (created if missing, reloaded at start)",
     )
+    p.add_argument(
+        "--history-records",
+        type=_positive_int,
+        metavar="N",
+        default=HISTORY_RECORDS,
+        help=f"history kept per node: the newest N records (default {HISTORY_RECORDS:,})",
+    )
+    p.add_argument(
+        "--history-days",
+        type=_positive_float,
+        metavar="D",
+        default=HISTORY_DAYS,
+        help=f"history kept per node: none older than D days (default {HISTORY_DAYS:g})",
+    )
     p.add_argument("--allow-undeclared", action="store_true", help="accept sets of undeclared names")
     p.add_argument("--strict-types", action="store_true", help="never widen an integer to a double")
     p.add_argument("--read-only", action="store_true", help="serve reads, refuse every set and delete")
@@ -75,6 +94,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     import sys
 
+    from ...core.history import Retention
     from ...exits import Exit, UsageError
     from ...server_process import ServerOptions, ServerProcess, prepare
     from ...session import Session
@@ -101,7 +121,8 @@ def run(args: argparse.Namespace) -> int:
     )
     tables, lines, store = prepare(options)
     session = Session(args, app_name="paramdds-server")
-    process = ServerProcess(tables, store, lambda: session.participant, session.qos)
+    retention = Retention(args.history_records, args.history_days * 86400)
+    process = ServerProcess(tables, store, lambda: session.participant, session.qos, retention=retention)
     try:
         process.start()
         for line in lines:
@@ -116,6 +137,26 @@ def run(args: argparse.Namespace) -> int:
         process.close()
         session.close()
     return Exit.OK
+
+
+def _positive_int(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if n <= 0:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}")
+    return n
+
+
+def _positive_float(text: str) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        x = 0.0
+    if not x > 0 or x == float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a positive number, got {text!r}")
+    return x
 
 
 def import_validators(module: str) -> None:

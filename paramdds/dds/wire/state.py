@@ -115,6 +115,7 @@ _unpack_u64 = _U64.unpack_from
 _EMPTY = bytes(4)  # a sequence's length, 0: no descriptor
 _NO_ARRAYS = bytes(20)  # a value's five sequences, all empty
 _NO_HOST_PID_COUNT = bytes.fromhex("01000000000000000000000000000000")  # "", 0, 0
+_NO_BLAME = bytes.fromhex("01000000" "00" "00" "0000" "01000000" "00")  # who "", verified false, via ""
 _PAD = tuple(bytes(n) for n in range(8))  # _PAD[(4 - n) & 7]: aligns offset n to 8 after the header
 # The descriptor caches: entries each, and the longest descriptor kept (real ones take
 # ~150 bytes, the longest of four generate_parameter_library specs ~900): at most ~8 MB.
@@ -343,6 +344,7 @@ def encode_state(
         out += _U64.pack(incarnation)
     except struct.error:
         return None  # out of range: the generated encoder raises the error
+    out += _NO_BLAME
     return bytes(out)
 
 
