@@ -324,6 +324,8 @@ static void answer_get (struct node *n, const paramdds_GetParametersRequest *rq,
       descs[i].description = descs[i].additional_constraints = "";
       r->descriptor._length = r->descriptor._maximum = 1;
       r->descriptor._buffer = &descs[i];
+      if (p->who[0] == '\0' && p->via[0] == '\0')
+        continue; /* who changed it last is not known: no last change */
       changes[i].who = p->who; /* the parameter's last change, as its state says it */
       changes[i].verified = false;
       changes[i].via = p->via;

@@ -404,13 +404,16 @@ struct Node
                     d.type(p->value().type());
                     r.descriptor().push_back(d);
                     const Blame &b = blame[static_cast<size_t>(p - params.data())];
-                    paramdds::LastChange last;  // the parameter's last change, as its state says it
-                    last.who(b.who);
-                    last.verified(false);
-                    last.via(b.via);
-                    last.stamp(b.stamp);
-                    last.revision(b.revision);
-                    r.last_change().push_back(last);
+                    if (!b.who.empty() || !b.via.empty())  // else who changed it last is not known
+                    {
+                        paramdds::LastChange last;  // the parameter's last change, as its state says it
+                        last.who(b.who);
+                        last.verified(false);
+                        last.via(b.via);
+                        last.stamp(b.stamp);
+                        last.revision(b.revision);
+                        r.last_change().push_back(last);
+                    }
                 }
             }
             rp.results().push_back(r);

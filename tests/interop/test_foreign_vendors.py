@@ -37,6 +37,7 @@ from paramdds.core.table import ParameterTable
 from paramdds.core.values import ParameterValue
 from paramdds.dds.monitor import EventKind
 from paramdds.dds.participant import domain_config
+from paramdds.errors import ErrorCode, NoHistoryError
 
 from ..dds.helpers import DdsSession, wait_until
 from .conftest import Vendor
@@ -121,7 +122,7 @@ def test_a_foreign_client_lists_gets_and_sets_on_a_paramdds_server(
     vendor: tuple[Vendor, Path], envs: tuple[dict[str, str], dict[str, str]], domain_id: int
 ) -> None:
     _, program = vendor
-    foreign_env, _ = envs
+    foreign_env = dict(envs[0], PARAMDDS_AS="peer-client")  # the identity its sets claim
     table = ParameterTable("robot1")
     table.declare(
         "robot.speed",
@@ -154,6 +155,17 @@ def test_a_foreign_client_lists_gets_and_sets_on_a_paramdds_server(
         ((name, verdict, code, _reason),) = _lines(refused.stdout, "RESULT")
         assert (name, verdict, code) == ("robot.speed", "FAILED", "OUT_OF_RANGE")
         assert table.get("robot.speed").value == 2.5  # unchanged
+
+        # the server recorded each write under the foreign client's claim (via "api",
+        # unverified), the refused one too
+        records = session.client().history("robot1", timeout=10).records
+        assert [
+            (r.name, r.who, r.verified, r.via, r.applied, r.code) for r in records if r.via != "start"
+        ] == [
+            ("robot.speed", "peer-client", False, "api", True, ""),
+            ("sensor.rate", "peer-client", False, "api", True, ""),
+            ("robot.speed", "peer-client", False, "api", False, "OUT_OF_RANGE"),
+        ]
 
 
 class _Node:
@@ -398,9 +410,9 @@ def test_a_foreign_node_stamps_each_change_with_the_askers_claim(
                     names=[f"{p}count", f"{p}label"],
                 )
             )
-            count, label = (r.last_change[0] for r in described.results)
+            (count,), unknown = (r.last_change for r in described.results)
             assert (count.who, count.verified, count.via, count.revision) == ("alice@lab", False, "api", 2)
-            assert (label.who, label.via, label.revision) == ("", "", 3)
+            assert unknown == []  # who changed it last is not known: no last change
             assert count.stamp == state[f"{p}count"].stamp  # when: the state's stamp
 
             # the node keeps no history: a history query is answered at once, history_kept FALSE
@@ -432,5 +444,43 @@ def test_a_foreign_node_stamps_each_change_with_the_askers_claim(
             f"{p}count": ["fnode", f"{p}count", "api", "claimed", "2", "alice@lab"],
             f"{p}enabled": ["fnode", f"{p}enabled", "start", "claimed", "1", "peer-node"],
         }
+    finally:
+        node.kill()
+
+
+def test_history_of_a_foreign_node_fails_fast_saying_it_keeps_none(
+    vendor: tuple[Vendor, Path], envs: tuple[dict[str, str], dict[str, str]], domain_id: int
+) -> None:
+    """A node of another vendor keeps no history: paramdds's client says so at once
+    (NO_HISTORY), never waits for its timeout; its get with descriptors carries each
+    parameter's last change, which paramdds reads."""
+    info, program = vendor
+    p = info.prefix
+    node = _Node(program, "fnode", dict(envs[0], PARAMDDS_AS="peer-node"))
+    try:
+        with DdsSession(domain_id) as session:
+            client = session.client()
+            assert wait_until(lambda: any(n.node == "fnode" for n in client.nodes()), 10)
+            started = time.monotonic()
+            with pytest.raises(NoHistoryError) as raised:
+                client.history("fnode", [f"{p}speed"], timeout=20)
+            assert time.monotonic() - started < 5  # answered, not timed out
+            assert raised.value.code is ErrorCode.NO_HISTORY and "keeps no history" in str(raised.value)
+
+            client.set("fnode", {f"{p}count": 8}, as_="bob@lab", timeout=10)
+            got = client.get("fnode", [f"{p}speed", f"{p}count"], with_descriptors=True, timeout=10)
+            speed, count = (r.last_change for r in got.results)
+            assert speed is not None and (speed.who, speed.verified, speed.via, speed.revision) == (
+                "peer-node",
+                False,
+                "start",
+                1,
+            )
+            assert count is not None and (count.who, count.verified, count.via, count.revision) == (
+                "bob@lab",
+                False,
+                "api",
+                2,
+            )
     finally:
         node.kill()
