@@ -22,7 +22,7 @@
  *
  * Blame: the node stamps each parameter's state with who changed it and through what, as the
  * asker claimed them (unverified: no DDS Security here); the values it starts with are its own
- * ($PARAMDDS_AS, else USER@host, via "start"). A set this client sends says the same identity,
+ * ($PARAMDDS_AS, else USER@host, via "start", verified: no claim crossed a wire). A set this client sends says the same identity,
  * via "api". The node keeps no history: a history query is answered as a get, history_kept FALSE.
  */
 #include <signal.h>
@@ -190,7 +190,8 @@ struct param
 {
   char name[64];
   paramdds_ParameterValue value;
-  char who[128], via[16]; /* who last changed it, through what (as claimed); "" when unknown */
+  char who[128], via[16]; /* who last changed it, through what; "" when unknown */
+  bool verified;          /* its own start value (no claim crossed a wire); a set's asker only claims */
   paramdds_Time stamp;    /* when */
   int64_t revision;       /* at which revision */
 };
@@ -261,7 +262,7 @@ static void publish_param (struct node *n, const struct param *p)
   ev.value = p->value;
   ev.host = "";
   ev.who = (char *) p->who; /* the blame members: "" (never NULL) when unknown */
-  ev.verified = false;
+  ev.verified = p->verified;
   ev.via = (char *) p->via;
   check (dds_write (n->state, &ev), "write ParameterEvents");
 }
@@ -327,7 +328,7 @@ static void answer_get (struct node *n, const paramdds_GetParametersRequest *rq,
       if (p->who[0] == '\0' && p->via[0] == '\0')
         continue; /* who changed it last is not known: no last change */
       changes[i].who = p->who; /* the parameter's last change, as its state says it */
-      changes[i].verified = false;
+      changes[i].verified = p->verified;
       changes[i].via = p->via;
       changes[i].stamp = p->stamp;
       changes[i].revision = p->revision;
@@ -474,6 +475,7 @@ static void answer_set (struct node *n, const paramdds_SetParametersRequest *rq,
       n->revision++, changed = true;
     snprintf (p->who, sizeof (p->who), "%s", rq->who); /* the asker's claim: recorded, not verified */
     snprintf (p->via, sizeof (p->via), "%s", rq->via);
+    p->verified = false;
     stamp_now (&p->stamp);
     p->revision = n->revision;
     publish_param (n, p); /* the new state, with the revision of this set */
@@ -512,6 +514,7 @@ static int run_node (dds_entity_t dp, const char *id)
   {
     local_identity (n.params[i].who, sizeof (n.params[i].who));
     snprintf (n.params[i].via, sizeof (n.params[i].via), "start");
+    n.params[i].verified = true;
     stamp_now (&n.params[i].stamp);
     n.params[i].revision = n.revision;
   }

@@ -12,7 +12,8 @@
 // discovery by unicast to 127.0.0.1 (participant indices 0..119), as paramdds --localhost.
 // Output and exit status: as examples/cyclone_c/paramdds_peer.c, and so is blame: each
 // parameter's state says who changed it and through what, as the asker claimed them
-// (unverified); its start values are its own ($PARAMDDS_AS, else USER@host, via "start"); a set
+// (unverified); its start values are its own ($PARAMDDS_AS, else USER@host, via "start",
+// verified: no claim crossed a wire); a set
 // it sends says the same identity, via "api". The node keeps no history: a history query is
 // answered as a get, history_kept FALSE.
 
@@ -300,10 +301,12 @@ static uint64_t new_incarnation()
     return x ? x : 1;
 }
 
-// who last changed a parameter, through what (as claimed; never verified here), when, at which revision
+// who last changed a parameter, through what, when, at which revision; verified: the node's own
+// start value (no claim crossed a wire), not a set's asker, who only claims
 struct Blame
 {
     std::string who, via;
+    bool verified = false;
     paramdds::Time stamp;
     int64_t revision = 0;
 };
@@ -354,7 +357,7 @@ struct Node
         ev.stamp(b.stamp);
         ev.value(p.value());
         ev.who(b.who);  // the blame members ("" when unknown)
-        ev.verified(false);
+        ev.verified(b.verified);
         ev.via(b.via);
         state->write(&ev);
     }
@@ -408,7 +411,7 @@ struct Node
                     {
                         paramdds::LastChange last;  // the parameter's last change, as its state says it
                         last.who(b.who);
-                        last.verified(false);
+                        last.verified(b.verified);
                         last.via(b.via);
                         last.stamp(b.stamp);
                         last.revision(b.revision);
@@ -512,7 +515,7 @@ struct Node
             if (!changed)
                 revision++, changed = true;
             size_t at = static_cast<size_t>(p - params.data());
-            blame[at] = Blame{rq.who(), rq.via(), Node::now(), revision};  // the asker's claim, not verified
+            blame[at] = Blame{rq.who(), rq.via(), false, Node::now(), revision};  // the asker's claim, not verified
             publish(at);  // the new state, with the revision of this set
             std::printf("SET %s\n", p->name().c_str());
         }
@@ -553,7 +556,7 @@ static int run_node(Dds &dds, const std::string &id)
     node.params[2].value().type(4), node.params[2].value().string_value("fast-dds");
     node.params[3].value().type(1), node.params[3].value().bool_value(true);
     for (size_t i = 0; i < node.params.size(); i++)  // the values it starts with: its own
-        node.blame.push_back(Blame{local_identity(), "start", Node::now(), node.revision});
+        node.blame.push_back(Blame{local_identity(), "start", true, Node::now(), node.revision});
 
     node.state = dds.writer("ParameterEvents", new paramdds::ParameterEventPubSubType(), state_writer_qos());
     DataReader *get_rq = dds.reader("GetParametersRequest", new paramdds::GetParametersRequestPubSubType(), call_reader_qos());

@@ -346,7 +346,7 @@ def test_a_foreign_node_stamps_each_change_with_the_askers_claim(
     vendor: tuple[Vendor, Path], envs: tuple[dict[str, str], dict[str, str]], domain_id: int
 ) -> None:
     """Blame on another vendor's node, read by paramdds's reader: its start values are its own
-    (via start), a change carries the asker's claim unverified, a change from an asker that says
+    (via start, verified), a change carries the asker's claim unverified, a change from an asker that says
     nothing carries "" (no last change); its get with descriptors and its own monitor say the
     same, and its client's set says who and via "api"."""
     from cyclonedds.sub import DataReader
@@ -385,7 +385,7 @@ def test_a_foreign_node_stamps_each_change_with_the_askers_claim(
 
             assert wait_until(lambda: blame("enabled") is not None and len(state) == 4, 10), state
             for name in ("speed", "count", "label", "enabled"):  # its own start values
-                assert blame(name) == ("peer-node", False, "start", 1), name
+                assert blame(name) == ("peer-node", True, "start", 1), name
 
             claimed = _count_set(p, 55, 1, 5)
             claimed.who, claimed.via = "alice@lab", "api"
@@ -442,7 +442,7 @@ def test_a_foreign_node_stamps_each_change_with_the_askers_claim(
         assert {rest[1]: rest for rest in _lines(seen.stdout, "BLAME", 6)} == {
             f"{p}speed": ["fnode", f"{p}speed", "api", "claimed", "4", "peer-client"],
             f"{p}count": ["fnode", f"{p}count", "api", "claimed", "2", "alice@lab"],
-            f"{p}enabled": ["fnode", f"{p}enabled", "start", "claimed", "1", "peer-node"],
+            f"{p}enabled": ["fnode", f"{p}enabled", "start", "verified", "1", "peer-node"],
         }
     finally:
         node.kill()
@@ -472,7 +472,7 @@ def test_history_of_a_foreign_node_fails_fast_saying_it_keeps_none(
             speed, count = (r.last_change for r in got.results)
             assert speed is not None and (speed.who, speed.verified, speed.via, speed.revision) == (
                 "peer-node",
-                False,
+                True,
                 "start",
                 1,
             )
