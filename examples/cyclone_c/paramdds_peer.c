@@ -22,8 +22,9 @@
  *
  * Blame: the node stamps each parameter's state with who changed it and through what, as the
  * asker claimed them (unverified: no DDS Security here); the values it starts with are its own
- * ($PARAMDDS_AS, else USER@host, via "start", verified: no claim crossed a wire). A set this client sends says the same identity,
- * via "api". The node keeps no history: a history query is answered as a get, history_kept FALSE.
+ * ($PARAMDDS_AS, else USER@host, via "start", verified: no claim crossed a wire). A set this
+ * client sends says the same identity, via "api". The node keeps no history: a history query
+ * is answered as a get, history_kept FALSE.
  */
 #include <signal.h>
 #include <stdio.h>
