@@ -254,6 +254,10 @@ class ServerProcess:
             self.store.attach(self.tables)
         participant = self._participant_factory()
         server = ParameterServer(participant, self._qos, nodes=list(self.tables), retention=self._retention)
+        if getattr(participant.transport, "grants", None) is not None:  # secure: who = the certificate
+            from .secure.authenticated import authenticator_for
+
+            server.authenticate = authenticator_for(participant)
         if self.store is not None:
             server.persisters.append(self.store.record)
         for table in self.tables.values():
