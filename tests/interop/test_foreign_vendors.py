@@ -452,8 +452,9 @@ def test_history_of_a_foreign_node_fails_fast_saying_it_keeps_none(
     vendor: tuple[Vendor, Path], envs: tuple[dict[str, str], dict[str, str]], domain_id: int
 ) -> None:
     """A node of another vendor keeps no history: paramdds's client says so at once
-    (NO_HISTORY), never waits for its timeout; its get with descriptors carries each
-    parameter's last change, which paramdds reads."""
+    (NO_HISTORY), never waits for its timeout, and so do `history`, `diff NODE@REV` and
+    `watch --since` (one line, exit 1); its get with descriptors carries each parameter's
+    last change, which paramdds reads."""
     info, program = vendor
     p = info.prefix
     node = _Node(program, "fnode", dict(envs[0], PARAMDDS_AS="peer-node"))
@@ -466,6 +467,19 @@ def test_history_of_a_foreign_node_fails_fast_saying_it_keeps_none(
                 client.history("fnode", [f"{p}speed"], timeout=20)
             assert time.monotonic() - started < 5  # answered, not timed out
             assert raised.value.code is ErrorCode.NO_HISTORY and "keeps no history" in str(raised.value)
+
+            # the verbs that read history say so in one line, exit 1 (a timeout would be exit 3)
+            for verb in (
+                ["history", "fnode"],
+                ["diff", "fnode@1", "fnode"],
+                ["watch", "fnode", "--since", "1"],
+            ):
+                done = _run([PARAMDDS, *verb, "--timeout", "20"], envs[1])
+                assert (done.returncode, done.stdout) == (1, ""), verb
+                assert (
+                    done.stderr
+                    == "paramdds: error: node 'fnode' keeps no history (a peer that does not record it)\n"
+                )
 
             client.set("fnode", {f"{p}count": 8}, as_="bob@lab", timeout=10)
             got = client.get("fnode", [f"{p}speed", f"{p}count"], with_descriptors=True, timeout=10)
