@@ -19,6 +19,11 @@ from typing import Any, NamedTuple
 
 from ._common import emit, note, render
 
+# a server's state samples carry the node's incarnation and their change's blame
+INCARNATION = 0x1234_5678_9ABC_DEF0
+BLAME: dict[str, Any] = {"who": "alice@robot-host", "verified": False, "via": "cli"}
+STATE_TAIL = (INCARNATION, *BLAME.values())  # encode_state's arguments after the descriptor
+
 
 def _per_call_us(fn: Callable[[], object], calls: int) -> float:
     t0 = time.thread_time()
@@ -48,7 +53,13 @@ def _cases() -> list[_Case]:
 
     stamp = wire.Time(1_700_000_000, 123_456_789)
     scalar = wire.ParameterEvent(
-        node_id="robot_042", name="robot.max_velocity", revision=17, stamp=stamp, value=value(1.5)
+        node_id="robot_042",
+        name="robot.max_velocity",
+        revision=17,
+        stamp=stamp,
+        value=value(1.5),
+        incarnation=INCARNATION,
+        **BLAME,
     )
     rich = wire.ParameterEvent(
         node_id="robot_042",
@@ -56,6 +67,8 @@ def _cases() -> list[_Case]:
         revision=17,
         stamp=stamp,
         value=value([1.0, 2.0, 3.0]),
+        incarnation=INCARNATION,
+        **BLAME,
         descriptor=[
             wire.ParameterDescriptor(
                 name="robot.gains",
@@ -103,7 +116,9 @@ def _cases() -> list[_Case]:
     cases.append(
         _Case(
             "encode state, server fast path",
-            lambda: encode_state("robot_042", "robot.max_velocity", 17, 1, 2, core_value, core_descriptor),
+            lambda: encode_state(
+                "robot_042", "robot.max_velocity", 17, 1, 2, core_value, core_descriptor, *STATE_TAIL
+            ),
             enc,
             4000,
         )
@@ -115,7 +130,7 @@ def _cases() -> list[_Case]:
     cases.append(
         _Case(
             "encode state, array + descriptor, server",
-            lambda: encode_state("robot_042", "robot.gains", 17, 1, 2, gains, gains_descriptor),
+            lambda: encode_state("robot_042", "robot.gains", 17, 1, 2, gains, gains_descriptor, *STATE_TAIL),
             enc,
             2000,
         )
@@ -136,7 +151,9 @@ def _bench_set_cases() -> list[_Case]:
     from .worker import make_table
 
     table = make_table("robot_042", 20)
-    args = [("robot_042", n, 17, 1, 2, table.get(n), table.describe_one(n)) for n in table.names()]
+    args = [
+        ("robot_042", n, 17, 1, 2, table.get(n), table.describe_one(n), *STATE_TAIL) for n in table.names()
+    ]
     samples = [
         wire.ParameterEvent(
             node_id=node,
@@ -145,8 +162,10 @@ def _bench_set_cases() -> list[_Case]:
             stamp=wire.Time(sec, nanosec),
             value=value_to_wire(value),
             descriptor=state_descriptor_to_wire(descriptor, value),
+            incarnation=INCARNATION,
+            **BLAME,
         )
-        for node, name, revision, sec, nanosec, value, descriptor in args
+        for node, name, revision, sec, nanosec, value, descriptor, *_ in args
     ]
     datas = [encode(s) for s in samples]
     idl = wire.ParameterEvent.__idl__
@@ -174,6 +193,23 @@ def _bench_set_cases() -> list[_Case]:
     ]
 
 
+def _sizes() -> dict[str, int]:
+    """The bytes a server writes for a typical parameter's state sample (header and padding
+    included): a scalar with a plain descriptor, and the same without its blame."""
+    from ..core.descriptors import ParameterDescriptor
+    from ..core.values import ParameterType, ParameterValue
+    from ..dds.wire.state import encode_state
+
+    value = ParameterValue.from_python(1.5)
+    d = ParameterDescriptor("robot.max_velocity", ParameterType.DOUBLE)
+    sizes = {}
+    for label, tail in (("with blame", STATE_TAIL), ("blame empty", (INCARNATION,))):
+        data = encode_state("robot_042", "robot.max_velocity", 17, 1, 2, value, d, *tail)
+        assert data is not None
+        sizes[label] = len(data)
+    return sizes
+
+
 def run(args: argparse.Namespace) -> int:
     rounds = args.rounds or (2 if args.quick else 9)
     scale = 10 if args.quick else 1
@@ -186,9 +222,12 @@ def run(args: argparse.Namespace) -> int:
                 us = _per_call_us(fn, max(1, case.calls // scale)) / case.per_call
                 best[case.name][side] = min(best[case.name][side], us)
     rows = [(name, round(o, 2), round(t, 2), round(t / o, 1)) for name, (o, t) in best.items()]
+    sizes = _sizes()
     data = {
         "cases": [{"case": n, "paramdds_us": o, "binding_us": t, "speedup": x} for n, o, t, x in rows],
         "rounds": rounds,
+        "state_sample_bytes": sizes,
     }
+    note("state sample of a scalar parameter, bytes: " + ", ".join(f"{k} {v}" for k, v in sizes.items()))
     emit(args, data, render(["case", "paramdds µs", "binding µs", "binding / paramdds"], rows))
     return 0

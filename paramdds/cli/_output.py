@@ -51,11 +51,17 @@ def emit(output: str, data: object, table: str | None = None) -> None:
 
 def describe_table(descriptors: Mapping[str, Mapping[str, Any]]) -> str:
     """Descriptors as indented ``key: value`` blocks, skipping empty fields; a range as
-    :func:`range_text` reads it (a range that bounds nothing is an empty field)."""
+    :func:`range_text` reads it (a range that bounds nothing is an empty field); the last
+    change (``last_change``, a :meth:`~paramdds.core.results.LastChange.to_json`) as
+    :func:`last_change_text` reads it, nothing when it is unknown."""
     lines: list[str] = []
     for name, d in descriptors.items():
         lines.append(f"{name}:")
         for key, value in d.items():
+            if key == "last_change":
+                if isinstance(value, Mapping):
+                    lines.append(f"  last change: {last_change_text(value)}")
+                continue
             if key in _RANGES and isinstance(value, Mapping):
                 value = range_text(value, floating=key == "floating_point_range")
             if value in (None, "", [], False) and key not in ("type", "read_only"):
@@ -65,6 +71,18 @@ def describe_table(descriptors: Mapping[str, Mapping[str, Any]]) -> str:
 
 
 _RANGES = ("integer_range", "floating_point_range")
+
+
+def last_change_text(lc: Mapping[str, Any]) -> str:
+    """A last change (its JSON shape) as a person reads it: ``alice@robot-host (claimed) via
+    cli at 2026-11-29T01:02:03.456789Z, revision 7``; an identity the node did not verify is
+    marked "claimed", and an unknown author is "unknown"."""
+    who = str(lc.get("who") or "unknown")
+    claimed = "" if lc.get("verified") else " (claimed)"
+    via = f" via {lc['via']}" if lc.get("via") else ""
+    return f"{who}{claimed}{via} at {lc.get('time')}, revision {lc.get('revision')}"
+
+
 _INT64 = (-(2**63), 2**63 - 1)
 
 

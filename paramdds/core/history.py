@@ -18,6 +18,7 @@ since.
 from __future__ import annotations
 
 import fnmatch
+import itertools
 import threading
 import time
 from collections import deque
@@ -186,19 +187,32 @@ class NodeHistory:
 
     def applied(self, change: ChangeSet) -> list[HistoryRecord]:
         """Record a committed change set: one record per parameter; returns them."""
+        # the hot path of every commit: one record per parameter, made inline (~1 µs each)
         last = LastChange.of(change)
-        author = (last.who, last.verified, last.via)
+        node, revision, t, who, verified, via = (
+            self.node_id, change.revision, change.time_ns, last.who, last.verified, last.via
+        )
+        deleted = ChangeKind.DELETED
+        s = self._s
         with self._lock:
-            out = []
+            seq = s.next_seq
+            out = [
+                HistoryRecord(
+                    seq + i, node, c.name, revision, t, who, verified, via, c.old,
+                    None if c.kind is deleted else c.value,
+                )
+                for i, c in enumerate(change.changes)
+            ]  # fmt: skip
+            s.next_seq = seq + len(out)
+            s.records.extend(out)
             for c in change.changes:
-                new = None if c.kind is ChangeKind.DELETED else c.value
-                out.append(self._add(c.name, change.revision, change.time_ns, author, c.old, new))
-                if new is None:
-                    self._s.last.pop(c.name, None)
+                if c.kind is deleted:
+                    s.last.pop(c.name, None)
                 else:
-                    self._s.last[c.name] = last
-            self._trim(change.time_ns)
-        self._tell(out)
+                    s.last[c.name] = last
+            self._trim(t)
+        if self._listeners:
+            self._tell(out)
         return out
 
     def started(
@@ -311,13 +325,25 @@ class NodeHistory:
         with self._lock:
             found: list[HistoryRecord] = []
             more = False
-            for r in self._s.records:
+            for r in itertools.islice(self._s.records, self._first_after(q.after_seq), None):
                 if q.matches(r):
                     if len(found) == limit:
                         more = True
                         break
                     found.append(r)
             return HistoryPage(tuple(found), more, self._compacted(q))
+
+    def _first_after(self, seq: int) -> int:
+        """The index of the first record after ``seq``, or one before it: a page's query starts
+        there instead of rescanning the pages before (records are in seq order; their seqs are
+        consecutive unless a restore gave gaps, then the scan starts earlier)."""
+        records = self._s.records
+        if not records or seq < records[0].seq:
+            return 0
+        i = min(seq - records[0].seq + 1, len(records))
+        while i > 0 and records[i - 1].seq > seq:  # gaps put the seqs further than their index
+            i -= 1
+        return i
 
     def _compacted(self, q: HistoryQuery) -> bool:
         """Whether retention dropped records the query's range covers."""

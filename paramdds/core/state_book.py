@@ -41,6 +41,7 @@ from typing import Protocol
 
 from .monitor_events import EventCallback, EventKind, MonitorEvent, NodeState
 from .names import NodeFilter, canonical_node_id
+from .results import LastChange
 
 log = logging.getLogger(__name__)
 
@@ -158,12 +159,19 @@ class StateBook:
                 n: replace(
                     s,
                     parameters=dict(s.parameters),
+                    blame=dict(s.blame),
                     duplicates=list(s.duplicates),
                     deleting=list(s.deleting),
                     early=list(s.early),
                 )
                 for n, s in self._states.items()
             }
+
+    def last_change(self, node: str, name: str) -> LastChange | None:
+        """Who last changed ``name`` on ``node``, when, through what; None when unknown."""
+        with self._cond:
+            state = self._states.get(canonical_node_id(node))
+            return None if state is None else state.last_change(name)
 
     @property
     def synced(self) -> bool:

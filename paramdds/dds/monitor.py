@@ -16,6 +16,7 @@ from cyclonedds.domain import DomainParticipant
 
 from ..core.monitor_events import EventCallback, EventKind, MonitorEvent, NodeState
 from ..core.names import NodeFilter
+from ..core.results import LastChange
 from ..core.state_book import StateBook, StateFeed
 from .monitor_feed import QUIET, DdsStateFeed
 from .qos import QosProfiles
@@ -73,6 +74,12 @@ class ParameterMonitor:
     def snapshot(self) -> dict[str, NodeState]:
         """A copy of every node's state as this monitor holds it now."""
         return self._book.snapshot()
+
+    def last_change(self, node: str, name: str) -> LastChange | None:
+        """Who last changed parameter ``name`` of ``node`` (whether verified, through what,
+        when, at which revision), as its state says; None when unknown (no such parameter, or
+        its writer keeps no blame)."""
+        return self._book.last_change(node, name)
 
     @property
     def synced(self) -> bool:

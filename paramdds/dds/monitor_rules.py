@@ -4,7 +4,9 @@ Because ``ParameterEvents`` is keyed by (node_id, name) and TRANSIENT_LOCAL, a
 monitor that starts late receives each node's whole current table, not the last
 change (trap 1 of docs/wire.md). From the instance states it derives:
 
-* a parameter sample whose name is new to the node → ``added``, else ``modified``;
+* a parameter sample whose name is new to the node → ``added``, else ``modified``; the
+  sample's blame (who, verified, via, stamp, revision) is the parameter's last change,
+  held and carried by the event (unknown when the writer keeps none);
 * a parameter instance disposed → ``deleted`` (also when its value arrives with the
   instance already disposed: a late joiner whose retained sample was disposed meanwhile);
 * the presence instance (name ``""``) alive → ``online``; no writers (graceful
@@ -42,7 +44,7 @@ from typing import Protocol
 
 from cyclonedds.core import InstanceState
 
-from ..core.monitor_events import EventKind, MonitorEvent, NodeState
+from ..core.monitor_events import Blame, EventKind, MonitorEvent, NodeState, last_change_of
 from ..core.state_book import BookUpdate, StateBook
 from .filters import gone_of, origin_of, process_label, request_filter_of, status_of
 from .wire import types as wire
@@ -90,6 +92,11 @@ def apply_sample(book: StateBook, change: BookUpdate, s: StateSample | StateKey,
         return
     held = state.parameters.get(s.name)
     state.parameters[s.name] = (s.value, s.descriptor)
+    blame: Blame | None = None
+    if s.who:
+        blame = state.blame[s.name] = (s.who, s.verified, s.via, round(s.stamp * 1e9), s.revision)
+    elif state.blame:
+        state.blame.pop(s.name, None)  # a writer without blame: no longer known
     if not book.has_callbacks:
         return  # an event exists only to be emitted: a monitor's full state is 5,000+ samples
     if held is not None and held[0].same_as(s.value) and held[1] == s.descriptor:
@@ -105,6 +112,7 @@ def apply_sample(book: StateBook, change: BookUpdate, s: StateSample | StateKey,
         s.stamp,
         s.incarnation,
         origin=state.origin,
+        last_change=last_change_of(blame),
     )
     if state.announced >= 0:
         change.emit(event)
@@ -118,6 +126,7 @@ def _delete(book: StateBook, state: NodeState, name: str) -> None:
     if name not in state.parameters:
         return
     value, descriptor = state.parameters.pop(name)
+    state.blame.pop(name, None)
     if book.has_callbacks:
         state.deleting.append((name, value, descriptor))
 

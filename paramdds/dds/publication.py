@@ -8,6 +8,7 @@ protocols), never to the server:
   changes, after the commit and before the reply; a failure is reported, not raised.
 * :class:`StatePublication` owns the ``ParameterEvents`` writer of one server: each
   parameter's state keyed by (node_id, name) (a change writes, a delete disposes), each
+  carrying its last change (revision, stamp, who, verified, via), each
   node's presence instance (name ``""``: host, pid, revision, count, tags), the
   incarnation drawn for each node it starts publishing, and the writer's
   MANUAL_BY_TOPIC liveliness (asserted by the server's dispatch loop).
@@ -20,11 +21,11 @@ import os
 import secrets
 import socket
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from ..core.hosted import HostedTable
-from ..core.results import ChangeKind, ChangeSet
+from ..core.results import ChangeKind, ChangeSet, LastChange
 from ._binding import assert_liveliness, flush_writes, unregister_serialized, write_serialized
 from .wire import types as wire
 from .wire.convert import state_descriptor_to_wire, value_to_wire
@@ -84,11 +85,22 @@ class StatePublication:
 
     # -- incarnations ---------------------------------------------------------------
 
-    def begin(self, table: HostedTable) -> None:
-        """Start publishing ``table``'s node: a new incarnation, its state and its presence."""
+    def begin(self, table: HostedTable, last: Mapping[str, LastChange] | None = None) -> None:
+        """Start publishing ``table``'s node: a new incarnation, its state and its presence.
+
+        Each parameter is published with its last change in ``last`` (the node's history:
+        revision, time, who, verified, via); one without is published at the table's
+        revision, now, with no author."""
         self._incarnations[table.node_id] = new_incarnation()
+        last = last or {}
         for name, value, descriptor in table.snapshot():
-            self._state(table, name, value, descriptor, table.revision)
+            lc = last.get(name)
+            if lc is None:
+                self._state(table, name, value, descriptor, table.revision)
+            else:
+                self._state(
+                    table, name, value, descriptor, lc.revision, lc.time_ns, lc.who, lc.verified, lc.via
+                )
         self._presence(table)
         flush_writes(self.writer)
 
@@ -105,11 +117,25 @@ class StatePublication:
 
     # -- samples (each public method flushes the writer's batch: one datagram a reader) --
 
-    def _state(self, table: HostedTable, name: str, value: Any, descriptor: Any, revision: int) -> None:
-        """Publish one parameter's state; the common shape is encoded without a wire object."""
-        sec, nanosec = divmod(time.time_ns(), 1_000_000_000)
+    def _state(
+        self,
+        table: HostedTable,
+        name: str,
+        value: Any,
+        descriptor: Any,
+        revision: int,
+        time_ns: int = 0,
+        who: str = "",
+        verified: bool = False,
+        via: str = "",
+    ) -> None:
+        """Publish one parameter's state, stamped ``time_ns`` (0: now) with its change's blame;
+        the common shape is encoded without a wire object."""
+        sec, nanosec = divmod(time_ns or time.time_ns(), 1_000_000_000)
         incarnation = self.incarnation(table.node_id)
-        data = encode_state(table.node_id, name, revision, sec, nanosec, value, descriptor, incarnation)
+        data = encode_state(
+            table.node_id, name, revision, sec, nanosec, value, descriptor, incarnation, who, verified, via
+        )
         if data is not None:
             write_serialized(self.writer, data)
             return
@@ -123,6 +149,9 @@ class StatePublication:
                 value=value_to_wire(value),
                 descriptor=state_descriptor_to_wire(descriptor, value),
                 incarnation=incarnation,
+                who=who,
+                verified=verified,
+                via=via,
             )
         )
 
@@ -159,11 +188,23 @@ class StatePublication:
             return
         try:
             for change in changes:
+                origin = change.origin
+                via = str(getattr(origin.via, "value", origin.via))  # a Via, or a newer peer's text
                 for item in change.changes:
                     if item.kind is ChangeKind.DELETED:
                         self._dispose(change.node_id, item.name)
                     else:
-                        self._state(table, item.name, item.value, item.descriptor, change.revision)
+                        self._state(
+                            table,
+                            item.name,
+                            item.value,
+                            item.descriptor,
+                            change.revision,
+                            change.time_ns,
+                            origin.who,
+                            origin.verified,
+                            via,
+                        )
             self._presence(table)
             flush_writes(self.writer)
         except Exception as exc:

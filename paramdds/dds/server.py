@@ -204,7 +204,7 @@ class ParameterServer:
         worker = NodeWorker(
             self.persistence, self.publication, table, replied=self._send_set_replies, history=history
         )
-        self.publication.begin(table)
+        self.publication.begin(table, history.last_changes())
         with self._hosting:  # against _on_assignment: no assignment falls between the two
             self._workers[node_id] = worker
             self._tables[node_id] = table

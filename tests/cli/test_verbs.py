@@ -144,7 +144,12 @@ def test_list_json_is_an_array_of_names(c: Cluster) -> None:
 
 
 def test_describe_json_shape(c: Cluster) -> None:
-    assert c.json("describe", "robot1", "limits.speed") == {
+    got = c.json("describe", "robot1", "limits.speed")
+    assert isinstance(got, dict)
+    last = got["limits.speed"].pop("last_change")  # the value the node started with, from its files
+    assert set(last) == {"who", "verified", "via", "time", "revision"} and last["who"]
+    assert (last["verified"], last["via"], last["revision"]) == (True, "start", 1)
+    assert got == {
         "limits.speed": {
             "type": "double",
             "description": "top speed",

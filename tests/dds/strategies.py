@@ -113,11 +113,15 @@ class StateArgs(NamedTuple):
     value: ParameterValue
     descriptor: ParameterDescriptor
     incarnation: int = 0
+    who: str = ""
+    verified: bool = False
+    via: str = ""
 
 
 _KEY = st.text(st.characters(exclude_categories=("Cs",)), max_size=40).filter(
     lambda s: len(s.encode()) <= 255
 )
+_TEXT = st.text(st.characters(exclude_categories=("Cs",)), max_size=40)
 
 
 @st.composite
@@ -142,6 +146,9 @@ def state_args(draw: st.DrawFn) -> StateArgs:
         value,
         descriptor,
         draw(st.integers(0, 2**64 - 1)),
+        draw(st.one_of(st.just(""), st.just("alice@robot-host"), _TEXT)),
+        draw(st.booleans()),
+        draw(st.one_of(st.sampled_from(["", "cli", "api", "start"]), _TEXT)),
     )
 
 

@@ -12,6 +12,7 @@ from cyclonedds.core import InstanceState
 
 from paramdds.core.descriptors import ParameterDescriptor
 from paramdds.core.monitor_events import EventKind, MonitorEvent
+from paramdds.core.results import LastChange
 from paramdds.core.state_book import StateBook
 from paramdds.core.values import NOT_SET, ParameterValue
 from paramdds.dds.filters import gone_tag, origin_tag
@@ -49,19 +50,32 @@ def presence(
     )
 
 
-def param(name: str, value: object, revision: int, *, incarnation: int = 1) -> StateSample:
+def param(
+    name: str,
+    value: object,
+    revision: int,
+    *,
+    incarnation: int = 1,
+    who: str = "",
+    verified: bool = False,
+    via: str = "",
+    stamp: float = 0.0,
+) -> StateSample:
     return StateSample(
         node_id="n",
         name=name,
         kind=wire.EVENT_PARAMETER,
         revision=revision,
-        stamp=0.0,
+        stamp=stamp,
         value=ParameterValue.from_python(value),
         descriptor=ParameterDescriptor(name),
         host="",
         pid=0,
         parameter_count=0,
         incarnation=incarnation,
+        who=who,
+        verified=verified,
+        via=via,
     )
 
 
@@ -160,3 +174,27 @@ def test_without_callbacks_the_state_is_held_and_no_event_is_made() -> None:
         assert [e.event for e in change.events] == [EventKind.ONLINE]  # presence events are state
     held = book.snapshot()["n"]
     assert held.parameters == {} and held.deleting == []
+
+
+def test_each_parameter_holds_and_each_event_carries_its_last_change() -> None:
+    m = Monitor()
+    m.feed(
+        (presence(1, 2), ALIVE),
+        (param("a", 1, 1, who="start@h", verified=True, via="start", stamp=1.5), ALIVE),
+    )
+    started = LastChange("start@h", True, "start", 1_500_000_000, 1)
+    assert m.events[-1].last_change == started
+    assert m.book.last_change("n", "a") == started
+    m.feed((param("a", 2, 2, who="alice", via="cli", stamp=2.25), ALIVE))
+    alice = LastChange("alice", False, "cli", 2_250_000_000, 2)
+    assert [e.last_change for e in m.events] == [alice]
+    assert m.book.last_change("n", "a") == m.book.snapshot()["n"].last_change("a") == alice
+    # the same value again from another author is no event, but the parameter's last change
+    assert m.feed((param("a", 2, 3, who="bob", via="web", stamp=3.0), ALIVE)) == []
+    assert m.book.last_change("n", "a") == LastChange("bob", False, "web", 3_000_000_000, 3)
+    # a writer that keeps no blame: unknown (never the previous author's)
+    m.feed((param("a", 3, 4), ALIVE))
+    assert m.events[-1].last_change is None and m.book.last_change("n", "a") is None
+    m.feed((param("b", 1, 5, who="carol", via="api"), ALIVE), (StateKey("n", "b"), DISPOSED))
+    assert m.book.last_change("n", "b") is None  # deleted: no last change held
+    assert m.book.last_change("n", "nothing") is None and m.book.last_change("other", "a") is None

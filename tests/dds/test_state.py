@@ -33,6 +33,7 @@ from .strategies import StateArgs, canonical, samples, state_args
 _KEY = st.text(st.characters(exclude_categories=("Cs",)), min_size=0, max_size=40).filter(
     lambda s: len(s.encode()) <= 255
 )
+_BLAME = st.one_of(st.sampled_from(["", "alice@robot-host", "cli"]), _KEY)  # who, via
 _SCALARS = st.one_of(
     st.booleans(),
     st.integers(-(2**63), 2**63 - 1),
@@ -57,6 +58,9 @@ def common_samples(draw: st.DrawFn) -> wire.ParameterEvent:
         pid=draw(st.integers(-(2**31), 2**31 - 1)),
         parameter_count=draw(st.integers(0, 2**32 - 1)),
         incarnation=draw(st.integers(0, 2**64 - 1)),
+        who=draw(_BLAME),
+        verified=draw(st.booleans()),
+        via=draw(_BLAME),
     )
 
 
@@ -85,6 +89,9 @@ def _wire(a: StateArgs, **tail: object) -> wire.ParameterEvent:
         value=value_to_wire(a.value),
         descriptor=state_descriptor_to_wire(a.descriptor, a.value),
         incarnation=a.incarnation,
+        who=a.who,
+        verified=a.verified,
+        via=a.via,
         **tail,
     )
 
@@ -115,6 +122,7 @@ def test_the_common_shapes_take_the_fast_path_and_agree(sample: wire.ParameterEv
     )
     assert (fast.host, fast.pid, fast.parameter_count) == (sample.host, sample.pid, sample.parameter_count)
     assert fast.incarnation == sample.incarnation
+    assert (fast.who, fast.verified, fast.via) == (sample.who, sample.verified, sample.via)
     assert fast.descriptor == ParameterDescriptor(sample.name, ptype)
 
 
@@ -137,6 +145,7 @@ def test_every_well_formed_sample_takes_the_fast_path_and_agrees(
     assert canonical((fast.value, fast.descriptor)) == canonical((args.value, _sent(args)))
     assert (fast.node_id, fast.name, fast.kind) == (args.node_id, args.name, kind)
     assert (fast.revision, fast.incarnation) == (args.revision, args.incarnation)
+    assert (fast.who, fast.verified, fast.via) == (args.who, args.verified, args.via)
     assert (fast.host, fast.pid, fast.parameter_count) == (host, pid, len(host))
 
 
@@ -271,6 +280,7 @@ def _check_encoding(a: StateArgs) -> bytes:
     fast = _decode_fast(got)
     assert fast is not None
     assert canonical((fast.value, fast.descriptor)) == canonical((a.value, _sent(a)))
+    assert (fast.who, fast.verified, fast.via) == (a.who, a.verified, a.via)
     return got
 
 
@@ -364,16 +374,30 @@ def test_an_instance_key_is_encoded_as_the_binding_does(node_id: str, name: str)
     assert state.encode_key(node_id, name) == expected
 
 
-def test_nodes_sharing_a_described_parameter_keep_their_own_incarnation() -> None:
-    """The decoded-descriptor cache is keyed on the bytes before the incarnation: a fleet's
-    nodes share the entry, and each sample still reads its own node's incarnation."""
+def test_nodes_sharing_a_described_parameter_keep_their_own_incarnation_and_blame() -> None:
+    """The decoded-descriptor cache is keyed on the descriptor's bytes: a fleet's nodes share
+    the entry, and each sample still reads its own node's incarnation and its change's blame
+    (the blame cache, keyed on the bytes after the incarnation, never mixes two authors up)."""
     v = ParameterValue.from_python(1.5)
     d = ParameterDescriptor("p", ParameterType.DOUBLE, "shared by every node")
+    blames = [
+        ("alice@robot-host", False, "cli"),
+        ("alice@robot-host", True, "cli"),
+        ("", False, ""),
+        ("bob", False, "web"),
+        ("alice@robot-host", False, "cli"),
+    ]
     for incarnation in (1, 2**64 - 1, 0x1234_5678_9ABC_DEF0, 1):
-        data = encode_state("n", "p", 3, 0, 0, v, d, incarnation)
-        assert data is not None
-        assert data == encode(_wire(StateArgs("n", "p", 3, 0, 0, v, d, incarnation)))
-        fast = _decode_fast(data)
-        assert fast is not None
-        assert (fast.incarnation, fast.descriptor) == (incarnation, d)
+        for who, verified, via in blames:
+            a = StateArgs("n", "p", 3, 0, 0, v, d, incarnation, who, verified, via)
+            data = encode_state(*a)
+            assert data is not None
+            expected = encode(_wire(a))
+            assert data == expected + bytes(-len(expected) % 4)
+            fast = _decode_fast(data)
+            assert fast is not None
+            assert (fast.incarnation, fast.descriptor) == (incarnation, d)
+            assert (fast.who, fast.verified, fast.via) == (who, verified, via)
+            assert canonical(fast) == canonical(decode_state_slowly(data))
     assert encode_state("n", "p", 3, 0, 0, v, d, 2**64) is None  # over uint64: the encoder decides
+    assert encode_state("n", "p", 3, 0, 0, v, d, 1, "\ud800") is None  # no UTF-8 for it: the encoder decides

@@ -1,10 +1,11 @@
-"""``paramdds describe``: descriptors of parameters; a name the node lacks: one line on stderr, exit 1."""
+"""``paramdds describe``: descriptors of parameters with their last change; a name the node
+lacks: one line on stderr, exit 1."""
 
 from __future__ import annotations
 
 import argparse
 
-HELP = "descriptors of parameters"
+HELP = "descriptors of parameters, and who last changed them"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -21,6 +22,14 @@ def run(args: argparse.Namespace) -> int:
     node = node_arg(args.node)
     with Session(args) as session:
         reply = session.client().get(node, names_arg(args.names), with_descriptors=True)
-    found = {r.name: json_descriptor(r.descriptor) for r in reply.results if r.descriptor is not None}
+    found = {
+        r.name: {
+            **json_descriptor(r.descriptor),
+            # who last changed it, when, through what; null when the node does not say
+            "last_change": None if r.last_change is None else r.last_change.to_json(),
+        }
+        for r in reply.results
+        if r.descriptor is not None
+    }
     emit(args.output, found, describe_table(found))
     return report_missing(node, reply.missing())

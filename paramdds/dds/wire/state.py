@@ -24,16 +24,18 @@ primitive aligned to its size, up to 8, from the end of the encapsulation header
     header | node_id | name | kind | pad to 8 | revision | Time{sec nanosec}
     | ParameterValue{type bool pad(6) int64 double string 5 sequences}
     | descriptor: sequence of 0 or 1 ParameterDescriptor | host | pid | parameter_count
-    | pad to 8 | incarnation
+    | pad to 8 | incarnation | who | verified | via
 
 The value and descriptor readers and writers live in :mod:`.state_cdr`. Descriptors
 repeat (a fleet runs the same node types, a server republishes a parameter on every
 set) and are immutable, so both directions keep them in bounded caches: decoded ones
-keyed on their exact bytes up to the incarnation, the sample's last member (the tail
-after a parameter's descriptor, ``host pid parameter_count``, is the same for every
-node; the incarnation differs per node and is read apart) and the offset modulo 8
-(XCDR1 padding is relative to the stream); encoded ones keyed on the descriptor and
-that offset. Scalar values are shared the same way, keyed on their
+keyed on their exact bytes and the offset modulo 8 (XCDR1 padding is relative to the
+stream), found through the sample's first bytes after the value (a descriptor's length
+is only known once it is read: the lengths seen after the same first bytes are tried);
+encoded ones keyed on the descriptor and that offset. The tail after the descriptor is
+read on every sample (``host pid parameter_count incarnation``: the incarnation differs
+per node); its blame (``who verified via``: the same few authors and channels over a
+whole fleet) is kept by its bytes. Scalar values are shared the same way, keyed on their
 bytes: a live monitor spent a sixth of its sync in the garbage collector, walking
 200,000 new value objects that mostly repeat.
 """
@@ -90,6 +92,11 @@ class StateSample(NamedTuple):
     pid: int
     parameter_count: int
     incarnation: int  # the server's for this node (new on every start); 0 from a writer without one
+    # who made the change this sample carries, whether the node verified it, through what
+    # ("cli", "api", ...): "" from a writer that keeps no blame (and on presence samples)
+    who: str = ""
+    verified: bool = False
+    via: str = ""
 
 
 class StateKey(NamedTuple):
@@ -110,12 +117,11 @@ _unpack_u32 = _U32.unpack_from
 _MIDDLE = struct.Struct("<qiIB?6xqdI")
 _unpack_middle = _MIDDLE.unpack_from
 _TAIL = struct.Struct("<iI")  # pid, parameter_count
-_U64 = struct.Struct("<Q")  # the incarnation, the last member (8-aligned)
+_U64 = struct.Struct("<Q")  # the incarnation (8-aligned)
 _unpack_u64 = _U64.unpack_from
 _EMPTY = bytes(4)  # a sequence's length, 0: no descriptor
 _NO_ARRAYS = bytes(20)  # a value's five sequences, all empty
 _NO_HOST_PID_COUNT = bytes.fromhex("01000000000000000000000000000000")  # "", 0, 0
-_NO_BLAME = bytes.fromhex("01000000" "00" "00" "0000" "01000000" "00")  # who "", verified false, via ""
 _PAD = tuple(bytes(n) for n in range(8))  # _PAD[(4 - n) & 7]: aligns offset n to 8 after the header
 # The descriptor caches: entries each, and the longest descriptor kept (real ones take
 # ~150 bytes, the longest of four generate_parameter_library specs ~900): at most ~8 MB.
@@ -128,6 +134,16 @@ _values: dict[bytes, ParameterValue] = {}
 _VALUES_MAX = 65_536
 _VALUE_KEY_MAX = 96  # bytes: a scalar's 28 and a short string
 _VALUE_AT = 16  # from the revision to the value: revision (8), Time (8)
+# The blame after the incarnation (who, verified, via, and any padding) by its bytes, both ways
+_blames: dict[bytes, tuple[str, bool, str]] = {}
+_blame_bytes: dict[tuple[str, bool, str], bytes] = {}
+_BLAMES_MAX = 4_096
+_BLAME_KEY_MAX = 256
+# A descriptor's length is known once it is read: the lengths seen after the same first
+# bytes (and offset modulo 8) are tried against the cache of decoded ones, a few at most
+_PROBE = 24
+_spans: dict[tuple[int, bytes], tuple[int, ...]] = {}
+_SPANS_PER_PROBE = 4
 
 
 def decode_state(data: bytes) -> StateSample:
@@ -159,6 +175,9 @@ def decode_state_slowly(data: bytes) -> StateSample:
         s.pid,
         s.parameter_count,
         s.incarnation,
+        s.who,
+        s.verified,
+        s.via,
     )
 
 
@@ -219,18 +238,24 @@ def _decode_fast(buf: bytes) -> StateSample | None:
             pos += -pos & 3
         if buf[pos : pos + 4] == _EMPTY:  # only the name and the value's type: see convert.is_plain
             descriptor = _plain(name, value.type)
-            host, pid, count, incarnation, _ = _tail(buf, pos + 4, end)
+            pos += 4
         else:
-            descriptor, host, pid, count, incarnation = _described(buf, pos, end)
+            descriptor, pos = _described(buf, pos, end)
+        host, pos = read_str(buf, pos, end)
+        pos += -pos & 3
+        pid, count = _TAIL.unpack_from(buf, pos)
+        pos += _TAIL.size
+        pos += (4 - pos) & 7
+        (incarnation,) = _unpack_u64(buf, pos)
+        blame = buf[pos + 8 :]  # who verified via, and any padding after them
+        hit = _blames.get(blame)
+        who, verified, via = hit if hit is not None else _blame(blame)
     except REFUSED:
         return None
     stamp = sec + nanosec / 1e9
     fields = (node_id, name, kind, revision, stamp, value, descriptor, host, pid, count, incarnation)
-    return _new_tuple(StateSample, fields)  # StateSample(*fields) without its Python __new__
-
-
-_Tail = tuple[ParameterDescriptor, str, int, int]  # descriptor, host, pid, parameter_count
-_Described = tuple[ParameterDescriptor, str, int, int, int]  # and the incarnation
+    # StateSample(*fields) without its Python __new__
+    return _new_tuple(StateSample, (*fields, who, verified, via))
 
 
 def _key_string(buf: bytes, pos: int, end: int) -> tuple[str, int]:
@@ -242,38 +267,43 @@ def _key_string(buf: bytes, pos: int, end: int) -> tuple[str, int]:
     return buf[pos + 4 : e - 1].decode(), e
 
 
-def _tail(buf: bytes, pos: int, end: int) -> tuple[str, int, int, int, int]:
-    """host, pid, parameter_count, the incarnation, and the offset after it (bytes after
-    it are padding, ignored as the codec does)."""
-    host, pos = read_str(buf, pos, end)
-    pos += -pos & 3
-    pid, count = _TAIL.unpack_from(buf, pos)
-    pos += _TAIL.size
-    pos += (4 - pos) & 7
-    (incarnation,) = _unpack_u64(buf, pos)
-    return host, pid, count, incarnation, pos + 8
+def _blame(blame: bytes) -> tuple[str, bool, str]:
+    """who, verified, via from the bytes after the incarnation (at an offset of 4 modulo 8:
+    its alignment is that of the stream's start); bytes after ``via`` are padding, ignored as
+    the codec does. Kept by those bytes: they decode the same wherever they come."""
+    end = len(blame)
+    who, pos = read_str(blame, 0, end)
+    verified = blame[pos] != 0
+    via, _ = read_str(blame, pos + 1, end)
+    result = (who, verified, via)
+    if end <= _BLAME_KEY_MAX:
+        _bounded(_blames, _BLAMES_MAX)[blame] = result
+    return result
 
 
-_decoded: dict[tuple[int, bytes], _Tail] = {}
+_decoded: dict[tuple[int, bytes], ParameterDescriptor] = {}
 
 
-def _described(buf: bytes, pos: int, end: int) -> _Described:
-    """The descriptor sequence at ``pos`` (not empty) and the tail after it, decoded once per
-    distinct bytes (all but the incarnation, the last 8) and alignment. Bytes after the
-    incarnation are padding, ignored as the codec does; such a sample is not cached."""
-    key = (pos & 7, buf[pos : end - 8])
-    hit = _decoded.get(key)
-    if hit is not None:  # the same bytes before the incarnation: it is the last 8 here too
-        return (*hit, _unpack_u64(buf, end - 8)[0])
-    (n,) = _unpack_u32(buf, pos)
-    if n != 1:
+def _described(buf: bytes, pos: int, end: int) -> tuple[ParameterDescriptor, int]:
+    """The descriptor sequence at ``pos`` (not empty) and the offset after it, decoded once
+    per distinct bytes and alignment (see the module doc)."""
+    phase = pos & 7
+    probe = (phase, buf[pos : pos + _PROBE])
+    spans = _spans.get(probe, ())
+    for n in spans:
+        hit = _decoded.get((phase, buf[pos : pos + n]))
+        if hit is not None:  # the same bytes at the same alignment: the same descriptor
+            return hit, pos + n
+    (count,) = _unpack_u32(buf, pos)
+    if count != 1:
         raise NotFast("a descriptor sequence over its bound of 1")
-    descriptor, pos = read_descriptor(buf, pos + 4, end)
-    host, pid, count, incarnation, after = _tail(buf, pos, end)
-    tail = (descriptor, host, pid, count)
-    if after == end and len(key[1]) <= _CACHED_BYTES_MAX:
-        _bounded(_decoded, _CACHE_MAX)[key] = tail
-    return (*tail, incarnation)
+    descriptor, after = read_descriptor(buf, pos + 4, end)
+    n = after - pos
+    if n <= _CACHED_BYTES_MAX:
+        _bounded(_decoded, _CACHE_MAX)[(phase, buf[pos:after])] = descriptor
+        if n not in spans:
+            _bounded(_spans, _CACHE_MAX)[probe] = (n, *spans[: _SPANS_PER_PROBE - 1])
+    return descriptor, after
 
 
 def _bounded(cache: dict[Any, Any], limit: int) -> dict[Any, Any]:
@@ -305,10 +335,14 @@ def encode_state(
     value: ParameterValue,
     d: ParameterDescriptor,
     incarnation: int = 0,
+    who: str = "",
+    verified: bool = False,
+    via: str = "",
 ) -> bytes | None:
     """A parameter's state sample, ready to write: the generated encoder's bytes for the wire
     sample of these arguments; None where that encoder would fail (a key over its bound, a
-    number out of range), so the caller builds the wire sample and gets its error."""
+    number out of range, text that is no Unicode), so the caller builds the wire sample and
+    gets its error."""
     t, x = int(value.type), value.value
     try:
         key = node_id.encode(), name.encode()
@@ -342,9 +376,28 @@ def encode_state(
     out += _PAD[(4 - len(out)) & 7]
     try:
         out += _U64.pack(incarnation)
-    except struct.error:
-        return None  # out of range: the generated encoder raises the error
-    out += _NO_BLAME
+        said = (who, verified, via)
+        blame = _blame_bytes.get(said)
+        if blame is None:
+            blame = _blame_bytes_of(who, verified, via)
+            if len(blame) <= _BLAME_KEY_MAX:
+                _bounded(_blame_bytes, _BLAMES_MAX)[said] = blame
+    except UNWRITTEN:
+        return None  # out of range, not text: the generated encoder raises the error
+    out += blame
+    return bytes(out)
+
+
+def _blame_bytes_of(who: str, verified: bool, via: str) -> bytes:
+    """who, verified, via after the incarnation (at an offset of 4 modulo 8, like the stream's
+    start), padded to 4 as ``DataWriter.write`` pads a sample."""
+    if not isinstance(verified, bool):
+        raise TypeError("verified is no bool")  # the generated encoder decides what it makes of it
+    out = bytearray()
+    encode_str(out, who)
+    out.append(1 if verified else 0)
+    encode_str(out, via)
+    out += _PAD[-len(out) & 3]
     return bytes(out)
 
 
