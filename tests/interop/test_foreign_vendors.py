@@ -33,6 +33,7 @@ from typing import Any
 import pytest
 
 from paramdds.core.descriptors import FloatingPointRange, ParameterDescriptor
+from paramdds.core.origin import local_identity
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import ParameterValue
 from paramdds.dds.monitor import EventKind
@@ -116,6 +117,27 @@ def test_a_foreign_monitor_joining_late_gets_every_value_exactly(
     _revision, count, seen_incarnation = rest.split()
     assert (node, pid, count) == ("robot1", str(os.getpid()), str(len(EVERY_TYPE)))
     assert incarnation != 0 and seen_incarnation == f"{incarnation:016x}"  # the new last member, read
+
+
+def test_a_foreign_monitor_reads_who_changed_each_value_of_a_paramdds_node(
+    vendor: tuple[Vendor, Path], envs: tuple[dict[str, str], dict[str, str]], domain_id: int
+) -> None:
+    """The blame members paramdds writes, read by another vendor: a start value is the
+    server's own (verified, via start), a set the asker's claim (via api, unverified)."""
+    _, program = vendor
+    table = ParameterTable("robot1")
+    table.declare("robot.speed", 1.5)
+    table.declare("robot.name", "rx")
+    with DdsSession(domain_id) as session:
+        session.server(table)
+        changed = session.client(as_="ops@lab").set("robot1", {"robot.speed": 2.5})
+        done = _run([str(program), "monitor", "10"], envs[0])
+    assert done.returncode == 0, done.stderr
+    start = changed.revision - 1
+    assert {rest[1]: rest for rest in _lines(done.stdout, "BLAME", 6)} == {
+        "robot.speed": ["robot1", "robot.speed", "api", "claimed", str(changed.revision), "ops@lab"],
+        "robot.name": ["robot1", "robot.name", "start", "verified", str(start), local_identity()],
+    }
 
 
 def test_a_foreign_client_lists_gets_and_sets_on_a_paramdds_server(
@@ -400,6 +422,21 @@ def test_a_foreign_node_stamps_each_change_with_the_askers_claim(
             )
             assert peer.first_answer(silent).results[0].successful
             assert becomes("label", ("", False, "", 3)), blame("label")
+            # paramdds's monitor and describe read the same: no last change where who is ""
+            monitor = session.monitor()
+            assert wait_until(lambda: monitor.last_change("fnode", f"{p}count") is not None, 10)
+            seen = monitor.last_change("fnode", f"{p}count")
+            assert seen is not None and (seen.who, seen.verified, seen.via, seen.revision) == (
+                "alice@lab",
+                False,
+                "api",
+                2,
+            )
+            assert monitor.last_change("fnode", f"{p}label") is None
+            shown = _run([PARAMDDS, "describe", "fnode", f"{p}count", f"{p}label", "-o", "json"], envs[1])
+            assert shown.returncode == 0, shown.stderr
+            lasts = {name: d["last_change"] for name, d in json.loads(shown.stdout).items()}
+            assert lasts[f"{p}label"] is None and lasts[f"{p}count"]["who"] == "alice@lab"
 
             described = peer.first_answer(
                 wire.GetParametersRequest(
