@@ -12,12 +12,19 @@
  * Domain: $PARAMDDS_DOMAIN (default 1); Cyclone's configuration: $CYCLONEDDS_URI.
  * Output, one line each (values as JSON, after their paramdds type name):
  *   PARAM node name type value | NODE node host pid revision count | VALUE name type value
+ *   BLAME node name via verified revision who (after a PARAM whose sample says who changed it)
  *   MISSING name code | RESULT name OK | RESULT name FAILED code reason | NAME name | READY
  *   REFUSED code reason (a set refused whole, e.g. EXPIRED)
  * Exit status: 0 success, 1 refused or missing, 2 usage, 3 no answer within 5 s (get, list),
  * 5 a set without an answer within 5 s (its outcome is unknown: it may have been applied).
  * A set carries a deadline (5 s after it is sent, less 0.2 s for the reply to travel back); the node
  * refuses a set past its deadline by its own clock with EXPIRED and applies nothing.
+ *
+ * Blame: the node stamps each parameter's state with who changed it and through what, as the
+ * asker claimed them (unverified: no DDS Security here); the values it starts with are its own
+ * ($PARAMDDS_AS, else USER@host, via "start", verified: no claim crossed a wire). A set this
+ * client sends says the same identity, via "api". The node keeps no history: a history query
+ * is answered as a get, history_kept FALSE.
  */
 #include <signal.h>
 #include <stdio.h>
@@ -180,7 +187,15 @@ static void parse_value (char *text, paramdds_ParameterValue *v)
 static volatile sig_atomic_t stop;
 static void on_signal (int sig) { (void) sig; stop = 1; }
 
-struct param { char name[64]; paramdds_ParameterValue value; };
+struct param
+{
+  char name[64];
+  paramdds_ParameterValue value;
+  char who[128], via[16]; /* who last changed it, through what; "" when unknown */
+  bool verified;          /* its own start value (no claim crossed a wire); a set's asker only claims */
+  paramdds_Time stamp;    /* when */
+  int64_t revision;       /* at which revision */
+};
 
 struct node
 {
@@ -215,6 +230,18 @@ static uint64_t new_incarnation (void)
   return x ? x : 1;
 }
 
+/* $PARAMDDS_AS, else USER@host: the identity this program claims (as paramdds's default) */
+static void local_identity (char *out, size_t size)
+{
+  const char *as = getenv ("PARAMDDS_AS"), *user = getenv ("USER");
+  char host[128] = "";
+  gethostname (host, sizeof (host) - 1);
+  if (as != NULL && as[0])
+    snprintf (out, size, "%s", as);
+  else
+    snprintf (out, size, "%s@%s", user != NULL && user[0] ? user : "unknown", host);
+}
+
 static void stamp_now (paramdds_Time *t)
 {
   struct timespec ts;
@@ -230,11 +257,14 @@ static void publish_param (struct node *n, const struct param *p)
   snprintf (ev.node_id, sizeof (ev.node_id), "%s", n->id);
   snprintf (ev.name, sizeof (ev.name), "%s", p->name);
   ev.kind = 0;
-  ev.revision = n->revision;
+  ev.revision = p->revision;
   ev.incarnation = n->incarnation;
-  stamp_now (&ev.stamp);
+  ev.stamp = p->stamp;
   ev.value = p->value;
   ev.host = "";
+  ev.who = (char *) p->who; /* the blame members: "" (never NULL) when unknown */
+  ev.verified = p->verified;
+  ev.via = (char *) p->via;
   check (dds_write (n->state, &ev), "write ParameterEvents");
 }
 
@@ -249,6 +279,7 @@ static void publish_presence (struct node *n)
   stamp_now (&ev.stamp);
   ev.value.string_value = "";
   ev.host = n->host;
+  ev.who = ev.via = ""; /* presence carries no blame */
   ev.pid = (int32_t) getpid ();
   ev.parameter_count = (uint32_t) n->count;
   check (dds_write (n->state, &ev), "write presence");
@@ -259,10 +290,15 @@ static void answer_get (struct node *n, const paramdds_GetParametersRequest *rq,
   paramdds_GetParametersResponse rp;
   paramdds_GetParameterResult results[64];
   paramdds_ParameterDescriptor descs[64];
+  paramdds_LastChange changes[64];
   uint32_t count = rq->names._length < 64 ? rq->names._length : 64;
   memset (&rp, 0, sizeof (rp));
   memset (results, 0, sizeof (results));
   memset (descs, 0, sizeof (descs));
+  memset (changes, 0, sizeof (changes));
+  /* A history query (rq->history._length == 1) is answered as a get: this node keeps no history,
+     and history_kept left FALSE (with history_more, history_compacted and an empty history) says
+     so to the asker. */
   snprintf (rp.node_id, sizeof (rp.node_id), "%s", n->id);
   rp.client_id = rq->client_id; /* echoed: each client reads only its own replies */
   rp.request_id = rq->request_id;
@@ -290,6 +326,15 @@ static void answer_get (struct node *n, const paramdds_GetParametersRequest *rq,
       descs[i].description = descs[i].additional_constraints = "";
       r->descriptor._length = r->descriptor._maximum = 1;
       r->descriptor._buffer = &descs[i];
+      if (p->who[0] == '\0' && p->via[0] == '\0')
+        continue; /* who changed it last is not known: no last change */
+      changes[i].who = p->who; /* the parameter's last change, as its state says it */
+      changes[i].verified = p->verified;
+      changes[i].via = p->via;
+      changes[i].stamp = p->stamp;
+      changes[i].revision = p->revision;
+      r->last_change._length = r->last_change._maximum = 1;
+      r->last_change._buffer = &changes[i];
     }
   }
   rp.results._length = rp.results._maximum = count;
@@ -429,6 +474,11 @@ static void answer_set (struct node *n, const paramdds_SetParametersRequest *rq,
     }
     if (!changed)
       n->revision++, changed = true;
+    snprintf (p->who, sizeof (p->who), "%s", rq->who); /* the asker's claim: recorded, not verified */
+    snprintf (p->via, sizeof (p->via), "%s", rq->via);
+    p->verified = false;
+    stamp_now (&p->stamp);
+    p->revision = n->revision;
     publish_param (n, p); /* the new state, with the revision of this set */
     printf ("SET %s\n", p->name);
   }
@@ -461,6 +511,14 @@ static int run_node (dds_entity_t dp, const char *id)
   n.params[2].value.type = 4;
   n.params[3].value.type = 1, n.params[3].value.bool_value = true;
   n.count = 4;
+  for (int i = 0; i < n.count; i++) /* the values it starts with: its own */
+  {
+    local_identity (n.params[i].who, sizeof (n.params[i].who));
+    snprintf (n.params[i].via, sizeof (n.params[i].via), "start");
+    n.params[i].verified = true;
+    stamp_now (&n.params[i].stamp);
+    n.params[i].revision = n.revision;
+  }
 
   n.state = endpoint (dp, "ParameterEvents", &paramdds_ParameterEvent_desc, true, qos_state_writer ());
   dds_entity_t get_rq = endpoint (dp, "GetParametersRequest", &paramdds_GetParametersRequest_desc, false, qos_call_reader ());
@@ -547,6 +605,9 @@ static int run_monitor (dds_entity_t dp, double seconds)
         printf ("PARAM %s %s ", ev->node_id, ev->name);
         print_value (&ev->value);
         putchar ('\n');
+        if (ev->who[0] || ev->via[0])
+          printf ("BLAME %s %s %s %s %lld %s\n", ev->node_id, ev->name, ev->via[0] ? ev->via : "-",
+                  ev->verified ? "verified" : "claimed", (long long) ev->revision, ev->who);
       }
     }
     dds_return_loan (rd, samples, got);
@@ -658,6 +719,10 @@ static int run_client (dds_entity_t dp, const char *verb, const char *node, int 
     rq.client_id = cid, rq.request_id = rid;
     rq.expected_revision = -1;
     rq.deadline = call_start + ANSWER_TIMEOUT - REPLY_ALLOWANCE;
+    char who[256];
+    local_identity (who, sizeof (who));
+    rq.who = who; /* a claim: a node records it unverified */
+    rq.via = "api";
     no_answer_status = 5;
     for (int i = 0; i < argc && i < 64; i++)
     {

@@ -10,7 +10,12 @@
 //
 // Domain: $PARAMDDS_DOMAIN (default 1). With PARAMDDS_LOCALHOST=1: UDPv4 on 127.0.0.1 only,
 // discovery by unicast to 127.0.0.1 (participant indices 0..119), as paramdds --localhost.
-// Output and exit status: as examples/cyclone_c/paramdds_peer.c.
+// Output and exit status: as examples/cyclone_c/paramdds_peer.c, and so is blame: each
+// parameter's state says who changed it and through what, as the asker claimed them
+// (unverified); its start values are its own ($PARAMDDS_AS, else USER@host, via "start",
+// verified: no claim crossed a wire); a set
+// it sends says the same identity, via "api". The node keeps no history: a history query is
+// answered as a get, history_kept FALSE.
 
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
@@ -48,6 +53,18 @@ static int64_t wall_ns()
 {
     return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
         .count();
+}
+
+// $PARAMDDS_AS, else USER@host: the identity this program claims (as paramdds's default)
+static std::string local_identity()
+{
+    const char *as = std::getenv("PARAMDDS_AS");
+    if (as && *as)
+        return as;
+    const char *user = std::getenv("USER");
+    char host[128] = {0};
+    gethostname(host, sizeof(host) - 1);
+    return std::string(user && *user ? user : "unknown") + "@" + host;
 }
 
 static const char *TYPE_NAMES[] = {"not_set", "bool", "integer", "double", "string", "byte_array",
@@ -284,10 +301,21 @@ static uint64_t new_incarnation()
     return x ? x : 1;
 }
 
+// who last changed a parameter, through what, when, at which revision; verified: the node's own
+// start value (no claim crossed a wire), not a set's asker, who only claims
+struct Blame
+{
+    std::string who, via;
+    bool verified = false;
+    paramdds::Time stamp;
+    int64_t revision = 0;
+};
+
 struct Node
 {
     std::string id;
     std::vector<paramdds::Parameter> params;
+    std::vector<Blame> blame;  // one per parameter, in the same order
     int64_t revision = 1;
     // random, non-zero, new on every start: (incarnation, revision) never repeats
     uint64_t incarnation = new_incarnation();
@@ -316,16 +344,21 @@ struct Node
         return t;
     }
 
-    void publish(const paramdds::Parameter &p)
+    void publish(size_t i)
     {
+        const paramdds::Parameter &p = params[i];
+        const Blame &b = blame[i];
         paramdds::ParameterEvent ev;
         ev.node_id(id);
         ev.name(p.name());
         ev.kind(0);
-        ev.revision(revision);
+        ev.revision(b.revision);
         ev.incarnation(incarnation);
-        ev.stamp(now());
+        ev.stamp(b.stamp);
         ev.value(p.value());
+        ev.who(b.who);  // the blame members ("" when unknown)
+        ev.verified(b.verified);
+        ev.via(b.via);
         state->write(&ev);
     }
 
@@ -352,6 +385,8 @@ struct Node
         rp.request_id(rq.request_id());
         rp.revision(revision);
         rp.incarnation(incarnation);
+        // A history query (rq.history() not empty) is answered as a get: this node keeps no
+        // history, and history_kept left false says so to the asker.
         for (const auto &name : rq.names())
         {
             paramdds::GetParameterResult r;
@@ -371,6 +406,17 @@ struct Node
                     d.name(p->name());
                     d.type(p->value().type());
                     r.descriptor().push_back(d);
+                    const Blame &b = blame[static_cast<size_t>(p - params.data())];
+                    if (!b.who.empty() || !b.via.empty())  // else who changed it last is not known
+                    {
+                        paramdds::LastChange last;  // the parameter's last change, as its state says it
+                        last.who(b.who);
+                        last.verified(b.verified);
+                        last.via(b.via);
+                        last.stamp(b.stamp);
+                        last.revision(b.revision);
+                        r.last_change().push_back(last);
+                    }
                 }
             }
             rp.results().push_back(r);
@@ -468,7 +514,9 @@ struct Node
             p->value(rq.parameters()[i].value());
             if (!changed)
                 revision++, changed = true;
-            publish(*p);  // the new state, with the revision of this set
+            size_t at = static_cast<size_t>(p - params.data());
+            blame[at] = Blame{rq.who(), rq.via(), false, Node::now(), revision};  // the asker's claim, not verified
+            publish(at);  // the new state, with the revision of this set
             std::printf("SET %s\n", p->name().c_str());
         }
         if (changed)
@@ -507,6 +555,8 @@ static int run_node(Dds &dds, const std::string &id)
     node.params[1].value().type(2), node.params[1].value().integer_value(3);
     node.params[2].value().type(4), node.params[2].value().string_value("fast-dds");
     node.params[3].value().type(1), node.params[3].value().bool_value(true);
+    for (size_t i = 0; i < node.params.size(); i++)  // the values it starts with: its own
+        node.blame.push_back(Blame{local_identity(), "start", true, Node::now(), node.revision});
 
     node.state = dds.writer("ParameterEvents", new paramdds::ParameterEventPubSubType(), state_writer_qos());
     DataReader *get_rq = dds.reader("GetParametersRequest", new paramdds::GetParametersRequestPubSubType(), call_reader_qos());
@@ -515,8 +565,8 @@ static int run_node(Dds &dds, const std::string &id)
     DataWriter *get_rp = dds.writer("GetParametersResponse", new paramdds::GetParametersResponsePubSubType(), call_writer_qos());
     DataWriter *set_rp = dds.writer("SetParametersResponse", new paramdds::SetParametersResponsePubSubType(), call_writer_qos());
     DataWriter *list_rp = dds.writer("ListParametersResponse", new paramdds::ListParametersResponsePubSubType(), call_writer_qos());
-    for (const auto &p : node.params)
-        node.publish(p);
+    for (size_t i = 0; i < node.params.size(); i++)
+        node.publish(i);
     node.publish_presence();
 
     std::signal(SIGTERM, [](int) { stop_requested = 1; });
@@ -567,6 +617,10 @@ static int run_monitor(Dds &dds, double seconds)
                 std::printf("PARAM %s %s ", ev.node_id().c_str(), ev.name().c_str());
                 print_value(ev.value());
                 std::putchar('\n');
+                if (!ev.who().empty() || !ev.via().empty())
+                    std::printf("BLAME %s %s %s %s %lld %s\n", ev.node_id().c_str(), ev.name().c_str(),
+                                ev.via().empty() ? "-" : ev.via().c_str(), ev.verified() ? "verified" : "claimed",
+                                static_cast<long long>(ev.revision()), ev.who().c_str());
             }
         }
     }
@@ -654,6 +708,8 @@ static int run_client(Dds &dds, const std::string &verb, const std::string &node
         rq.request_id(1);
         rq.expected_revision(-1);
         rq.deadline(wall_ns() + 5000000000LL - 200000000LL);  // the wait, less 0.2 s for the reply
+        rq.who(local_identity());  // a claim: a node records it unverified
+        rq.via("api");
         for (int i = 0; i < argc; i++)
         {
             std::string arg = argv[i];

@@ -33,10 +33,12 @@ from typing import Any
 import pytest
 
 from paramdds.core.descriptors import FloatingPointRange, ParameterDescriptor
+from paramdds.core.origin import local_identity
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import ParameterValue
 from paramdds.dds.monitor import EventKind
 from paramdds.dds.participant import domain_config
+from paramdds.errors import ErrorCode, NoHistoryError
 
 from ..dds.helpers import DdsSession, wait_until
 from .conftest import Vendor
@@ -88,8 +90,8 @@ def _typed(kind: str, text: str) -> object:
     return value
 
 
-def _lines(out: str, tag: str) -> list[list[str]]:
-    return [line.split(" ", 4)[1:] for line in out.splitlines() if line.startswith(tag + " ")]
+def _lines(out: str, tag: str, fields: int = 4) -> list[list[str]]:
+    return [line.split(" ", fields)[1:] for line in out.splitlines() if line.startswith(tag + " ")]
 
 
 def test_a_foreign_monitor_joining_late_gets_every_value_exactly(
@@ -117,11 +119,32 @@ def test_a_foreign_monitor_joining_late_gets_every_value_exactly(
     assert incarnation != 0 and seen_incarnation == f"{incarnation:016x}"  # the new last member, read
 
 
+def test_a_foreign_monitor_reads_who_changed_each_value_of_a_paramdds_node(
+    vendor: tuple[Vendor, Path], envs: tuple[dict[str, str], dict[str, str]], domain_id: int
+) -> None:
+    """The blame members paramdds writes, read by another vendor: a start value is the
+    server's own (verified, via start), a set the asker's claim (via api, unverified)."""
+    _, program = vendor
+    table = ParameterTable("robot1")
+    table.declare("robot.speed", 1.5)
+    table.declare("robot.name", "rx")
+    with DdsSession(domain_id) as session:
+        session.server(table)
+        changed = session.client(as_="ops@lab").set("robot1", {"robot.speed": 2.5})
+        done = _run([str(program), "monitor", "10"], envs[0])
+    assert done.returncode == 0, done.stderr
+    start = changed.revision - 1
+    assert {rest[1]: rest for rest in _lines(done.stdout, "BLAME", 6)} == {
+        "robot.speed": ["robot1", "robot.speed", "api", "claimed", str(changed.revision), "ops@lab"],
+        "robot.name": ["robot1", "robot.name", "start", "verified", str(start), local_identity()],
+    }
+
+
 def test_a_foreign_client_lists_gets_and_sets_on_a_paramdds_server(
     vendor: tuple[Vendor, Path], envs: tuple[dict[str, str], dict[str, str]], domain_id: int
 ) -> None:
     _, program = vendor
-    foreign_env, _ = envs
+    foreign_env = dict(envs[0], PARAMDDS_AS="peer-client")  # the identity its sets claim
     table = ParameterTable("robot1")
     table.declare(
         "robot.speed",
@@ -154,6 +177,17 @@ def test_a_foreign_client_lists_gets_and_sets_on_a_paramdds_server(
         ((name, verdict, code, _reason),) = _lines(refused.stdout, "RESULT")
         assert (name, verdict, code) == ("robot.speed", "FAILED", "OUT_OF_RANGE")
         assert table.get("robot.speed").value == 2.5  # unchanged
+
+        # the server recorded each write under the foreign client's claim (via "api",
+        # unverified), the refused one too
+        records = session.client().history("robot1", timeout=10).records
+        assert [
+            (r.name, r.who, r.verified, r.via, r.applied, r.code) for r in records if r.via != "start"
+        ] == [
+            ("robot.speed", "peer-client", False, "api", True, ""),
+            ("sensor.rate", "peer-client", False, "api", True, ""),
+            ("robot.speed", "peer-client", False, "api", False, "OUT_OF_RANGE"),
+        ]
 
 
 class _Node:
@@ -328,3 +362,176 @@ def test_a_foreign_node_applies_a_resent_set_once(
     assert len(answers) >= answered + 3
     assert [(a.revision, a.results[0].successful) for a in answers] == [(2, True)] * len(answers)
     assert node.kill().splitlines().count(f"SET {p}count") == 1  # the node applied it once
+
+
+def test_a_foreign_node_stamps_each_change_with_the_askers_claim(
+    vendor: tuple[Vendor, Path], envs: tuple[dict[str, str], dict[str, str]], domain_id: int
+) -> None:
+    """Blame on another vendor's node, read by paramdds's reader: its start values are its own
+    (via start, verified), a change carries the asker's claim unverified, a change from an asker that says
+    nothing carries "" (no last change); its get with descriptors and its own monitor say the
+    same, and its client's set says who and via "api"."""
+    from cyclonedds.sub import DataReader
+    from cyclonedds.topic import Topic
+
+    from paramdds.dds.qos import QosProfiles
+    from paramdds.dds.wire import types as wire
+
+    from ..reliability.rawwire import RawPeer
+
+    info, program = vendor
+    p = info.prefix
+    node_env = dict(envs[0], PARAMDDS_AS="peer-node")
+    node = _Node(program, "fnode", node_env)
+    try:
+        with DdsSession(domain_id) as session:
+            dp = session.participant()
+            peer = RawPeer(dp)
+            state_reader = DataReader(
+                dp,
+                Topic(dp, "ParameterEvents", wire.ParameterEvent),
+                QosProfiles.load().reader("ParameterEvents"),
+            )
+            state: dict[str, Any] = {}
+
+            def blame(name: str) -> tuple[str, bool, str, int] | None:
+                """(who, verified, via, revision) of the parameter's state as read last."""
+                for s in state_reader.take(N=64):
+                    if s.sample_info.valid_data and s.kind == wire.EVENT_PARAMETER:
+                        state[s.name] = s
+                s = state.get(f"{p}{name}")
+                return None if s is None else (s.who, s.verified, s.via, s.revision)
+
+            def becomes(name: str, expected: tuple[str, bool, str, int] | None) -> bool:
+                return wait_until(lambda: blame(name) == expected, 10)
+
+            assert wait_until(lambda: blame("enabled") is not None and len(state) == 4, 10), state
+            for name in ("speed", "count", "label", "enabled"):  # its own start values
+                assert blame(name) == ("peer-node", True, "start", 1), name
+
+            claimed = _count_set(p, 55, 1, 5)
+            claimed.who, claimed.via = "alice@lab", "api"
+            assert peer.first_answer(claimed).results[0].successful
+            assert becomes("count", ("alice@lab", False, "api", 2)), blame("count")
+            silent = wire.SetParametersRequest(  # who and via "": a peer that says nothing
+                node_id="fnode",
+                client_id=55,
+                request_id=2,
+                expected_revision=-1,
+                parameters=[wire.Parameter(f"{p}label", wire.ParameterValue(type=4, string_value="quiet"))],
+            )
+            assert peer.first_answer(silent).results[0].successful
+            assert becomes("label", ("", False, "", 3)), blame("label")
+            # paramdds's monitor and describe read the same: no last change where who is ""
+            monitor = session.monitor()
+            assert wait_until(lambda: monitor.last_change("fnode", f"{p}count") is not None, 10)
+            seen = monitor.last_change("fnode", f"{p}count")
+            assert seen is not None and (seen.who, seen.verified, seen.via, seen.revision) == (
+                "alice@lab",
+                False,
+                "api",
+                2,
+            )
+            assert monitor.last_change("fnode", f"{p}label") is None
+            shown = _run([PARAMDDS, "describe", "fnode", f"{p}count", f"{p}label", "-o", "json"], envs[1])
+            assert shown.returncode == 0, shown.stderr
+            lasts = {name: d["last_change"] for name, d in json.loads(shown.stdout).items()}
+            assert lasts[f"{p}label"] is None and lasts[f"{p}count"]["who"] == "alice@lab"
+
+            described = peer.first_answer(
+                wire.GetParametersRequest(
+                    node_id="fnode",
+                    client_id=55,
+                    request_id=3,
+                    with_descriptors=True,
+                    names=[f"{p}count", f"{p}label"],
+                )
+            )
+            (count,), unknown = (r.last_change for r in described.results)
+            assert (count.who, count.verified, count.via, count.revision) == ("alice@lab", False, "api", 2)
+            assert unknown == []  # who changed it last is not known: no last change
+            assert count.stamp == state[f"{p}count"].stamp  # when: the state's stamp
+
+            # the node keeps no history: a history query is answered at once, history_kept FALSE
+            started = time.monotonic()
+            answer = peer.first_answer(
+                wire.GetParametersRequest(
+                    node_id="fnode", client_id=55, request_id=4, history=[wire.HistoryQuery()]
+                )
+            )
+            assert time.monotonic() - started < 3
+            assert (answer.history_kept, answer.history, answer.history_more, answer.history_compacted) == (
+                False,
+                [],
+                False,
+                False,
+            )
+
+            # its own client says who (its claim) and via "api"; the node records them
+            client_env = dict(envs[0], PARAMDDS_AS="peer-client")
+            done = _run([str(program), "set", "fnode", f"{p}speed=4.5"], client_env)
+            assert done.returncode == 0, done.stdout + done.stderr
+            assert becomes("speed", ("peer-client", False, "api", 4)), blame("speed")
+
+        # the vendor's own monitor prints each state's blame; "" prints none
+        seen = _run([str(program), "monitor", "5"], envs[0])
+        assert seen.returncode == 0, seen.stderr
+        assert {rest[1]: rest for rest in _lines(seen.stdout, "BLAME", 6)} == {
+            f"{p}speed": ["fnode", f"{p}speed", "api", "claimed", "4", "peer-client"],
+            f"{p}count": ["fnode", f"{p}count", "api", "claimed", "2", "alice@lab"],
+            f"{p}enabled": ["fnode", f"{p}enabled", "start", "verified", "1", "peer-node"],
+        }
+    finally:
+        node.kill()
+
+
+def test_history_of_a_foreign_node_fails_fast_saying_it_keeps_none(
+    vendor: tuple[Vendor, Path], envs: tuple[dict[str, str], dict[str, str]], domain_id: int
+) -> None:
+    """A node of another vendor keeps no history: paramdds's client says so at once
+    (NO_HISTORY), never waits for its timeout, and so do `history`, `diff NODE@REV` and
+    `watch --since` (one line, exit 1); its get with descriptors carries each parameter's
+    last change, which paramdds reads."""
+    info, program = vendor
+    p = info.prefix
+    node = _Node(program, "fnode", dict(envs[0], PARAMDDS_AS="peer-node"))
+    try:
+        with DdsSession(domain_id) as session:
+            client = session.client()
+            assert wait_until(lambda: any(n.node == "fnode" for n in client.nodes()), 10)
+            started = time.monotonic()
+            with pytest.raises(NoHistoryError) as raised:
+                client.history("fnode", [f"{p}speed"], timeout=20)
+            assert time.monotonic() - started < 5  # answered, not timed out
+            assert raised.value.code is ErrorCode.NO_HISTORY and "keeps no history" in str(raised.value)
+
+            # the verbs that read history say so in one line, exit 1 (a timeout would be exit 3)
+            for verb in (
+                ["history", "fnode"],
+                ["diff", "fnode@1", "fnode"],
+                ["watch", "fnode", "--since", "1"],
+            ):
+                done = _run([PARAMDDS, *verb, "--timeout", "20"], envs[1])
+                assert (done.returncode, done.stdout) == (1, ""), verb
+                assert (
+                    done.stderr
+                    == "paramdds: error: node 'fnode' keeps no history (a peer that does not record it)\n"
+                )
+
+            client.set("fnode", {f"{p}count": 8}, as_="bob@lab", timeout=10)
+            got = client.get("fnode", [f"{p}speed", f"{p}count"], with_descriptors=True, timeout=10)
+            speed, count = (r.last_change for r in got.results)
+            assert speed is not None and (speed.who, speed.verified, speed.via, speed.revision) == (
+                "peer-node",
+                True,
+                "start",
+                1,
+            )
+            assert count is not None and (count.who, count.verified, count.via, count.revision) == (
+                "bob@lab",
+                False,
+                "api",
+                2,
+            )
+    finally:
+        node.kill()
