@@ -304,8 +304,7 @@ def test_descriptors_equal_but_for_the_sign_of_zero_are_encoded_apart() -> None:
 
 def test_the_descriptor_caches_stay_bounded_and_right(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(state, "_CACHE_MAX", 3)
-    for name in ("_decoded", "_spans"):  # one cache per alignment, empty (earlier tests filled them)
-        monkeypatch.setattr(state, name, tuple({} for _ in range(8)))
+    monkeypatch.setattr(state, "_decoded", tuple({} for _ in range(8)))  # one per alignment, empty
     monkeypatch.setattr(state, "_encoded", {})
     v = ParameterValue.from_python(1.5)
     descriptors = [ParameterDescriptor("p", ParameterType.DOUBLE, f"described {i}") for i in range(7)]
@@ -314,8 +313,8 @@ def test_the_descriptor_caches_stay_bounded_and_right(monkeypatch: pytest.Monkey
         for d in descriptors:
             got = _check_encoding(StateArgs("n", "p", 1, 0, 0, v, d))
             assert canonical(decode_state(got)) == canonical(decode_state_slowly(got))
-            assert all(len(cache) <= 3 for cache in (*state._decoded, *state._spans, state._encoded))
-    assert all(len(data) <= 1024 for cache in state._decoded for data in cache)
+            assert all(len(cache) <= 3 for cache in (*state._decoded, state._encoded))
+    assert all(len(data) <= 1024 for cache in state._decoded for seen in cache.values() for data, _ in seen)
 
 
 def test_what_the_state_encoder_leaves_to_the_generated_one() -> None:

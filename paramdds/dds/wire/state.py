@@ -29,10 +29,10 @@ primitive aligned to its size, up to 8, from the end of the encapsulation header
 The value and descriptor readers and writers live in :mod:`.state_cdr`. Descriptors
 repeat (a fleet runs the same node types, a server republishes a parameter on every
 set) and are immutable, so both directions keep them in bounded caches: decoded ones
-keyed on their exact bytes, one cache per offset modulo 8 (XCDR1 padding is relative to
-the stream), found through the sample's first bytes after the value (a descriptor's
-length is only known once it is read: the lengths seen after the same first bytes are
-tried); encoded ones keyed on the descriptor and that offset. The tail after the
+kept by their exact bytes, one cache per offset modulo 8 (XCDR1 padding is relative to
+the stream), found through their first bytes (a descriptor's length is only known once
+it is read: the sample is compared with the few decoded ones that start as it does);
+encoded ones keyed on the descriptor and that offset. The tail after the
 descriptor (``host pid parameter_count incarnation who verified via``) is the same for
 every parameter of a node written by one change (a node's whole table when a monitor
 joins: its start), so it is kept too, by its exact bytes; so is the blame the encoder
@@ -145,10 +145,10 @@ _TAIL_KEY_MAX = 256
 _blame_bytes: dict[tuple[str, bool, str], bytes] = {}
 _last_blame: tuple[str, bool, str, bytes] = ("", False, "", b"\1\0\0\0\0\0\0\0\1\0\0\0\0\0\0\0")
 _BLAMES_MAX = 4_096
-# A descriptor's length is known once it is read: the lengths seen after the same first
-# bytes (at the same offset modulo 8) are tried against the decoded ones, a few at most
+# A descriptor's length is known once it is read: the ones decoded from the same first
+# bytes (at the same offset modulo 8) are compared with the sample's, a few at most
 _PROBE = 24
-_SPANS_PER_PROBE = 4
+_SEEN_PER_PROBE = 4
 
 
 def decode_state(data: bytes) -> StateSample:
@@ -288,31 +288,28 @@ def _tail(tail: bytes, phase: int) -> _Tail:
     return result
 
 
-# one cache per offset modulo 8: a descriptor's bytes by their alignment
-_decoded: tuple[dict[bytes, ParameterDescriptor], ...] = tuple({} for _ in range(8))
-_spans: tuple[dict[bytes, tuple[int, ...]], ...] = tuple({} for _ in range(8))
+# one cache per offset modulo 8: by a descriptor's first bytes, the descriptors decoded
+# from bytes that start so (their bytes, the descriptor), a few at most
+_Decoded = tuple[tuple[bytes, ParameterDescriptor], ...]
+_decoded: tuple[dict[bytes, _Decoded], ...] = tuple({} for _ in range(8))
 
 
 def _described(buf: bytes, pos: int, end: int) -> tuple[ParameterDescriptor, int]:
     """The descriptor sequence at ``pos`` (not empty) and the offset after it, decoded once
     per distinct bytes and alignment (see the module doc)."""
-    phase = pos & 7
-    decoded, spans = _decoded[phase], _spans[phase]
+    decoded = _decoded[pos & 7]
     probe = buf[pos : pos + _PROBE]
-    lengths = spans.get(probe, ())
-    for n in lengths:
-        hit = decoded.get(buf[pos : pos + n])
-        if hit is not None:  # the same bytes at the same alignment: the same descriptor
-            return hit, pos + n
+    seen = decoded.get(probe, ())
+    for data, descriptor in seen:
+        if buf.startswith(data, pos):  # the same bytes at the same alignment: the same descriptor
+            return descriptor, pos + len(data)
     (count,) = _unpack_u32(buf, pos)
     if count != 1:
         raise NotFast("a descriptor sequence over its bound of 1")
     descriptor, after = read_descriptor(buf, pos + 4, end)
-    n = after - pos
-    if n <= _CACHED_BYTES_MAX:
-        _bounded(decoded, _CACHE_MAX)[buf[pos:after]] = descriptor
-        if n not in lengths:
-            _bounded(spans, _CACHE_MAX)[probe] = (n, *lengths[: _SPANS_PER_PROBE - 1])
+    if after - pos <= _CACHED_BYTES_MAX:
+        entry = (buf[pos:after], descriptor)
+        _bounded(decoded, _CACHE_MAX)[probe] = (entry, *seen[: _SEEN_PER_PROBE - 1])
     return descriptor, after
 
 
