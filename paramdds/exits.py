@@ -6,7 +6,8 @@ code   when
 0      everything asked for succeeded
 1      the node answered and refused or lacked something (validation, read-only,
        type, unknown parameter, compare-and-set conflict, a failed parameter of a
-       non-atomic set)
+       non-atomic set, history it keeps none of or retention dropped); ``diff``:
+       the two sides differ
 2      usage error or bad local input (unknown flag, unparsable value, unreadable
        or invalid YAML with file and line)
 3      node not present, or no answer within the timeout; over Zenoh, an answer that

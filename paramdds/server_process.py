@@ -33,6 +33,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Any
 
 from .core.descriptors import ParameterDescriptor
@@ -250,14 +251,27 @@ class ServerProcess:
         """Write the persistence file (so it exists), then host and serve every table."""
         from .dds.server import ParameterServer
 
-        if self.store is not None:
-            self.store.attach(self.tables)
+        store = self.store
+        if store is not None:
+            if self._retention is not None:
+                store.set_retention(self._retention)
+            store.attach(self.tables)
         participant = self._participant_factory()
         server = ParameterServer(participant, self._qos, nodes=list(self.tables), retention=self._retention)
-        if self.store is not None:
-            server.persisters.append(self.store.record)
+        if getattr(participant.transport, "grants", None) is not None:  # secure: who = the certificate
+            from .secure.authenticated import authenticator_for
+
+            server.authenticate = authenticator_for(participant)
+        if store is not None:  # history and blame survive a restart; new records persist with their changes
+            server.persisters.append(store.record)
+            for node_id, table in self.tables.items():
+                history = server.history(node_id)
+                store.history(node_id).restore_into(history, table.names())
+                history.add_listener(partial(store.recorded, node_id))
         for table in self.tables.values():
             server.add_node(table)
+        if store is not None:
+            store.write_history()  # the start values of parameters with no last change yet
         self._server = server.start()
 
     def close(self) -> None:

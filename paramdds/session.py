@@ -81,7 +81,7 @@ class Session:
         if getattr(self.args, "zenoh", None):  # every site's nodes, as SITE/NODE (paramdds.zenoh)
             from .zenoh.client import RemoteParameterClient
 
-            remote = RemoteParameterClient(self.zenoh, timeout=self.args.timeout)
+            remote = RemoteParameterClient(self.zenoh, timeout=self.args.timeout, as_=as_)
             self._closers.append(remote)
             return remote
         participant = self.participant  # first: Cyclone discovers the system while Python imports

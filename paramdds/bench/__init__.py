@@ -15,7 +15,7 @@ def run_scenario(scenario: str, args: argparse.Namespace) -> int:
     """Run the scenario module ``paramdds.bench.<scenario>``; its exit code."""
     from ._common import start_probe
 
-    module = importlib.import_module(f"{__name__}.{scenario}")
+    module = importlib.import_module(f"{__name__}.{scenario.replace('-', '_')}")
     start_probe()
     result: int = module.run(args)
     return result

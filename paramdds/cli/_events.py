@@ -13,6 +13,8 @@ from ..core.names import shown_node
 from ._output import dumps_json, typed
 
 if TYPE_CHECKING:
+    from ..core.history import HistoryRecord
+    from ..core.replay import Gap
     from ..dds.monitor import MonitorEvent
 
 
@@ -33,12 +35,15 @@ class EventPrinter:
     Called on the monitor's threads; one lock keeps lines whole. Node presence events
     are printed only after ``synced`` (before it, the ``added`` events are the state); a
     whole site going offline or coming back (over Zenoh) is one line, the site's, not one
-    per node.
+    per node. With ``changes=False`` the monitor's parameter events are not printed: a
+    watch from a revision prints the node's history records instead (:meth:`record`),
+    with who made each change.
     """
 
-    def __init__(self, output: str, prefixes: Sequence[str]) -> None:
+    def __init__(self, output: str, prefixes: Sequence[str], *, changes: bool = True) -> None:
         self._json = output == "json"
         self._prefixes = list(prefixes)
+        self._changes = changes
         self._lock = threading.Lock()
         self._synced = False
         self.broken = threading.Event()
@@ -58,8 +63,43 @@ class EventPrinter:
             if self._synced and not event.by_site:  # one line for a whole site: the site's
                 self._write(self._node_line(event))
             return
-        if matches_prefix(event.name, self._prefixes):
+        if self._changes and matches_prefix(event.name, self._prefixes):
             self._write(self._parameter_line(event))
+
+    def record(self, r: HistoryRecord) -> None:
+        """A change read from the node's history, as a parameter event with who made it:
+        ``modified NODE NAME = VALUE  (rev N)  by WHO via VIA``."""
+        if not matches_prefix(r.name, self._prefixes):
+            return
+        kind = "added" if r.old is None else "deleted" if r.new is None else "modified"
+        if self._json:
+            line = {
+                "event": kind,
+                "node": r.node,
+                "name": r.name,
+                "type": r.new.type.label if r.new is not None else "not_set",
+                "value": json_value(r.new),
+                "revision": r.revision,
+                "stamp": r.time_ns / 1e9,
+                "who": r.who,
+                "verified": r.verified,
+                "via": r.via,
+            }
+            self._write(dumps_json(line, pretty=False))
+            return
+        shown = "" if r.new is None else f" = {typed(r.new)}"
+        who = r.who if r.verified else f"{r.who} (claimed)"
+        self._write(f"{kind:<8} {r.node} {r.name}{shown}  (rev {r.revision})  by {who} via {r.via}")
+
+    def gap(self, node: str, gap: Gap) -> None:
+        """Revisions of ``node`` that neither history nor the live stream holds: one line."""
+        one = gap.before == gap.after + 2
+        lost = f"revision {gap.after + 1}" if one else f"revisions {gap.after + 1}-{gap.before - 1}"
+        if self._json:
+            line = {"event": "gap", "node": node, "after": gap.after, "before": gap.before}
+            self._write(dumps_json(line, pretty=False))
+        else:
+            self._write(f"gap      {node} {lost} lost: not in the node's history")
 
     def synced(self, settled: bool = True, waited: float = 0.0) -> None:
         """Print the ``synced`` line: the current state has been printed. When discovery

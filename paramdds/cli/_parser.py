@@ -128,7 +128,7 @@ def build_parser(argv: Sequence[str] | None = None) -> Parser:
 
     Given the command's arguments, only the verb they name is built whole (its module
     imported, its arguments and the global options added); the others are names only.
-    Building all nineteen costs every run 5-10 ms, and a run parses one verb. A top-level
+    Building all of them costs every run 5-10 ms, and a run parses one verb. A top-level
     ``--help``, or arguments that name no verb, get every verb built.
     """
     from .verbs import ALIASES, CANONICAL, VERBS, verb
@@ -138,7 +138,8 @@ def build_parser(argv: Sequence[str] | None = None) -> Parser:
     top = Parser(
         prog="paramdds",
         description="ROS 2 parameters over seven keyed DDS topics (Cyclone DDS).",
-        epilog="Exit codes: 0 ok, 1 refused by the node, 2 usage or bad input, "
+        epilog="Exit codes: 0 ok, 1 refused by the node (or lacking: a name, its history; diff: the sides "
+        "differ), 2 usage or bad input, "
         "3 node absent, timeout, or a fleet answer lacking a site, "
         "4 a failure in this process (DDS, or an internal error), "
         "5 outcome unknown (a write sent and not answered: it may have been applied), 130 interrupted.",

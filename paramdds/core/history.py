@@ -18,12 +18,14 @@ since.
 from __future__ import annotations
 
 import fnmatch
+import itertools
 import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from enum import IntEnum
+from typing import NamedTuple
 
 from .jsonform import json_value
 from .origin import Origin
@@ -58,13 +60,13 @@ class Outcome(IntEnum):
     REFUSED = 2
 
 
-@dataclass(frozen=True, slots=True)
-class HistoryRecord:
+class HistoryRecord(NamedTuple):
     """One change a node applied to one parameter (``applied``), or one write it refused.
 
     ``old`` None: the parameter did not exist; ``new`` None: it was deleted (for a refusal,
     ``new`` is the value asked, ``code`` and ``reason`` say why). ``revision`` is the
-    change's; a refusal's is the node's revision at the time."""
+    change's; a refusal's is the node's revision at the time. (A named tuple: a node makes
+    one per parameter it changes, on its commit path.)"""
 
     seq: int
     node: str
@@ -186,11 +188,12 @@ class NodeHistory:
     def applied(self, change: ChangeSet) -> list[HistoryRecord]:
         """Record a committed change set: one record per parameter; returns them."""
         last = LastChange.of(change)
+        author = (last.who, last.verified, last.via)
         with self._lock:
             out = []
             for c in change.changes:
                 new = None if c.kind is ChangeKind.DELETED else c.value
-                out.append(self._add(c.name, change.revision, change.time_ns, change.origin, c.old, new))
+                out.append(self._add(c.name, change.revision, change.time_ns, author, c.old, new))
                 if new is None:
                     self._s.last.pop(c.name, None)
                 else:
@@ -204,15 +207,14 @@ class NodeHistory:
     ) -> list[HistoryRecord]:
         """Record the values a node starts with (``via`` start), for each parameter whose last
         change is not known already (a restored history knows it); returns the new records."""
+        author = _author(origin)
+        last = LastChange(*author, time_ns, revision)
         with self._lock:
             out = []
             for name, value in values:
                 if name not in self._s.last:
-                    out.append(self._add(name, revision, time_ns, origin, None, value))
-                    self._s.last[name] = LastChange(
-                        origin.who, origin.verified, str(getattr(origin.via, "value", origin.via)),
-                        time_ns, revision,
-                    )  # fmt: skip
+                    out.append(self._add(name, revision, time_ns, author, None, value))
+                    self._s.last[name] = last
             self._trim(time_ns)
         self._tell(out)
         return out
@@ -226,9 +228,10 @@ class NodeHistory:
     ) -> list[HistoryRecord]:
         """Record refused writes: ``(name, value now, value asked, code, reason)`` each; returns them."""
         now = time.time_ns() if time_ns is None else time_ns
+        author = _author(origin)
         with self._lock:
             out = [
-                self._add(name, revision, now, origin, old, new, applied=False, code=code, reason=reason)
+                self._add(name, revision, now, author, old, new, applied=False, code=code, reason=reason)
                 for name, old, new, code, reason in refusals
             ]
             self._trim(now)
@@ -240,7 +243,7 @@ class NodeHistory:
         name: str,
         revision: int,
         time_ns: int,
-        origin: Origin,
+        author: tuple[str, bool, str],
         old: ParameterValue | None,
         new: ParameterValue | None,
         *,
@@ -248,10 +251,10 @@ class NodeHistory:
         code: str = "",
         reason: str = "",
     ) -> HistoryRecord:
-        via = str(getattr(origin.via, "value", origin.via))
+        who, verified, via = author
         record = HistoryRecord(
-            self._s.next_seq, self.node_id, name, revision, time_ns, origin.who, origin.verified,
-            via, old, new, applied, code, reason,
+            self._s.next_seq, self.node_id, name, revision, time_ns, who, verified, via, old, new,
+            applied, code, reason,
         )  # fmt: skip
         self._s.next_seq += 1
         self._s.records.append(record)
@@ -309,13 +312,25 @@ class NodeHistory:
         with self._lock:
             found: list[HistoryRecord] = []
             more = False
-            for r in self._s.records:
+            for r in itertools.islice(self._s.records, self._first_after(q.after_seq), None):
                 if q.matches(r):
                     if len(found) == limit:
                         more = True
                         break
                     found.append(r)
             return HistoryPage(tuple(found), more, self._compacted(q))
+
+    def _first_after(self, seq: int) -> int:
+        """The index of the first record after ``seq``, or one before it: a page's query starts
+        there instead of rescanning the pages before (records are in seq order; their seqs are
+        consecutive unless a restore gave gaps, then the scan starts earlier)."""
+        records = self._s.records
+        if not records or seq < records[0].seq:
+            return 0
+        i = min(seq - records[0].seq + 1, len(records))
+        while i > 0 and records[i - 1].seq > seq:  # gaps put the seqs further than their index
+            i -= 1
+        return i
 
     def _compacted(self, q: HistoryQuery) -> bool:
         """Whether retention dropped records the query's range covers."""
@@ -325,6 +340,11 @@ class NodeHistory:
         if q.since_revision is not None and q.since_revision >= d.revision:
             return False
         return q.since_time_ns is None or q.since_time_ns <= d.time_ns
+
+
+def _author(origin: Origin) -> tuple[str, bool, str]:
+    """(who, verified, via as text) of an origin."""
+    return origin.who, origin.verified, str(getattr(origin.via, "value", origin.via))
 
 
 def rewind(

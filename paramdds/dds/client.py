@@ -32,8 +32,8 @@ from typing import Any
 
 from cyclonedds.domain import DomainParticipant
 
-from ..core.call import Call, Failure, GetRequest, ListRequest, Request, SetRequest, Wake
-from ..core.history import Outcome
+from ..core.call import Call, Failure, GetRequest, HistoryRequest, ListRequest, Request, SetRequest, Wake
+from ..core.history import HistoryPage, HistoryQuery, Outcome
 from ..core.history_pages import HistoryPages, TimeArg
 from ..core.origin import Via, local_identity
 from ..core.replies import GetReply, HistoryReply, NodeInfo, SetReply
@@ -189,9 +189,16 @@ class ParameterClient:
             node, tuple(names), since_revision=since_revision, since_time=since_time, until=until,
             who=who, outcome=outcome,
         )  # fmt: skip
-        while not pages.take(*self.transport.history_page(self._run(pages.request(), timeout))):
+        while not pages.take(*self.history_page(node, pages.query, timeout=timeout)):
             pass
         return pages.reply()
+
+    def history_page(
+        self, node: str, query: HistoryQuery, *, timeout: float | None = None
+    ) -> tuple[bool, HistoryPage]:
+        """One page of the node's history as it answers ``query`` (what :meth:`history`
+        walks): whether it keeps any, and the page."""
+        return self.transport.history_page(self._run(HistoryRequest(node, query), timeout))
 
     def set_request(
         self,

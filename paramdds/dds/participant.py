@@ -75,6 +75,7 @@ if TYPE_CHECKING:
     from .transport import Grants, Participant
 
 __all__ = [
+    "CERTIFICATE_PROPERTY",
     "LOCALHOST_ENV",
     "MAX_DOMAIN_ID",
     "MAX_PARTICIPANT_INDEX",
@@ -90,6 +91,9 @@ __all__ = [
 ]
 
 LOCALHOST_ENV = "PARAMDDS_LOCALHOST"
+# secure mode: the participant's identity certificate (PEM), announced in discovery so a server
+# can tell whose request it serves (paramdds.secure.authenticated checks it against the GUID)
+CERTIFICATE_PROPERTY = "paramdds.identity_certificate"
 FAST_DDS_VENDOR = "1.15"  # eProsima's RTPS vendor id (rmw_fastrtps, the default ROS 2 middleware)
 log = logging.getLogger(__name__)
 
@@ -235,6 +239,9 @@ def make_participant(
 
     qos = Qos(Policy.EntityName(app_name), Policy.Property("__ProcessName", app_name, propagate=True))
     security = "" if identity is None else identity.security_config(domain_id)
+    if identity is not None:  # its certificate, which peers check against this participant's GUID
+        certificate = (identity.path / "cert.pem").read_text()
+        qos += Qos(Policy.Property(CERTIFICATE_PROPERTY, certificate, propagate=True))
     config = participant_config(
         localhost=localhost, topic_discovery=topic_discovery, short_lived=short_lived, security=security
     )

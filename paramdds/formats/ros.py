@@ -95,6 +95,7 @@ __all__ = [
     "load_ros_params_str",
     "load_ros_text_full",
     "node_key_matches",
+    "node_keys",
 ]
 
 PARAMS_KEY = "ros__parameters"
@@ -432,6 +433,11 @@ def _typed(
         raise FileFormatError(
             f"{exc.message} (descriptor type {dtype.label})", file=source.name, line=line
         ) from exc
+
+
+def node_keys(text: str, *, source: str = "<string>") -> list[str]:
+    """The node keys of a ROS 2 parameter file's sections, in file order (wildcards included)."""
+    return list(_parse(text, Source(source)))
 
 
 def load_ros_text_full(

@@ -12,6 +12,12 @@ every parameter) share a revision, and a message goes out when the node's next c
 begins or :data:`GROUP_WAIT` after the last of its parameters arrived (a server writes
 one change's parameters back to back). A deletion carries no revision of its own (it is
 a dispose): it joins the change being gathered.
+
+A set made through these services is recorded by the paramdds node with ``via`` ros2 and
+``who`` :data:`ROS2_CALLER`, unverified: rclpy hands a service callback the request
+without its header, and the header it takes exposes the sequence number only (not the
+writer GUID that would name the caller through the ROS graph), so the calling ROS 2
+node is not known here.
 """
 
 from __future__ import annotations
@@ -25,6 +31,7 @@ from typing import Any
 from cyclonedds.domain import DomainParticipant
 
 from ..core.descriptors import ParameterDescriptor
+from ..core.origin import Via
 from ..core.values import Parameter
 from ..dds.client import ParameterClient
 from ..dds.monitor import EventKind, MonitorEvent, ParameterMonitor
@@ -35,6 +42,7 @@ from .rosside import RosSide
 
 log = logging.getLogger(__name__)
 
+ROS2_CALLER = "ros2"  # who a write through an exposed node claims to be (unverified)
 GROUP_WAIT = 0.02  # seconds without more of a node's change before its message goes out
 
 
@@ -66,7 +74,8 @@ class Exposer:
 
         self.ros = ros
         self.timeout = timeout
-        self.client = ParameterClient(participant, qos, timeout=timeout)
+        # a ROS 2 tool's write, recorded via ros2 (the caller is not known: see the module doc)
+        self.client = ParameterClient(participant, qos, timeout=timeout, as_=ROS2_CALLER, via=Via.ROS2)
         self.nodes: dict[str, Exposed] = {}
         self._refused: set[str] = set()  # node ids ROS 2 does not accept as names
         self._lock = threading.Lock()

@@ -12,6 +12,11 @@ the same way. A MirrorTable is not a ParameterTable: it holds one (what is known
 node) and is hosted through the :class:`~paramdds.core.hosted.HostedTable` protocol, as
 an :class:`UnreachableTable` is.
 
+Every commit is stamped (:mod:`paramdds.core.origin`): what the ROS 2 node reports (its
+events, a read) with ``who`` = the node's name (``/talker``), ``via`` ros2, unverified (ROS 2
+says which node changed, never who asked it to); a set forwarded from paramdds with its
+asker's origin, also when the node's event for it arrives before its answer.
+
 Compare-and-set is refused: ROS 2 has no revision, so the check and the set could
 never be one step (another ROS 2 client may set in between).
 
@@ -38,11 +43,13 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from ..core import deadline as deadlines
+from ..core import origin as origins
 from ..core.descriptors import ParameterDescriptor
 from ..core.fit import fit_value
 from ..core.hosted import HostedTable
 from ..core.limits import check_request_size
 from ..core.names import canonical_node_id, is_valid_name
+from ..core.origin import Origin, Via
 from ..core.results import ChangeSet, GetResult, ListResult, SetOutcome, SetResult
 from ..core.table import ParameterTable
 from ..core.values import Parameter, ParameterType, ParameterValue
@@ -284,6 +291,11 @@ class MirrorTable(_Held):
         super().__init__(node_id)
         self.link = link
         self._commits = threading.Lock()
+        # the node's own reports are stamped with its name (see the module docstring)
+        self.reported = Origin(link.fqn, Via.ROS2, verified=False)
+        # sets forwarded and not yet answered: (their origin, what they set); the node's event
+        # for one may arrive first, and is then committed with the forwarded set's origin
+        self._forwarding: list[tuple[Origin, dict[str, ParameterValue]]] = []
 
     def set(self, params: Sequence[Parameter], *, expected_revision: int | None = None) -> SetOutcome:
         return self._forward(params, expected_revision, atomic=False)
@@ -316,6 +328,25 @@ class MirrorTable(_Held):
                 send.append((i, self._widened(p)))
         if atomic and len(send) < len(request):
             return SetOutcome(tuple(_all_failed(request, results)), self.revision, None)
+        forwarding = (
+            origins.current(),
+            {p.name: p.value for _, p in send if isinstance(p.value, ParameterValue)},
+        )
+        with self._commits:
+            self._forwarding.append(forwarding)
+        try:  # until its answer is committed: an event in between is this set's change
+            change = self._send(send, results, atomic, deadline)
+        finally:
+            with self._commits:
+                self._forwarding.remove(forwarding)
+        done = tuple(r for r in results if r is not None)
+        return SetOutcome(done, change.revision if change is not None else self.revision, change)
+
+    def _send(
+        self, send: list[tuple[int, Parameter]], results: list[SetResult | None], atomic: bool, deadline: int
+    ) -> ChangeSet | None:
+        """Forward ``send`` (index in the request, parameter) to the node, fill ``results``
+        with its answers, and commit what it accepted."""
         try:
             answers = self.link.set([p for _, p in send], atomic, deadline) if send else []
         except Unanswered as exc:  # sent, then no answer or a failure: the node may apply it
@@ -327,12 +358,10 @@ class MirrorTable(_Held):
             results[i] = answer
             if answer.successful:
                 accepted.append(p)
-        change = None
-        if accepted:
-            with self._commits:
-                change = self.held.mirror({p.name: self._entry_after(p) for p in accepted})
-        done = tuple(r for r in results if r is not None)
-        return SetOutcome(done, change.revision if change is not None else self.revision, change)
+        if not accepted:
+            return None
+        with self._commits:
+            return self.held.mirror({p.name: self._entry_after(p) for p in accepted})
 
     def _screen(self, params: object) -> tuple[list[object], SetOutcome | None]:
         """``params`` as a request list, and the outcome a table gives when the whole request
@@ -379,9 +408,18 @@ class MirrorTable(_Held):
         return value, desc
 
     def mirror(self, entries: Mapping[str, Entry | None]) -> ChangeSet | None:
-        """Commit ``entries`` as the node holds them (see :meth:`ParameterTable.mirror`)."""
-        with self._commits:
+        """Commit ``entries`` as the node holds them (see :meth:`ParameterTable.mirror`),
+        as the node's report."""
+        with self._commits, origins.acting(self.reported):
             return self.held.mirror(entries)
+
+    def _origin_of(self, name: str, entry: Entry | None) -> Origin:
+        """Whose change an event's ``entry`` for ``name`` is: a forwarded set's that set it
+        to this value, else the node's own."""
+        for origin, values in self._forwarding:
+            if name in values and entry is not None and values[name] == entry[0]:
+                return origin
+        return self.reported
 
     def apply_event(self, new: Sequence[Any], changed: Sequence[Any], deleted: Sequence[Any]) -> list[str]:
         """Commit one ``/parameter_events`` message; the names that still need a descriptor."""
@@ -401,12 +439,17 @@ class MirrorTable(_Held):
                 entries[p.name] = (value, desc)
             for p in deleted:
                 entries[p.name] = None
-            self.held.mirror(entries)
+            by_origin: dict[Origin, dict[str, Entry | None]] = {}
+            for name, entry in entries.items():
+                by_origin.setdefault(self._origin_of(name, entry), {})[name] = entry
+            for origin, some in by_origin.items():  # one revision each (one, but for a race)
+                with origins.acting(origin):
+                    self.held.mirror(some)
         return fresh
 
     def resync(self, entries: Mapping[str, Entry]) -> None:
         """Make the table hold exactly ``entries`` (a fresh fetch of the node)."""
-        with self._commits:
+        with self._commits, origins.acting(self.reported):
             gone = {n: None for n in self.held.names() if n not in entries}
             self.held.mirror({**entries, **gone})
 

@@ -10,6 +10,8 @@ partitions and the writer-partition check are the secure form of the transport
   permissions (``paramdds keystore``);
 * :mod:`.identity` reads one identity directory (``--identity`` /
   ``PARAMDDS_IDENTITY``) into the Cyclone ``<Security>`` configuration and its grants.
+* :mod:`.authenticated` tells a server the certificate subject of a request's writer
+  (``ParameterServer.authenticate``): who made a change, verified.
 
 None of this imports cyclonedds at import time, so ``paramdds keystore`` and the
 install run without a DDS library.

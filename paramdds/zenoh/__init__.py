@@ -1,7 +1,8 @@
 """paramdds over Zenoh: a gateway per site, and a remote client and monitor (the ``zenoh`` extra).
 
 * :mod:`.keys`: the key expressions (the wire contract, docs/zenoh.md);
-* :mod:`.codec`: the JSON payloads (values, descriptors, node states, requests, replies);
+* :mod:`.codec`: the JSON payloads (values, descriptors, node states with their last
+  changes, requests, replies); :mod:`.history`: those of history queries and pages;
 * :mod:`.config`: Zenoh configurations from endpoints, modes, TLS files and JSON5 files;
 * :mod:`.gateway`: one site's DDS domain published on Zenoh, calls forwarded to its nodes;
 * :mod:`.client`: :func:`~.client.RemoteParameterClient`, the one

@@ -14,14 +14,18 @@ Presence is asked of the gateways (they know every node of their site).
 from __future__ import annotations
 
 import logging
+import os
 import threading
 import time
+from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 import zenoh
 
 from ..core.call import Call, Failure, GetRequest, HistoryRequest, ListRequest, Mark, Request, closed_error
 from ..core.history import HistoryPage
+from ..core.origin import AS_ENV, Via, local_identity
 from ..core.replies import GetReply, NodeInfo, SetReply
 from ..core.request import to_parameters
 from ..core.results import ListResult
@@ -31,30 +35,47 @@ from ..dds.client_protocol import PendingCall
 from ..dds.discovery import Presence
 from ..errors import (
     CallTimeoutError,
+    NoHistoryError,
     NotPermittedError,
     OutcomeUnknownError,
     ParamddsError,
     UnavailableError,
 )
-from . import codec, keys
-from .states import REPLY_MARGIN, ROUTE_WAIT, ask_states, site_active, sites_of
+from . import codec, history, keys
+from .states import GRANT_ASK, REPLY_MARGIN, ROUTE_WAIT, ask_states, site_active, sites_of
+from .tls import certificate_name
 
 log = logging.getLogger(__name__)
 
-__all__ = ["REPLY_MARGIN", "ROUTE_WAIT", "RemoteParameterClient", "ZenohClientTransport"]
+__all__ = ["REPLY_MARGIN", "ROUTE_WAIT", "RemoteParameterClient", "ZenohClientTransport", "remote_identity"]
 
 
 
-def RemoteParameterClient(session: Any, *, timeout: float = DEFAULT_TIMEOUT) -> ParameterClient:
+def RemoteParameterClient(
+    session: Any, *, timeout: float = DEFAULT_TIMEOUT, as_: str | None = None
+) -> ParameterClient:
     """A :class:`~paramdds.dds.client.ParameterClient` of ``SITE/NODE`` over one Zenoh
     ``session``; every call bounded by its timeout.
 
     The calls (``list``, ``get``, ``get_value``, ``set`` with ``atomic`` and
-    ``if_revision``, ``delete``, ``wait_for_node``, ``nodes``, ``node_info``,
-    ``presence``) and the errors are those of the DDS client; the node's own
-    per-parameter results and codes come back unchanged.
+    ``if_revision``, ``delete``, ``history``, ``wait_for_node``, ``nodes``,
+    ``node_info``, ``presence``) and the errors are those of the DDS client; the node's
+    own per-parameter results and codes come back unchanged. Its writes are recorded on
+    the node as ``as_`` (default :func:`remote_identity`) via ``zenoh``, unverified.
     """
-    return ParameterClient(ZenohClientTransport(session, timeout=timeout), timeout=timeout)
+    transport = ZenohClientTransport(session, timeout=timeout)
+    return ParameterClient(transport, timeout=timeout, as_=as_ or remote_identity(), via=Via.ZENOH)
+
+
+def remote_identity(environ: Mapping[str, str] | None = None) -> str:
+    """The identity a remote client claims: ``$PARAMDDS_AS``, else the common name of the
+    certificate in ``$PARAMDDS_ZENOH_TLS`` (its ``cert.pem``), else ``USER@host``."""
+    env = os.environ if environ is None else environ
+    if env.get(AS_ENV):
+        return env[AS_ENV]
+    tls_dir = env.get("PARAMDDS_ZENOH_TLS", "").strip()
+    name = certificate_name(Path(tls_dir) / "cert.pem") if tls_dir else None
+    return name or local_identity()
 
 
 class ZenohClientTransport:
@@ -102,7 +123,7 @@ class ZenohClientTransport:
         elif isinstance(request, GetRequest):
             verb, body = "get", {"names": list(request.names), "with_descriptors": request.with_descriptors}
         elif isinstance(request, HistoryRequest):
-            raise ParamddsError("history is not carried over Zenoh yet")
+            verb, body = "history", history.query_out(request.query)
         else:
             items = to_parameters(request.params)
             expected: object = None
@@ -114,16 +135,17 @@ class ZenohClientTransport:
                 "parameters": [{"name": p.name, "value": codec.value_out(p.value)} for p in items],
                 "atomic": request.atomic,
                 "if_revision": expected,
+                "who": request.who,
             }
         site, nid = keys.split_remote(call.node)
         pending = PendingCall(call, verb, (keys.node_key(site, nid, verb), body))
         self._pending[call.request_id] = pending
         return pending
 
-    def _querier(self, pending: PendingCall) -> tuple[Any, float]:
-        """The querier on the site's pattern for the call's verb (declared on first use), and
-        when it was declared."""
-        pattern = keys.site_pattern(keys.split_remote(pending.node)[0], pending.kind)
+    def _querier(self, pending: PendingCall, verb: str = "") -> tuple[Any, float]:
+        """The querier on the site's pattern for the call's verb (or ``verb``; declared on
+        first use), and when it was declared."""
+        pattern = keys.site_pattern(keys.split_remote(pending.node)[0], verb or pending.kind)
         with self._routes_lock:
             route = self._routes.get(pattern)
             if route is None:
@@ -148,6 +170,8 @@ class ZenohClientTransport:
         call's verb now: Zenoh's matching status of a querier on the site's pattern (learnt
         from the router within milliseconds of its declaration, and lost as soon as the
         gateway's session is). A set that was never sent is a failure, not an unknown outcome.
+        A history call to a site whose gateway serves calls but not history (an older
+        paramdds) fails NO_HISTORY, as a node that keeps none does.
         """
         querier, declared = self._querier(pending)
         until = declared + min(ROUTE_WAIT, pending.call.timeout)
@@ -155,6 +179,11 @@ class ZenohClientTransport:
             if time.monotonic() >= until:
                 site = keys.split_remote(pending.node)[0]
                 if site_active(self._session, site) and not self._matching(querier, pending):
+                    if pending.kind == "history" and self._serves(pending, "get"):
+                        raise NoHistoryError(
+                            f"node {pending.node!r}: the gateway of site {site!r} serves no history "
+                            "(an older paramdds); the call was not sent"
+                        )
                     raise NotPermittedError(
                         f"node {pending.node!r}: site {site!r} is not granted to this client (its "
                         "gateway is up, but the router's access control refuses this certificate "
@@ -166,6 +195,16 @@ class ZenohClientTransport:
                 )
             if self._closing.wait(0.005):
                 raise UnavailableError("the client was closed")
+
+    def _serves(self, pending: PendingCall, verb: str) -> bool:
+        """Whether a gateway of the node's site serves ``verb`` to this client (asked for up
+        to :data:`~.states.GRANT_ASK` seconds)."""
+        querier, _ = self._querier(pending, verb)
+        until = time.monotonic() + GRANT_ASK
+        while not self._matching(querier, pending):
+            if time.monotonic() >= until or self._closing.wait(0.005):
+                return False
+        return True
 
     def send(self, pending: PendingCall) -> None:
         """Send the query; its future gets the reply's JSON object, or the error to raise."""
@@ -254,7 +293,8 @@ class ZenohClientTransport:
         return SetReply(str(obj["node"]), revision, results, incarnation)
 
     def history_page(self, reply: Any) -> tuple[bool, HistoryPage]:
-        raise ParamddsError("history is not carried over Zenoh yet")
+        page, kept = history.page_of(codec.check_reply(reply))
+        return kept, page
 
     # -- presence -------------------------------------------------------------------------
 

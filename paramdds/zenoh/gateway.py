@@ -14,9 +14,15 @@ On the DDS side it is an ordinary paramdds participant: a
   every node of the site exactly, offline nodes included;
 * a liveliness token ``.../alive`` is held per online node, so remote viewers see a
   node, or the whole site when the gateway or its uplink dies, go offline;
-* queryables on ``.../get``, ``.../list`` and ``.../set`` forward calls to the node
-  and reply with per-parameter results and codes; every call is bounded by the
-  request's timeout (capped at :data:`MAX_CALL_TIMEOUT`).
+* queryables on ``.../get``, ``.../list``, ``.../set`` and ``.../history`` forward
+  calls to the node and reply with per-parameter results and codes (history: one page
+  per query); every call is bounded by the request's timeout (capped at
+  :data:`MAX_CALL_TIMEOUT`). A forwarded write is recorded on the node via ``zenoh``,
+  as the identity the remote asker claims, unverified: neither the gateway nor the node
+  can check who asked (the router authenticated the asker's certificate, and tells no
+  one), and the node takes the gateway's word only;
+* each node's state carries each parameter's last change (who, verified, via, when,
+  revision), as the gateway's monitor holds it.
 
 Standby: several gateways may serve one site. Each holds a token
 ``paramdds/<site>/gateway/<start>_<zid>`` (its start time in ns since the epoch and
@@ -38,14 +44,18 @@ import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
 from typing import Any
 
 import zenoh
 
+from ..core.history import HistoryQuery
+from ..core.origin import Via
+from ..core.results import LastChange
 from ..dds.client import ParameterClient
 from ..dds.monitor import MonitorEvent, NodeState, ParameterMonitor
 from ..errors import InternalError, InvalidNameError, ParamddsError
-from . import codec, keys
+from . import codec, history, keys
 
 log = logging.getLogger(__name__)
 
@@ -55,6 +65,9 @@ DEFAULT_CALL_TIMEOUT = 5.0
 ELECTION_WAIT = 1.0  # seconds: how long a starting gateway asks for the site's other gateways
 WORKERS = 8  # forwarded calls and state queries served at once
 SYNC_WAIT = 3.0  # seconds: the most a starting gateway waits for its site's current state
+WRITE_SEEN = 1.0  # seconds a forwarded write waits to be seen by the gateway's monitor, then is published
+_NO_BLAME = ("", False, "", 0, 2**63)  # a parameter whose node keeps no blame: nothing to wait for
+UNSAID = "unknown"  # who a forwarded write is recorded as when its asker does not say (an older client)
 
 
 class Gateway:
@@ -78,7 +91,9 @@ class Gateway:
         self._role_lock = threading.Lock()
         self._dirty: set[str] = set()
         self._seq: dict[str, int] = {}
-        self._published: dict[str, dict[str, tuple[Any, Any]]] = {}  # node -> parameters last published
+        # node -> its parameters last published: value, descriptor, last change
+        self._published: dict[str, dict[str, tuple[Any, Any, LastChange | None]]] = {}
+        self._heads: dict[str, tuple[object, ...]] = {}  # node -> the rest of its last publication
         self._tokens: dict[str, Any] = {}
         self._gateways: set[str] = set()
         self._actives: dict[str, int] = {}  # the other active gateways: token id -> active since (ns)
@@ -88,7 +103,8 @@ class Gateway:
         self._declared: list[Any] = []
         self.on_role = on_role
         self._pool = ThreadPoolExecutor(max_workers=WORKERS, thread_name_prefix="paramdds-zenoh")
-        self.client = ParameterClient(participant, qos, timeout=DEFAULT_CALL_TIMEOUT)
+        # every write it forwards is recorded on the node via zenoh, as the remote asker claims
+        self.client = ParameterClient(participant, qos, timeout=DEFAULT_CALL_TIMEOUT, via=Via.ZENOH)
         self.monitor = ParameterMonitor(participant, qos, on_event=self._on_event)
         self._publisher = threading.Thread(target=self._publish_loop, name="paramdds-zenoh-pub", daemon=True)
         self._publisher.start()
@@ -175,7 +191,7 @@ class Gateway:
             ),
         ]
         with self._lock:
-            self._published = {}  # the first publication of each node from now on is whole
+            self._published, self._heads = {}, {}  # the first publication of each node from now on is whole
             self._declared = declared
             self._dirty.update(self._node_ids())  # publish every node once: the new active one speaks
             self._wake.notify_all()
@@ -230,18 +246,25 @@ class Gateway:
         if msg is None:
             return
         key = keys.node_key(self.site, node, keys.STATE)
-        full = msg.parameters
+        blame = msg.last_changes
+        full = {n: (v, d, blame.get(n)) for n, (v, d) in msg.parameters.items()}
         before = self._published.get(node)
         if before is not None:  # only what changed since the last publication (codec: "delta")
             msg.kind, msg.base = "delta", msg.seq - 1
             msg.deleted = [n for n in before if n not in full]
             msg.parameters = {
-                n: entry
-                for n, entry in full.items()
-                if n not in before or not before[n][0].same_as(entry[0]) or before[n][1] != entry[1]
+                n: (v, d)
+                for n, (v, d, lc) in full.items()
+                if n not in before or not before[n][0].same_as(v) or before[n][1:] != (d, lc)
             }
+        head = (msg.online, msg.host, msg.pid, msg.revision, msg.incarnation, msg.announced, msg.origin)
+        if not msg.parameters and not msg.deleted and self._heads.get(node) == (*head, msg.status):
+            with self._lock:  # nothing new to say (a write published already): the next one follows the last
+                self._seq[node] -= 1
+            return
         self._session.put(key, msg.encode(), encoding=codec.ENCODING)
         self._published[node] = full
+        self._heads[node] = (*head, msg.status)
         with self._lock:
             token = self._tokens.get(node)
             if msg.online and token is None and self._active:
@@ -273,6 +296,7 @@ class Gateway:
                         origin=st.origin,
                         status=st.status,
                         parameters=dict(st.parameters),
+                        blame=dict(st.blame),
                     )
                 )
             return True
@@ -298,6 +322,7 @@ class Gateway:
             origin=st.origin,
             status=st.status,
             parameters=st.parameters,
+            last_changes={n: lc for n in st.blame if (lc := st.last_change(n)) is not None},
         )
 
     def _submit(self, fn: Callable[..., object], *args: Any) -> bool:
@@ -362,13 +387,47 @@ class Gateway:
             if verb == "set":
                 params = codec.parse_parameters(req.get("parameters"))
                 expected = codec.parse_if_revision(req.get("if_revision"))
-                s = c.set(node, params, atomic=bool(req.get("atomic")), if_revision=expected, timeout=timeout)
+                who = str(req.get("who") or UNSAID)
+                atomic = bool(req.get("atomic"))
+                s = c.set(node, params, atomic=atomic, if_revision=expected, timeout=timeout, as_=who)
+                written = [r.name for r in s.results if r.successful]
+                if written:
+                    self._submit(self._publish_written, node, written, s.revision)
                 return codec.set_reply(
                     keys.remote_name(self.site, s.node), s.revision, s.incarnation, s.results
                 )
+            if verb == "history":
+                return self._history(node, history.query_in(req), timeout)
         except (KeyError, TypeError, ValueError) as exc:
             raise ParamddsError(f"a malformed {verb} request: {type(exc).__name__}: {exc}") from None
         raise InvalidNameError(f"unknown call {verb!r} (known: {', '.join(keys.VERBS)})")
+
+    def _publish_written(self, node: str, names: list[str], revision: int) -> None:
+        """Publish ``node`` once this gateway's monitor holds the write it forwarded (at
+        ``revision``, for ``names``), or after :data:`WRITE_SEEN` seconds: a write that only
+        changed who last set a value (the same value again) is no monitor event, and its
+        new author must still reach the remote viewers."""
+
+        def seen(states: dict[str, NodeState]) -> bool:
+            st = states.get(node)
+            if st is None or st.revision < revision:
+                return False
+            # a parameter deleted, or whose node keeps no blame, is done; else its sample is here
+            return all(n not in st.parameters or st.blame.get(n, _NO_BLAME)[4] >= revision for n in names)
+
+        self.monitor.wait_until(seen, WRITE_SEEN)
+        with self._lock:
+            self._dirty.add(node)
+            self._wake.notify_all()
+
+    def _history(self, node: str, query: HistoryQuery, timeout: float) -> bytes:
+        """One page of ``node``'s history, as the remote asker pages it (``after_seq``); its
+        records named ``SITE/NODE``."""
+        # one page: the client's history() walks every page, the asker here walks them itself
+        kept, page = self.client.history_page(node, query, timeout=timeout)
+        remote = keys.remote_name(self.site, node)
+        records = tuple(r._replace(node=keys.remote_name(self.site, r.node)) for r in page.records)
+        return history.history_reply(remote, replace(page, records=records), kept)
 
     # -- the end ----------------------------------------------------------------------------------------
 

@@ -9,6 +9,7 @@ node id)::
     paramdds/<site>/node/<node>/get       query: values (and descriptors) of names
     paramdds/<site>/node/<node>/list      query: names and prefixes
     paramdds/<site>/node/<node>/set       query: set / atomic set / delete / compare-and-set
+    paramdds/<site>/node/<node>/history   query: one page of the node's history
     paramdds/<site>/node/<node>/alive     liveliness token, held while the node is online
     paramdds/<site>/gateway/<id>          liveliness token of each gateway of the site
     paramdds/<site>/gateway/<id>/active/<since>   liveliness token of the active one
@@ -25,7 +26,7 @@ from ..core.names import canonical_node_id
 from ..errors import InvalidNameError
 
 PREFIX = "paramdds"
-VERBS = ("get", "list", "set")
+VERBS = ("get", "list", "set", "history")
 STATE = "state"
 ALIVE = "alive"
 _SITE = re.compile(r"[A-Za-z0-9_]{1,64}")
@@ -52,7 +53,7 @@ def unescape_node(chunk: str) -> str:
 
 
 def node_key(site: str, node: str, leaf: str) -> str:
-    """``paramdds/<site>/node/<node>/<leaf>`` (leaf: state, alive, get, list, set)."""
+    """``paramdds/<site>/node/<node>/<leaf>`` (leaf: state, alive, or a verb)."""
     return f"{PREFIX}/{check_site(site)}/node/{escape_node(node)}/{leaf}"
 
 

@@ -8,7 +8,8 @@ Zenoh for anything is :mod:`.monitor`'s. Its rules:
   a publication of one change may cross); a ``delta`` applies only on top of the state
   it follows (else the whole state must be asked for: :data:`GAP`);
 * holding a state is an event per parameter added, modified or deleted since the state
-  held before (none when nothing changed);
+  held before (none when nothing changed); each parameter's last change (blame) is the
+  state's, carried by its ``added`` / ``modified`` event;
 * a node is online while its gateway says so *and* its liveliness token is alive *and*
   its site has a gateway whose token is alive;
 * a site whose every gateway's token went (the gateway killed, or its uplink cut: the
@@ -32,7 +33,8 @@ from dataclasses import replace
 from enum import Enum
 
 from ..core.descriptors import ParameterDescriptor
-from ..core.monitor_events import EventKind, MonitorEvent
+from ..core.monitor_events import Blame, EventKind, MonitorEvent
+from ..core.results import LastChange
 from ..core.state_book import BookUpdate, StateBook
 from ..core.values import ParameterValue
 from .codec import NodeStateMsg
@@ -165,17 +167,21 @@ class RemoteStates:
         if seen is not None and seen[0] == msg.gateway and msg.seq <= seen[1]:
             return OLD
         parameters = msg.parameters
+        blame = {n: _blame(lc) for n, lc in msg.last_changes.items()}
         if msg.kind == "delta":
             held = change.get(name)
             if held is None or seen != (msg.gateway, msg.base):
                 return GAP
             parameters = {n: e for n, e in held.parameters.items() if n not in msg.deleted}
             parameters.update(msg.parameters)
+            kept = held.blame.items()  # a parameter re-sent brings its own last change (or none)
+            blame = {**{n: b for n, b in kept if n in parameters and n not in msg.parameters}, **blame}
         self._seen[name] = (msg.gateway, msg.seq)
         state = change.node(name)
         if book.has_callbacks:
             _changes(change, name, state.parameters, parameters, msg)
         state.parameters = dict(parameters)
+        state.blame = blame
         state.host, state.pid = msg.host, msg.pid
         state.revision, state.announced = msg.revision, msg.announced
         state.incarnation, state.origin = msg.incarnation, msg.origin
@@ -198,7 +204,12 @@ def _changes(change: BookUpdate, name: str, old: Table, new: Table, msg: NodeSta
             kind = EventKind.MODIFIED
         else:
             continue
-        change.emit(MonitorEvent(kind, name, pname, value, descriptor, msg.revision, stamp, msg.incarnation))
+        lc = msg.last_changes.get(pname)
+        change.emit(
+            MonitorEvent(
+                kind, name, pname, value, descriptor, msg.revision, stamp, msg.incarnation, last_change=lc
+            )
+        )
     for pname, (value, descriptor) in old.items():
         if pname not in new:
             change.emit(
@@ -206,6 +217,10 @@ def _changes(change: BookUpdate, name: str, old: Table, new: Table, msg: NodeSta
                     EventKind.DELETED, name, pname, value, descriptor, msg.revision, stamp, msg.incarnation
                 )
             )
+
+
+def _blame(lc: LastChange) -> Blame:
+    return (lc.who, lc.verified, lc.via, lc.time_ns, lc.revision)
 
 
 def _site(name: str) -> str:

@@ -6,6 +6,8 @@
 alternative names are ``hosts`` (IP addresses or DNS names this side is dialled at; a
 router needs them, Zenoh checks them on connect), signed by the keystore's
 ``ca/identity_ca.pem``. Any PEM files from another CA work the same way.
+``certificate_name(cert)`` reads a certificate's common name back (the name a remote
+client claims as who changed a parameter).
 """
 
 from __future__ import annotations
@@ -78,3 +80,19 @@ def issue(keystore: Path, name: str, hosts: Sequence[str], out: Path, *, days: i
             )
         )
     return out
+
+
+def certificate_name(cert_file: Path) -> str | None:
+    """The common name of the certificate in ``cert_file`` (PEM); None when the file is not
+    one, has no common name, or the secure extra (cryptography) is not installed."""
+    try:
+        from cryptography import x509
+        from cryptography.x509.oid import NameOID
+    except ImportError:
+        return None
+    try:
+        cert = x509.load_pem_x509_certificate(cert_file.read_bytes())
+    except (OSError, ValueError):
+        return None
+    names = cert.subject.get_attributes_for_oid(NameOID.COMMON_NAME)
+    return str(names[0].value) if names else None

@@ -181,3 +181,15 @@ def test_ros2_drops_names_paramdds_refuses_from_both_systems(domain_id: int, tmp
     assert data["parameter_sets"] == 1
     (row,) = data["rows"]
     assert row["ros_complete"] == row["dds_complete"] == 2  # a refused name would stop the server
+
+
+@pytest.mark.slow
+def test_history_store(domain_id: int) -> None:
+    data = bench("history-store", domain_id, "--requests", "100", "--records", "2000", "--rounds", "1")
+    for size in (1, 8):
+        for system in ("state", "journal", "sqlite"):
+            assert all(v > 0 for v in data[f"us_per_change_g{size}_{system}"])
+    assert data["kill9_journal_intact"] and data["kill9_sqlite_intact"]
+    assert all(r["acknowledged"] > 0 for r in data["kill9_journal"] + data["kill9_sqlite"])
+    (run,) = data["queries_1x2000"]
+    assert run["q_name_rows"] > 0 and run["q_who_rows"] > 0

@@ -5,7 +5,7 @@ from __future__ import annotations
 from hypothesis import given
 from hypothesis import strategies as st
 
-from paramdds.core.history import HistoryQuery, NodeHistory, Outcome, Retention, rewind
+from paramdds.core.history import HistoryQuery, HistoryRecord, NodeHistory, Outcome, Retention, rewind
 from paramdds.core.origin import Origin, Via, acting
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import Parameter, ParameterValue
@@ -107,3 +107,24 @@ def _v(x: object) -> ParameterValue:
 
 def _py(v: ParameterValue | None) -> object:
     return None if v is None else v.value
+
+
+@given(st.sets(st.integers(1, 200), max_size=60), st.integers(1, 9))
+def test_paging_a_restored_history_with_gaps_returns_each_record_once(seqs: set[int], page: int) -> None:
+    history = NodeHistory("n")
+    now = 2_000_000_000_000_000_000
+    kept = [history_record(seq, now) for seq in sorted(seqs)]
+    history.restore(kept, {})
+    got: list[int] = []
+    q = HistoryQuery(limit=page)
+    while True:
+        answer = history.query(q)
+        got += [r.seq for r in answer.records]
+        if not answer.more:
+            break
+        q = HistoryQuery(limit=page, after_seq=answer.records[-1].seq)
+    assert got == sorted(seqs)
+
+
+def history_record(seq: int, time_ns: int) -> HistoryRecord:
+    return HistoryRecord(seq, "n", "x", seq, time_ns, "w", False, "api", None, _v(seq))

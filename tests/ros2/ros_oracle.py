@@ -5,6 +5,8 @@ as JSON, straight from the rcl_interfaces messages (no paramdds conversion invol
 ``scenario FQN``: a fixed series of list, get, types, describe, set and atomic set
 calls, and every outcome, as JSON; run against two nodes it says whether they behave
 the same to a ROS 2 client.
+``set FQN NAME JSON``: set one parameter as ``ros2 param set`` does (another node's
+client); prints the outcome as JSON (``[successful, reason]``).
 """
 
 from __future__ import annotations
@@ -132,6 +134,12 @@ class Oracle:
         typed(["anything"])
         return out
 
+    def set(self, fqn: str, name: str, value: Any) -> list[Any]:
+        from rclpy.parameter import Parameter
+
+        r = self.wait(self.client(fqn).set_parameters([Parameter(name, value=value)])).results[0]
+        return [r.successful, r.reason]
+
     def events(self, fqn: str) -> list[Any]:
         """Print ``listening`` once subscribed, then the /parameter_events messages of ``fqn``
         (new, changed and deleted names with raw values) from the first one to a second after."""
@@ -162,6 +170,7 @@ class Oracle:
             return known >= 2 and sub.get_publisher_count() >= known
 
         deadline = time.monotonic() + TIMEOUT
+
         def publishing() -> bool:  # the node's own writer is known, and every known writer matched
             infos = self.node.get_publishers_info_by_topic("/parameter_events")
             return any(f"{i.node_namespace.rstrip('/')}/{i.node_name}" == fqn for i in infos) and matched()
@@ -188,6 +197,8 @@ def main() -> int:
     try:
         if sys.argv[1] == "events":
             print(json.dumps(oracle.events(sys.argv[2])))
+        elif sys.argv[1] == "set":
+            print(json.dumps(oracle.set(sys.argv[2], sys.argv[3], json.loads(sys.argv[4]))))
         elif sys.argv[1] == "dump":
             print(json.dumps({fqn: oracle.dump(fqn) for fqn in sys.argv[2:]}))
         else:

@@ -181,3 +181,59 @@ def test_an_unreachable_node_holds_nothing_and_refuses_every_request() -> None:
         assert refused.value.code is ErrorCode.UNAVAILABLE
     with table.try_locked() as free:
         assert free
+
+
+class _Echoing(_Node):
+    """A node that sends its parameter event before it answers (what rclpy may do)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.table: MirrorTable | None = None
+
+    def set(self, params: Sequence[Parameter], atomic: bool, deadline: int = 0) -> list[SetResult]:
+        assert self.table is not None
+        self.table.apply_event([], [_Msg(p.name, p.value) for p in params], [])
+        return super().set(params, atomic, deadline)
+
+
+class _Msg:
+    """A ``rcl_interfaces/Parameter`` as the events carry it (name and a ROS 2 value)."""
+
+    def __init__(self, name: str, value: ParameterValue) -> None:
+        from paramdds.ros2.messages import value_to_ros
+
+        self.name = name
+        self.value = value_to_ros(value)
+
+
+def _last(table: MirrorTable) -> list[ChangeSet]:
+    changes: list[ChangeSet] = []
+    table.add_change_listener(changes.append)
+    return changes
+
+
+def test_what_the_node_reports_is_stamped_as_its_own_change() -> None:
+    require_ros2()
+    table = _mirrored(_Node())
+    changes = _last(table)
+    table.apply_event([], [_Msg("gain", _v(0.75))], [])
+    table.resync({"gain": (_v(0.25), _gain())})
+    assert [(c.origin.who, c.origin.via, c.origin.verified) for c in changes] == [
+        ("/arm/driver", "ros2", False)
+    ] * 2
+
+
+def test_a_forwarded_set_keeps_its_asker_when_the_nodes_event_comes_first() -> None:
+    require_ros2()
+    from paramdds.core.origin import Origin, Via, acting
+
+    node = _Echoing()
+    table = node.table = _mirrored(node)
+    changes = _last(table)
+    with acting(Origin("alice", Via.CLI)):
+        assert table.set([Parameter("gain", _v(0.75))]).results[0].successful
+    # the event committed it (as alice's); the answer then found nothing left to commit
+    assert [(c.origin.who, c.origin.via) for c in changes] == [("alice", "cli")]
+    # an event for another value while nothing is forwarded is the node's own
+    table.apply_event([], [_Msg("gain", _v(0.75)), _Msg("mode", _v("manual"))], [])
+    assert [(c.origin.who, c.origin.via) for c in changes[1:]] == [("/arm/driver", "ros2")]

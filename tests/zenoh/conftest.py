@@ -63,8 +63,8 @@ class Fleet:
             self.domains[site] = next_domain_id()
         return self.domains[site]
 
-    def server(self, site: str, *nodes: str, spec: bool = True) -> Proc:
-        argv = [PARAMDDS, "server", "-p", PARAMS]
+    def server(self, site: str, *nodes: str, spec: bool = True, extra: tuple[str, ...] = ()) -> Proc:
+        argv = [PARAMDDS, "server", "-p", PARAMS, *extra]
         if spec:
             argv += ["--spec", SPEC]
         for n in nodes:

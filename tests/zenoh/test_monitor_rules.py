@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from paramdds.core.descriptors import ParameterDescriptor
 from paramdds.core.monitor_events import MonitorEvent
+from paramdds.core.results import LastChange
 from paramdds.core.state_book import StateBook
 from paramdds.core.values import ParameterValue
 from paramdds.zenoh.codec import NodeStateMsg
@@ -86,3 +87,30 @@ def test_tokens_found_by_a_first_get_do_not_revive_one_seen_going() -> None:
     with r.book.update() as change:
         r.rules.tokens_found([NODE, "s1/m"])
         assert r.rules.missing(change) == ["s1/m"]
+
+
+def test_each_parameter_holds_the_last_change_its_state_says_and_its_event_carries_it() -> None:
+    alice = LastChange("alice", False, "zenoh", 10, 1)
+    bob = LastChange("bob", True, "cli", 20, 2)
+    r = Remote()
+    full = state(1, a=1, b=2, c=3)
+    full.last_changes = {"a": alice, "b": alice}  # c: its node keeps no blame
+    r.apply(full)
+    assert {e.name: e.last_change for e in r.events} == {"a": alice, "b": alice, "c": None}
+    held = r.book.snapshot()[NODE]
+    assert (held.last_change("a"), held.last_change("c")) == (alice, None)
+
+    step = delta(2, base=1, deleted=("c",), a=5)
+    step.last_changes = {"a": bob}
+    assert r.apply(step) == (HELD, [("modified", "a"), ("deleted", "c")])
+    assert r.events[0].last_change == bob and r.events[1].last_change is None
+    held = r.book.snapshot()[NODE]
+    assert {n: held.last_change(n) for n in held.parameters} == {"a": bob, "b": alice}
+    # the same value set again by someone else: no event, and the blame follows
+    again = delta(3, base=2, b=2)
+    again.last_changes = {"b": bob}
+    assert r.apply(again) == (HELD, [])
+    assert r.book.last_change(NODE, "b") == bob
+    # re-sent without one (an older gateway): unknown, never the stale author
+    assert r.apply(delta(4, base=3, b=7)) == (HELD, [("modified", "b")])
+    assert r.book.last_change(NODE, "b") is None and r.book.last_change(NODE, "a") == bob

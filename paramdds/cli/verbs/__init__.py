@@ -33,6 +33,8 @@ VERBS = (
     "dump",
     "load",
     "watch",
+    "history",
+    "diff",
     "assign",
     "web",
     "keystore",

@@ -21,6 +21,8 @@ SCENARIOS = {
     "system, a server's CPU under foreign traffic (native filter vs handler), loopback bytes per request",
     "persist": "sets/s with --persist at 10 and 1,000 params, 1 and 8 clients, vs without; "
     "restart from a 100k-change journal",
+    "history-store": "where --persist keeps history: the journal vs SQLite (WAL): µs per durable change, "
+    "queries at 1M records, recovery after kill -9",
     "schema": "a set on the node of the largest Autoware JSON Schema vs the equivalent spec node; "
     "paramdds check --autoware on every realworld pair",
     "zenoh": "sites behind Zenoh gateways: fresh remote client holds every node, remote get/set vs "
@@ -88,6 +90,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="N",
         help="latency: requests per system (default 2000); web: sets (200); "
         "persist: journal changes (100000); fleet: gets per second (1000)",
+    )
+    p.add_argument(
+        "--records", type=_positive_int, metavar="N", help="history-store: records queried (default 1000000)"
     )
     p.add_argument("--rounds", type=_positive_int, metavar="R", help="alternation rounds / repetitions")
     p.add_argument(

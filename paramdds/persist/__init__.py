@@ -1,7 +1,7 @@
-"""``server --persist FILE``: runtime changes survive a restart, at a cost per set that
-does not grow with the table.
+"""``server --persist FILE``: runtime changes and the nodes' history survive a restart, at a
+cost per set that does not grow with the table.
 
-Two files, both ours:
+Three files, all ours:
 
 * ``FILE``, the **snapshot**: a ROS 2 parameter file in the dump format (with
   descriptors, so it reloads without loss), one section per hosted node, framed by
@@ -19,7 +19,13 @@ Two files, both ours:
   of the snapshot it follows and the process that holds it
   (``# paramdds journal epoch=… pid=… host=…``); each further line is
   ``<crc32> <json>``: ``[node, revision, [[name, type, value, descriptor] | [name]]]``
-  (a one-element entry is a deletion).
+  (a one-element entry is a deletion), with a fourth member, the history records the
+  node made with those changes (:func:`~paramdds.persist.history.record_row`), when it
+  carries any: a group of sets and the records saying who made them are one line.
+
+* ``FILE.history``, the nodes' **history** (:mod:`paramdds.persist.history`): every
+  compaction moves the journal's records there before it truncates the journal, and
+  retention (count and age per node) bounds it.
 
 Guarantees:
 
@@ -65,20 +71,35 @@ import logging
 import os
 import secrets
 import socket
-import tempfile
 import threading
 import weakref
-import zlib
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
-from .core.descriptors import ParameterDescriptor
-from .core.hosted import HostedTable
-from .core.jsonform import descriptor_of_row, descriptor_row, value_of_row, value_row
-from .core.results import ChangeKind, ChangeSet
-from .core.table import ParameterTable
-from .core.values import ParameterValue
-from .errors import FileFormatError, ParamddsError
+from ..core.descriptors import ParameterDescriptor
+from ..core.history import HistoryRecord, Retention
+from ..core.hosted import HostedTable
+from ..core.jsonform import descriptor_of_row, descriptor_row, value_of_row, value_row
+from ..core.results import ChangeKind, ChangeSet
+from ..core.table import ParameterTable
+from ..core.values import ParameterValue
+from ..errors import FileFormatError, ParamddsError
+from ._files import PersistError, atomic_write, crc_line, decode_crc_line
+from .history import HistoryFile, StoredHistory
+
+__all__ = [
+    "COMPACT_EVERY",
+    "HEADER",
+    "PREALLOCATE",
+    "PersistError",
+    "PersistStore",
+    "StoredHistory",
+    "atomic_write",
+    "encode_record",
+    "frame",
+    "read_journal",
+    "unframe",
+]
 
 log = logging.getLogger(__name__)
 
@@ -94,10 +115,6 @@ Entry = tuple[str, ParameterValue, ParameterDescriptor | None]
 Snapshot = list[tuple[str, ParameterValue, ParameterDescriptor]]
 Dumper = Callable[[Mapping[str, Snapshot]], str]
 Parser = Callable[[str, str, str], list[Entry]]  # (text, file name, node id) -> entries
-
-
-class PersistError(FileFormatError):
-    """The persistence file cannot be used; the server must not start."""
 
 
 def _checksum(body: bytes) -> str:
@@ -139,61 +156,43 @@ def unframe(raw: bytes, path: str) -> str:
     return body + "\n"
 
 
-def atomic_write(path: Path, text: str) -> None:
-    """Replace ``path`` with ``text``: temp file in the same directory, fsync, rename, fsync dir."""
-    directory = path.parent
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
-        raise
-    dir_fd = os.open(directory, os.O_RDONLY)
-    try:
-        os.fsync(dir_fd)
-    finally:
-        os.close(dir_fd)
-
-
 # -- journal records: a change set as one JSON line (rows of paramdds.core.jsonform) -----------
+
+
+def _entries(change: ChangeSet) -> list[list[object]]:
+    return [
+        [c.name]
+        if c.kind is ChangeKind.DELETED
+        else [c.name, *value_row(c.value), descriptor_row(c.descriptor)]
+        for c in change.changes
+    ]
 
 
 def encode_record(change: ChangeSet) -> bytes:
     """One journal line (with its checksum and newline) for ``change``."""
-    entries: list[list[object]] = []
-    for c in change.changes:
-        if c.kind is ChangeKind.DELETED:
-            entries.append([c.name])
-        else:
-            entries.append([c.name, *value_row(c.value), descriptor_row(c.descriptor)])
-    payload = json.dumps([change.node_id, change.revision, entries], separators=(",", ":")).encode()
-    return b"%08x %s\n" % (zlib.crc32(payload), payload)
+    return crc_line([change.node_id, change.revision, _entries(change)])
 
 
-_JSON = json.JSONDecoder()
+def encode_group(
+    node_id: str, revision: int, changes: Sequence[ChangeSet], rows: list[list[object]]
+) -> bytes:
+    """One journal line for a commit group with its history rows: the state and the records
+    that say who made it are one line, never one without the other."""
+    return crc_line([node_id, revision, [e for c in changes for e in _entries(c)], rows])
 
 
 def _decode_line(line: bytes) -> list[object] | None:
-    """The record of one journal line, or None when its checksum or JSON is bad."""
-    crc, _, payload = line.partition(b" ")
-    try:
-        if len(crc) != 8 or int(crc, 16) != zlib.crc32(payload):
-            return None
-        record, end = _JSON.raw_decode(payload.decode())  # ~2x json.loads on 100,000 lines
-        if end != len(payload):  # ASCII only (json.dumps escapes the rest): chars == bytes
-            return None
-    except ValueError:  # incl. UnicodeDecodeError
-        return None
-    return record if isinstance(record, list) and len(record) == 3 else None
+    """The record of one journal line (``[node, revision, entries]``, with ``history rows``
+    as a fourth member when it carries them), or None when its checksum or JSON is bad."""
+    record = decode_crc_line(line)
+    return record if isinstance(record, list) and len(record) in (3, 4) else None
 
 
-def read_journal(raw: bytes, path: str) -> tuple[str, dict[str, dict[str, list[object]]]]:
-    """The journal's epoch and, per node, the last raw entry per name (PersistError if damaged)."""
+def read_journal(
+    raw: bytes, path: str, history: dict[str, list[list[object]]] | None = None
+) -> tuple[str, dict[str, dict[str, list[object]]]]:
+    """The journal's epoch and, per node, the last raw entry per name (PersistError if damaged);
+    the history rows of its lines go to ``history`` (per node, in order) when given."""
     lines = raw.split(b"\0", 1)[0].split(b"\n")  # the preallocated zeros are not records
     torn = lines.pop()  # b"" when the file ends with a newline; else a line cut by a crash
     if torn:
@@ -211,7 +210,9 @@ def read_journal(raw: bytes, path: str) -> tuple[str, dict[str, dict[str, list[o
             raise PersistError(
                 "a journal line does not match its checksum: the journal is damaged", file=path, line=number
             )
-        node, _, entries = record
+        node, entries = record[0], record[2]
+        if history is not None and len(record) == 4:
+            history.setdefault(str(node), []).extend(record[3])  # type: ignore[arg-type]
         last = nodes.setdefault(str(node), {})
         for entry in entries:  # type: ignore[attr-defined]
             last.pop(entry[0], None)  # re-inserted: the order of the last changes is kept
@@ -308,9 +309,11 @@ class PersistStore:
         dumper: Dumper,
         parser: Parser,
         compact_every: int | None = None,
+        retention: Retention | None = None,
     ) -> None:
         self.path = Path(path)
         self.journal_path = Path(f"{self.path}.journal")
+        self.history_file = HistoryFile(Path(f"{self.path}.history"), retention)
         self._dump = dumper
         self._parse = parser
         if compact_every is None:
@@ -324,6 +327,9 @@ class PersistStore:
         self._tables: dict[str, ParameterTable] = {}
         self._text: str | None = None
         self._replayed: dict[str, dict[str, list[object]]] | None = None
+        self._replayed_rows: dict[str, list[list[object]]] = {}  # history rows of the journal
+        self._waiting: dict[str, list[HistoryRecord]] = {}  # per node: records for its next append
+        self._waiting_lock = threading.Lock()  # taken alone (a table's change listener takes it)
         self._deleted: dict[str, set[str]] = {}  # node -> names deleted at runtime
         self._journal: _Journal | None = None
         self._lines = 0  # journal lines since the last compaction
@@ -361,9 +367,10 @@ class PersistStore:
             text = self._load()
             raw = self._read_journal()
             if text is not None and raw:
-                epoch, nodes = read_journal(raw, str(self.journal_path))
+                rows: dict[str, list[list[object]]] = {}
+                epoch, nodes = read_journal(raw, str(self.journal_path), rows)
                 if epoch and epoch == _epoch_of(text):
-                    self._replayed = nodes
+                    self._replayed, self._replayed_rows = nodes, rows
         return self._replayed.get(node_id, {})
 
     def _read_journal(self) -> bytes:
@@ -376,6 +383,45 @@ class PersistStore:
             return b""
         except OSError as exc:
             raise PersistError(f"cannot read the journal: {exc.strerror}", file=str(self.path)) from exc
+
+    def set_retention(self, retention: Retention) -> None:
+        """How much history the store keeps per node (before :meth:`attach`; the server's)."""
+        self.history_file.retention = retention
+
+    def recorded(self, node_id: str, records: Sequence[HistoryRecord]) -> None:
+        """A node's history listener (:meth:`NodeHistory.add_listener`): its new records wait
+        for the node's next persist call, which writes them in the line of their changes. A
+        batch of refusals with nothing waiting is written at once (append and
+        ``fdatasync``): no persist call may follow a request that changed nothing."""
+        with self._waiting_lock:
+            waiting = self._waiting.setdefault(node_id, [])
+            idle = not waiting
+            waiting.extend(records)
+        if idle and records and not any(r.applied for r in records):
+            self.write_history(node_id)
+
+    def write_history(self, node_id: str | None = None) -> None:
+        """Write the records waiting (of ``node_id``, or of every node) now, durably."""
+        with self._waiting_lock:
+            nodes = [node_id] if node_id is not None else list(self._waiting)
+        last = 0
+        for node in nodes:  # one append per node, one fdatasync for them all
+            last = max(last, self._append(node, (), wait=False))
+        if last:
+            self._wait_flushed(last)
+
+    def history(self, node_id: str) -> StoredHistory:
+        """The persisted history of ``node_id``: its records (retention applied with the time
+        now), each parameter's last change and the dropped watermark (see
+        :mod:`paramdds.persist.history`); empty when it has none yet."""
+        self._load_history()
+        return self.history_file.stored(node_id)
+
+    def _load_history(self) -> None:
+        if not self.history_file.loaded:
+            self._journal_entries("")  # reads the journal's rows, when it follows the snapshot
+            self.history_file.load(self._replayed_rows)
+            self._replayed_rows = {}  # the history file holds them now
 
     def deleted(self, node_id: str) -> list[str]:
         """Names of ``node_id`` deleted at runtime: a restart must not bring them back from
@@ -433,6 +479,7 @@ class PersistStore:
         self._tables = dict(tables)
         for node in self._tables:
             self.deleted(node)  # carry the file's deletion records into every rewrite
+        self._load_history()
         if self._journal is None:
             self._journal = _Journal.open(self.journal_path, create=True)
         assert self._journal is not None
@@ -440,7 +487,12 @@ class PersistStore:
             self._compact()
 
     def close(self) -> None:
-        """Release the lock (the files stay as they are)."""
+        """Write the history records still waiting, release the lock (the files stay as they are)."""
+        if self._journal is not None:
+            try:
+                self.write_history()
+            except OSError:
+                log.exception("%s: history records not written at close", self.path)
         with self._flush, self._lock:
             if self._journal is not None:
                 self._journal.close()
@@ -453,6 +505,7 @@ class PersistStore:
 
     def _compact(self) -> None:
         assert self._journal is not None
+        self.history_file.checkpoint()  # the journal's records first: it is truncated below
         epoch = secrets.token_hex(8)
         state = {node: table.snapshot() for node, table in self._tables.items()}
         records = [
@@ -466,15 +519,38 @@ class PersistStore:
         self._broken = False
         self._flushed = self._appended  # the snapshot holds every table's state
 
-    def record(self, table: HostedTable, changes: Sequence[ChangeSet]) -> None:
-        """The server's persister: the changes reach the disk before the reply is sent."""
-        if not changes:
-            return
-        data = b"".join(encode_record(c) for c in changes)
+    def record(
+        self, table: HostedTable, changes: Sequence[ChangeSet], records: Sequence[HistoryRecord] = ()
+    ) -> None:
+        """The server's persister: the changes, with the history records waiting for the node
+        (:meth:`recorded`) and ``records``, reach the disk before the reply is sent."""
+        self._append(table.node_id, changes, records)
+
+    def _append(
+        self,
+        node_id: str,
+        changes: Sequence[ChangeSet],
+        records: Sequence[HistoryRecord] = (),
+        *,
+        wait: bool = True,
+    ) -> int:
+        """Append the node's line; with ``wait``, return once it is on disk. The append's
+        number (0: nothing to wait for)."""
+        with self._waiting_lock:
+            waiting = self._waiting.pop(node_id, [])
+        records = [*waiting, *records]
+        if not changes and not records:
+            return 0
         with self._lock:
             if self._journal is None:
                 raise PersistError("the persistence store is closed", file=str(self.path))
-            deleted = self._deleted.setdefault(table.node_id, set())
+            if records:
+                rows = self.history_file.add(node_id, records)
+                revision = changes[-1].revision if changes else records[-1].revision
+                data = encode_group(node_id, revision, changes, rows)
+            else:
+                data = b"".join(encode_record(c) for c in changes)
+            deleted = self._deleted.setdefault(node_id, set())
             for change in changes:
                 for c in change.changes:
                     if c.kind is ChangeKind.DELETED:
@@ -483,7 +559,7 @@ class PersistStore:
                         deleted.discard(c.name)  # declared again
             if self._broken:
                 self._compact()  # the last append failed: the snapshot covers everything
-                return
+                return 0
             try:
                 self._journal.write(data)
             except OSError:
@@ -491,11 +567,13 @@ class PersistStore:
                 raise
             self._appended += 1
             mine = self._appended
-            self._lines += len(changes)
+            self._lines += max(1, len(changes))
             if self._lines >= self.compact_every:
                 self._compact()
-                return
-        self._wait_flushed(mine)
+                return 0
+        if wait:
+            self._wait_flushed(mine)
+        return mine
 
     def _wait_flushed(self, mine: int) -> None:
         """Return once append number ``mine`` is on disk: one thread flushes at a time, and
