@@ -93,24 +93,10 @@ def apply_sample(book: StateBook, change: BookUpdate, s: StateSample | StateKey,
     held = state.parameters.get(s.name)
     state.parameters[s.name] = (s.value, s.descriptor)
     blame: Blame | None = None
-    common = state.common
-    if not s.who:  # a writer without blame: unknown
-        if common is not None or state.blame:
-            state.set_blame(s.name, None)
-    elif (
-        common is not None
-        and s.revision == common[4]
-        and s.stamp == common[3]
-        and s.who == common[0]
-        and s.via == common[2]
-        and s.verified == common[1]
-    ):  # the node's usual one (its whole table, when a monitor joins): nothing to make
-        blame = common
-        if state.blame:
-            state.blame.pop(s.name, None)
-    else:
-        blame = (s.who, s.verified, s.via, s.stamp, s.revision)
-        state.set_blame(s.name, blame)
+    if s.who:
+        blame = state.blame[s.name] = _blame_of(state, s)
+    elif state.blame:
+        state.blame.pop(s.name, None)  # a writer without blame: no longer known
     if not book.has_callbacks:
         return  # an event exists only to be emitted: a monitor's full state is 5,000+ samples
     if held is not None and held[0].same_as(s.value) and held[1] == s.descriptor:
@@ -132,6 +118,25 @@ def apply_sample(book: StateBook, change: BookUpdate, s: StateSample | StateKey,
         change.emit(event)
     else:
         state.early.append(event)
+
+
+def _blame_of(state: NodeState, s: StateSample) -> Blame:
+    """The last change ``s`` carries, as the node's last one when it is the same change (see
+    ``NodeState.shared_blame``)."""
+    shared = state.shared_blame
+    if shared is not None:
+        stamp, blame = shared
+        if (
+            s.stamp == stamp
+            and s.revision == blame[4]
+            and s.who == blame[0]
+            and s.via == blame[2]
+            and s.verified == blame[1]
+        ):
+            return blame
+    blame = (s.who, s.verified, s.via, round(s.stamp * 1e9), s.revision)
+    state.shared_blame = (s.stamp, blame)
+    return blame
 
 
 def _delete(book: StateBook, state: NodeState, name: str) -> None:

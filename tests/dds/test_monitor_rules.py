@@ -201,8 +201,9 @@ def test_each_parameter_holds_and_each_event_carries_its_last_change() -> None:
 
 
 def test_parameters_share_their_nodes_usual_last_change_and_never_take_one_not_theirs() -> None:
-    """A node's table written by one change is held once for the node (``NodeState.common``);
-    a parameter whose writer kept no blame, or whose change was another, keeps its own."""
+    """The parameters of a node's table written by one change share one held last change
+    (``NodeState.shared_blame``); a parameter whose writer kept no blame, or whose change was
+    another, keeps its own."""
     m = Monitor()
 
     def start(name: str) -> StateSample:  # the value the node started with, at revision 1
@@ -216,6 +217,8 @@ def test_parameters_share_their_nodes_usual_last_change_and_never_take_one_not_t
     )
     started = LastChange("start@h", True, "start", 1_000_000_000, 1)
     assert [m.book.last_change("n", p) for p in ("unknown", "a", "b")] == [None, started, started]
+    held = m.book.snapshot()["n"]
+    assert held.blame["a"] is held.blame["b"] and "unknown" not in held.blame  # one tuple for both
     m.feed((param("a", 2, 2, who="alice", via="cli", stamp=2.0), ALIVE), (param("c", 1, 3), ALIVE))
     alice = LastChange("alice", False, "cli", 2_000_000_000, 2)
     assert [m.book.last_change("n", p) for p in ("unknown", "a", "b", "c")] == [None, alice, started, None]
