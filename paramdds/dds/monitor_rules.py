@@ -94,7 +94,7 @@ def apply_sample(book: StateBook, change: BookUpdate, s: StateSample | StateKey,
     state.parameters[s.name] = (s.value, s.descriptor)
     blame: Blame | None = None
     if s.who:
-        blame = state.blame[s.name] = (s.who, s.verified, s.via, round(s.stamp * 1e9), s.revision)
+        blame = state.blame[s.name] = _blame_of(state, s)
     elif state.blame:
         state.blame.pop(s.name, None)  # a writer without blame: no longer known
     if not book.has_callbacks:
@@ -118,6 +118,25 @@ def apply_sample(book: StateBook, change: BookUpdate, s: StateSample | StateKey,
         change.emit(event)
     else:
         state.early.append(event)
+
+
+def _blame_of(state: NodeState, s: StateSample) -> Blame:
+    """The last change ``s`` carries, as the node's last one when it is the same change (see
+    ``NodeState.shared_blame``)."""
+    shared = state.shared_blame
+    if shared is not None:
+        stamp, blame = shared
+        if (
+            s.stamp == stamp
+            and s.revision == blame[4]
+            and s.who == blame[0]
+            and s.via == blame[2]
+            and s.verified == blame[1]
+        ):
+            return blame
+    blame = (s.who, s.verified, s.via, round(s.stamp * 1e9), s.revision)
+    state.shared_blame = (s.stamp, blame)
+    return blame
 
 
 def _delete(book: StateBook, state: NodeState, name: str) -> None:

@@ -198,3 +198,32 @@ def test_each_parameter_holds_and_each_event_carries_its_last_change() -> None:
     m.feed((param("b", 1, 5, who="carol", via="api"), ALIVE), (StateKey("n", "b"), DISPOSED))
     assert m.book.last_change("n", "b") is None  # deleted: no last change held
     assert m.book.last_change("n", "nothing") is None and m.book.last_change("other", "a") is None
+
+
+def test_parameters_share_their_nodes_usual_last_change_and_never_take_one_not_theirs() -> None:
+    """The parameters of a node's table written by one change share one held last change
+    (``NodeState.shared_blame``); a parameter whose writer kept no blame, or whose change was
+    another, keeps its own."""
+    m = Monitor()
+
+    def start(name: str) -> StateSample:  # the value the node started with, at revision 1
+        return param(name, 1, 1, who="start@h", verified=True, via="start", stamp=1.0)
+
+    m.feed(
+        (param("unknown", 0, 1), ALIVE),  # before any with blame: unknown, whatever comes next
+        (start("a"), ALIVE),
+        (start("b"), ALIVE),
+        (presence(1, 3), ALIVE),
+    )
+    started = LastChange("start@h", True, "start", 1_000_000_000, 1)
+    assert [m.book.last_change("n", p) for p in ("unknown", "a", "b")] == [None, started, started]
+    held = m.book.snapshot()["n"]
+    assert held.blame["a"] is held.blame["b"] and "unknown" not in held.blame  # one tuple for both
+    m.feed((param("a", 2, 2, who="alice", via="cli", stamp=2.0), ALIVE), (param("c", 1, 3), ALIVE))
+    alice = LastChange("alice", False, "cli", 2_000_000_000, 2)
+    assert [m.book.last_change("n", p) for p in ("unknown", "a", "b", "c")] == [None, alice, started, None]
+    m.feed((start("a"), ALIVE))  # a re-delivered sample of the start
+    held = m.book.snapshot()["n"]
+    assert [held.last_change(p) for p in ("unknown", "a", "b", "c")] == [None, started, started, None]
+    m.feed((StateKey("n", "b"), DISPOSED), (param("b", 5, 4), ALIVE))  # deleted, then added without blame
+    assert m.book.last_change("n", "b") is None and m.book.last_change("n", "a") == started

@@ -304,6 +304,8 @@ def test_descriptors_equal_but_for_the_sign_of_zero_are_encoded_apart() -> None:
 
 def test_the_descriptor_caches_stay_bounded_and_right(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(state, "_CACHE_MAX", 3)
+    monkeypatch.setattr(state, "_decoded", tuple({} for _ in range(8)))  # one per alignment, empty
+    monkeypatch.setattr(state, "_encoded", {})
     v = ParameterValue.from_python(1.5)
     descriptors = [ParameterDescriptor("p", ParameterType.DOUBLE, f"described {i}") for i in range(7)]
     descriptors.append(ParameterDescriptor("p", ParameterType.DOUBLE, "long " * 300))  # over 1 KB: never kept
@@ -311,8 +313,8 @@ def test_the_descriptor_caches_stay_bounded_and_right(monkeypatch: pytest.Monkey
         for d in descriptors:
             got = _check_encoding(StateArgs("n", "p", 1, 0, 0, v, d))
             assert canonical(decode_state(got)) == canonical(decode_state_slowly(got))
-            assert len(state._decoded) <= 3 and len(state._encoded) <= 3
-    assert all(len(data) <= 1024 for _, data in state._decoded)
+            assert all(len(cache) <= 3 for cache in (*state._decoded, state._encoded))
+    assert all(len(data) <= 1024 for cache in state._decoded for seen in cache.values() for data, _ in seen)
 
 
 def test_what_the_state_encoder_leaves_to_the_generated_one() -> None:

@@ -29,13 +29,14 @@ primitive aligned to its size, up to 8, from the end of the encapsulation header
 The value and descriptor readers and writers live in :mod:`.state_cdr`. Descriptors
 repeat (a fleet runs the same node types, a server republishes a parameter on every
 set) and are immutable, so both directions keep them in bounded caches: decoded ones
-keyed on their exact bytes and the offset modulo 8 (XCDR1 padding is relative to the
-stream), found through the sample's first bytes after the value (a descriptor's length
-is only known once it is read: the lengths seen after the same first bytes are tried);
-encoded ones keyed on the descriptor and that offset. The tail after the descriptor is
-read on every sample (``host pid parameter_count incarnation``: the incarnation differs
-per node); its blame (``who verified via``: the same few authors and channels over a
-whole fleet) is kept by its bytes. Scalar values are shared the same way, keyed on their
+kept by their exact bytes, one cache per offset modulo 8 (XCDR1 padding is relative to
+the stream), found through their first bytes (a descriptor's length is only known once
+it is read: the sample is compared with the few decoded ones that start as it does);
+encoded ones keyed on the descriptor and that offset. The tail after the
+descriptor (``host pid parameter_count incarnation who verified via``) is the same for
+every parameter of a node written by one change (a node's whole table when a monitor
+joins: its start), so it is kept too, by its exact bytes; so is the blame the encoder
+writes. Scalar values are shared the same way, keyed on their
 bytes: a live monitor spent a sixth of its sync in the garbage collector, walking
 200,000 new value objects that mostly repeat.
 """
@@ -134,16 +135,20 @@ _values: dict[bytes, ParameterValue] = {}
 _VALUES_MAX = 65_536
 _VALUE_KEY_MAX = 96  # bytes: a scalar's 28 and a short string
 _VALUE_AT = 16  # from the revision to the value: revision (8), Time (8)
-# The blame after the incarnation (who, verified, via, and any padding) by its bytes, both ways
-_blames: dict[bytes, tuple[str, bool, str]] = {}
+# The tail after the descriptor by its bytes (host pid parameter_count incarnation who
+# verified via, and any padding): an entry per node and change, ~300 bytes, ~20 MB at most
+_Tail = tuple[str, int, int, int, str, bool, str]
+_tails: tuple[dict[bytes, _Tail], dict[bytes, _Tail]] = ({}, {})  # starting 0 or 4 after a multiple of 8
+_TAILS_MAX = 65_536
+_TAIL_KEY_MAX = 256
+# the blame the encoder writes after the incarnation, by (who, verified, via)
 _blame_bytes: dict[tuple[str, bool, str], bytes] = {}
+_last_blame: tuple[str, bool, str, bytes] = ("", False, "", b"\1\0\0\0\0\0\0\0\1\0\0\0\0\0\0\0")
 _BLAMES_MAX = 4_096
-_BLAME_KEY_MAX = 256
-# A descriptor's length is known once it is read: the lengths seen after the same first
-# bytes (and offset modulo 8) are tried against the cache of decoded ones, a few at most
+# A descriptor's length is known once it is read: the ones decoded from the same first
+# bytes (at the same offset modulo 8) are compared with the sample's, a few at most
 _PROBE = 24
-_spans: dict[tuple[int, bytes], tuple[int, ...]] = {}
-_SPANS_PER_PROBE = 4
+_SEEN_PER_PROBE = 4
 
 
 def decode_state(data: bytes) -> StateSample:
@@ -241,21 +246,16 @@ def _decode_fast(buf: bytes) -> StateSample | None:
             pos += 4
         else:
             descriptor, pos = _described(buf, pos, end)
-        host, pos = read_str(buf, pos, end)
-        pos += -pos & 3
-        pid, count = _TAIL.unpack_from(buf, pos)
-        pos += _TAIL.size
-        pos += (4 - pos) & 7
-        (incarnation,) = _unpack_u64(buf, pos)
-        blame = buf[pos + 8 :]  # who verified via, and any padding after them
-        hit = _blames.get(blame)
-        who, verified, via = hit if hit is not None else _blame(blame)
+        pos += -pos & 3  # a descriptor may end unaligned (on a string array)
+        key = buf[pos:]
+        tail = _tails[pos & 4 and 1].get(key)
+        if tail is None:
+            tail = _tail(key, pos & 4)
     except REFUSED:
         return None
     stamp = sec + nanosec / 1e9
-    fields = (node_id, name, kind, revision, stamp, value, descriptor, host, pid, count, incarnation)
-    # StateSample(*fields) without its Python __new__
-    return _new_tuple(StateSample, (*fields, who, verified, via))
+    fields = (node_id, name, kind, revision, stamp, value, descriptor)
+    return _new_tuple(StateSample, fields + tail)  # StateSample(*fields, *tail) without its Python __new__
 
 
 def _key_string(buf: bytes, pos: int, end: int) -> tuple[str, int]:
@@ -267,42 +267,49 @@ def _key_string(buf: bytes, pos: int, end: int) -> tuple[str, int]:
     return buf[pos + 4 : e - 1].decode(), e
 
 
-def _blame(blame: bytes) -> tuple[str, bool, str]:
-    """who, verified, via from the bytes after the incarnation (at an offset of 4 modulo 8:
-    its alignment is that of the stream's start); bytes after ``via`` are padding, ignored as
-    the codec does. Kept by those bytes: they decode the same wherever they come."""
-    end = len(blame)
-    who, pos = read_str(blame, 0, end)
-    verified = blame[pos] != 0
-    via, _ = read_str(blame, pos + 1, end)
-    result = (who, verified, via)
-    if end <= _BLAME_KEY_MAX:
-        _bounded(_blames, _BLAMES_MAX)[blame] = result
+def _tail(tail: bytes, phase: int) -> _Tail:
+    """host, pid, parameter_count, incarnation, who, verified, via from the bytes after the
+    descriptor, which start at an offset of ``phase`` (0 or 4) modulo 8; bytes after ``via``
+    are padding, ignored as the codec does. Kept by those bytes and that offset: there they
+    decode the same wherever they come."""
+    end = len(tail)
+    host, pos = read_str(tail, 0, end)
+    pos += -pos & 3
+    pid, count = _TAIL.unpack_from(tail, pos)
+    pos += _TAIL.size
+    pos += (4 - phase - pos) & 7  # the incarnation: 8-aligned after the header
+    (incarnation,) = _unpack_u64(tail, pos)
+    who, pos = read_str(tail, pos + 8, end)
+    verified = tail[pos] != 0
+    via, _ = read_str(tail, pos + 1, end)
+    result = (host, pid, count, incarnation, who, verified, via)
+    if end <= _TAIL_KEY_MAX:
+        _bounded(_tails[phase and 1], _TAILS_MAX)[tail] = result
     return result
 
 
-_decoded: dict[tuple[int, bytes], ParameterDescriptor] = {}
+# one cache per offset modulo 8: by a descriptor's first bytes, the descriptors decoded
+# from bytes that start so (their bytes, the descriptor), a few at most
+_Decoded = tuple[tuple[bytes, ParameterDescriptor], ...]
+_decoded: tuple[dict[bytes, _Decoded], ...] = tuple({} for _ in range(8))
 
 
 def _described(buf: bytes, pos: int, end: int) -> tuple[ParameterDescriptor, int]:
     """The descriptor sequence at ``pos`` (not empty) and the offset after it, decoded once
     per distinct bytes and alignment (see the module doc)."""
-    phase = pos & 7
-    probe = (phase, buf[pos : pos + _PROBE])
-    spans = _spans.get(probe, ())
-    for n in spans:
-        hit = _decoded.get((phase, buf[pos : pos + n]))
-        if hit is not None:  # the same bytes at the same alignment: the same descriptor
-            return hit, pos + n
+    decoded = _decoded[pos & 7]
+    probe = buf[pos : pos + _PROBE]
+    seen = decoded.get(probe, ())
+    for data, descriptor in seen:
+        if buf.startswith(data, pos):  # the same bytes at the same alignment: the same descriptor
+            return descriptor, pos + len(data)
     (count,) = _unpack_u32(buf, pos)
     if count != 1:
         raise NotFast("a descriptor sequence over its bound of 1")
     descriptor, after = read_descriptor(buf, pos + 4, end)
-    n = after - pos
-    if n <= _CACHED_BYTES_MAX:
-        _bounded(_decoded, _CACHE_MAX)[(phase, buf[pos:after])] = descriptor
-        if n not in spans:
-            _bounded(_spans, _CACHE_MAX)[probe] = (n, *spans[: _SPANS_PER_PROBE - 1])
+    if after - pos <= _CACHED_BYTES_MAX:
+        entry = (buf[pos:after], descriptor)
+        _bounded(decoded, _CACHE_MAX)[probe] = (entry, *seen[: _SEEN_PER_PROBE - 1])
     return descriptor, after
 
 
@@ -376,16 +383,27 @@ def encode_state(
     out += _PAD[(4 - len(out)) & 7]
     try:
         out += _U64.pack(incarnation)
-        said = (who, verified, via)
-        blame = _blame_bytes.get(said)
-        if blame is None:
-            blame = _blame_bytes_of(who, verified, via)
-            if len(blame) <= _BLAME_KEY_MAX:
-                _bounded(_blame_bytes, _BLAMES_MAX)[said] = blame
+        last = _last_blame  # the same objects as the last sample's: every parameter of a change
+        if who is last[0] and via is last[2] and verified is last[1]:
+            out += last[3]
+        else:
+            out += _blame(who, verified, via)
     except UNWRITTEN:
         return None  # out of range, not text: the generated encoder raises the error
-    out += blame
     return bytes(out)
+
+
+def _blame(who: str, verified: bool, via: str) -> bytes:
+    """The bytes of a blame, from the cache (and kept as the last one written)."""
+    global _last_blame
+    said = (who, verified, via)
+    blame = _blame_bytes.get(said)
+    if blame is None:
+        blame = _blame_bytes_of(who, verified, via)
+        if len(blame) <= _TAIL_KEY_MAX:
+            _bounded(_blame_bytes, _BLAMES_MAX)[said] = blame
+    _last_blame = (who, verified, via, blame)
+    return blame
 
 
 def _blame_bytes_of(who: str, verified: bool, via: str) -> bytes:
