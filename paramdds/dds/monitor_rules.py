@@ -92,6 +92,7 @@ def apply_sample(book: StateBook, change: BookUpdate, s: StateSample | StateKey,
         return
     held = state.parameters.get(s.name)
     state.parameters[s.name] = (s.value, s.descriptor)
+    before = state.blame.get(s.name)
     blame: Blame | None = None
     if s.who:
         blame = state.blame[s.name] = _blame_of(state, s)
@@ -99,7 +100,12 @@ def apply_sample(book: StateBook, change: BookUpdate, s: StateSample | StateKey,
         state.blame.pop(s.name, None)  # a writer without blame: no longer known
     if not book.has_callbacks:
         return  # an event exists only to be emitted: a monitor's full state is 5,000+ samples
-    if held is not None and held[0].same_as(s.value) and held[1] == s.descriptor:
+    if (
+        held is not None
+        and held[0].same_as(s.value)
+        and held[1] == s.descriptor
+        and not _recommitted(before, blame)
+    ):
         return  # the same again (re-sent after a stall or a restart): no change to report
     _flush_deleted(change, state, s.revision)
     event = MonitorEvent(
@@ -118,6 +124,12 @@ def apply_sample(book: StateBook, change: BookUpdate, s: StateSample | StateKey,
         change.emit(event)
     else:
         state.early.append(event)
+
+
+def _recommitted(before: Blame | None, now: Blame | None) -> bool:
+    """Whether a sample holding the value a parameter had is a new commit of it (someone set
+    the same value again: a later revision of the same life), not the same sample re-sent."""
+    return before is not None and now is not None and now[4] > before[4]
 
 
 def _blame_of(state: NodeState, s: StateSample) -> Blame:

@@ -65,8 +65,6 @@ DEFAULT_CALL_TIMEOUT = 5.0
 ELECTION_WAIT = 1.0  # seconds: how long a starting gateway asks for the site's other gateways
 WORKERS = 8  # forwarded calls and state queries served at once
 SYNC_WAIT = 3.0  # seconds: the most a starting gateway waits for its site's current state
-WRITE_SEEN = 1.0  # seconds a forwarded write waits to be seen by the gateway's monitor, then is published
-_NO_BLAME = ("", False, "", 0, 2**63)  # a parameter whose node keeps no blame: nothing to wait for
 UNSAID = "unknown"  # who a forwarded write is recorded as when its asker does not say (an older client)
 
 
@@ -390,9 +388,6 @@ class Gateway:
                 who = str(req.get("who") or UNSAID)
                 atomic = bool(req.get("atomic"))
                 s = c.set(node, params, atomic=atomic, if_revision=expected, timeout=timeout, as_=who)
-                written = [r.name for r in s.results if r.successful]
-                if written:
-                    self._submit(self._publish_written, node, written, s.revision)
                 return codec.set_reply(
                     keys.remote_name(self.site, s.node), s.revision, s.incarnation, s.results
                 )
@@ -401,24 +396,6 @@ class Gateway:
         except (KeyError, TypeError, ValueError) as exc:
             raise ParamddsError(f"a malformed {verb} request: {type(exc).__name__}: {exc}") from None
         raise InvalidNameError(f"unknown call {verb!r} (known: {', '.join(keys.VERBS)})")
-
-    def _publish_written(self, node: str, names: list[str], revision: int) -> None:
-        """Publish ``node`` once this gateway's monitor holds the write it forwarded (at
-        ``revision``, for ``names``), or after :data:`WRITE_SEEN` seconds: a write that only
-        changed who last set a value (the same value again) is no monitor event, and its
-        new author must still reach the remote viewers."""
-
-        def seen(states: dict[str, NodeState]) -> bool:
-            st = states.get(node)
-            if st is None or st.revision < revision:
-                return False
-            # a parameter deleted, or whose node keeps no blame, is done; else its sample is here
-            return all(n not in st.parameters or st.blame.get(n, _NO_BLAME)[4] >= revision for n in names)
-
-        self.monitor.wait_until(seen, WRITE_SEEN)
-        with self._lock:
-            self._dirty.add(node)
-            self._wake.notify_all()
 
     def _history(self, node: str, query: HistoryQuery, timeout: float) -> bytes:
         """One page of ``node``'s history, as the remote asker pages it (``after_seq``); its

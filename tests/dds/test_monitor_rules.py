@@ -189,9 +189,13 @@ def test_each_parameter_holds_and_each_event_carries_its_last_change() -> None:
     alice = LastChange("alice", False, "cli", 2_250_000_000, 2)
     assert [e.last_change for e in m.events] == [alice]
     assert m.book.last_change("n", "a") == m.book.snapshot()["n"].last_change("a") == alice
-    # the same value again from another author is no event, but the parameter's last change
-    assert m.feed((param("a", 2, 3, who="bob", via="web", stamp=3.0), ALIVE)) == []
-    assert m.book.last_change("n", "a") == LastChange("bob", False, "web", 3_000_000_000, 3)
+    # the same sample again (re-sent after a stall) is no event; the same value set again by
+    # another author is a new commit: an event, with its author
+    assert m.feed((param("a", 2, 2, who="alice", via="cli", stamp=2.25), ALIVE)) == []
+    bob = LastChange("bob", False, "web", 3_000_000_000, 3)
+    assert m.feed((param("a", 2, 3, who="bob", via="web", stamp=3.0), ALIVE)) == [("modified", "a", 3)]
+    assert m.events[-1].last_change == bob
+    assert m.book.last_change("n", "a") == bob
     # a writer that keeps no blame: unknown (never the previous author's)
     m.feed((param("a", 3, 4), ALIVE))
     assert m.events[-1].last_change is None and m.book.last_change("n", "a") is None
