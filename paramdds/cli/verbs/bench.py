@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import argparse
 
+from .._argtypes import positive_float, positive_int
+
 HELP = "benchmarks (see 'paramdds bench --help')"
 
 SCENARIOS = {
@@ -42,26 +44,6 @@ def _int_list(text: str) -> list[int]:
     return values
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if value <= 0:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
-    return value
-
-
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
-    return value
-
-
 def add_arguments(p: argparse.ArgumentParser) -> None:
     lines = "\n".join(f"  {name:<11} {text}" for name, text in SCENARIOS.items())
     p.description = (
@@ -80,42 +62,42 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--params",
-        type=_positive_int,
+        type=positive_int,
         metavar="P",
         help="parameters per node (scaling 50, hosting 20, persist 10 and 1000)",
     )
     p.add_argument(
         "--requests",
-        type=_positive_int,
+        type=positive_int,
         metavar="N",
         help="latency: requests per system (default 2000); web: sets (200); "
         "persist: journal changes (100000); fleet: gets per second (1000)",
     )
     p.add_argument(
-        "--records", type=_positive_int, metavar="N", help="history-store: records queried (default 1000000)"
+        "--records", type=positive_int, metavar="N", help="history-store: records queried (default 1000000)"
     )
-    p.add_argument("--rounds", type=_positive_int, metavar="R", help="alternation rounds / repetitions")
+    p.add_argument("--rounds", type=positive_int, metavar="R", help="alternation rounds / repetitions")
     p.add_argument(
-        "--servers", type=_positive_int, metavar="K", help="server processes: scaling (default 2), fleet (10)"
+        "--servers", type=positive_int, metavar="K", help="server processes: scaling (default 2), fleet (10)"
     )
     p.add_argument("--sites", type=_int_list, metavar="S,S…", help="zenoh: site counts (default 1,10)")
     p.add_argument(
         "--clients",
-        type=_positive_int,
+        type=positive_int,
         metavar="C",
         help="throughput: client processes (default 2); persist: concurrent clients (default 8)",
     )
     p.add_argument(
         "--viewers",
-        type=_positive_int,
+        type=positive_int,
         metavar="V",
         help="latency: monitor processes holding the node's state while it is measured (default 0)",
     )
     p.add_argument(
-        "--window", type=_positive_int, metavar="W", help="throughput: requests in flight per client"
+        "--window", type=positive_int, metavar="W", help="throughput: requests in flight per client"
     )
     p.add_argument(
-        "--seconds", type=_positive_float, metavar="S", help="throughput, persist: measured seconds per round"
+        "--seconds", type=positive_float, metavar="S", help="throughput, persist: measured seconds per round"
     )
 
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 
+from .._argtypes import positive_float, positive_int
 from .._parser import DEFAULT_NODE
 
 # core.history's Retention defaults (tests/cli/test_cli_local.py checks they agree): written
@@ -73,14 +74,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--history-records",
-        type=_positive_int,
+        type=positive_int,
         metavar="N",
         default=HISTORY_RECORDS,
         help=f"history kept per node: the newest N records (default {HISTORY_RECORDS:,})",
     )
     p.add_argument(
         "--history-days",
-        type=_positive_float,
+        type=positive_float,
         metavar="D",
         default=HISTORY_DAYS,
         help=f"history kept per node: none older than D days (default {HISTORY_DAYS:g})",
@@ -137,26 +138,6 @@ def run(args: argparse.Namespace) -> int:
         process.close()
         session.close()
     return Exit.OK
-
-
-def _positive_int(text: str) -> int:
-    try:
-        n = int(text)
-    except ValueError:
-        n = 0
-    if n <= 0:
-        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}")
-    return n
-
-
-def _positive_float(text: str) -> float:
-    try:
-        x = float(text)
-    except ValueError:
-        x = 0.0
-    if not x > 0 or x == float("inf"):
-        raise argparse.ArgumentTypeError(f"must be a positive number, got {text!r}")
-    return x
 
 
 def import_validators(module: str) -> None:
