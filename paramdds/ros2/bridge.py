@@ -37,7 +37,7 @@ from ..dds.qos import QosProfiles
 from ..dds.server import ParameterServer
 from ..dds.transport import SecureTransport, transport_of
 from ..errors import NotPermittedError, ParamddsError
-from .mirror import UNREACHABLE, Mirror
+from .mirror import UNREACHABLE, Mirror, MirrorTable
 from .rosside import ENCLAVE, RosSide
 
 SECURE_REFUSED = (
@@ -90,7 +90,7 @@ class Bridge:
         self._unreachable_lock = threading.Lock()
         self.mirror = Mirror(
             self.ros,
-            self.server.add_node,
+            self._host,
             self._unhost,
             self.server.forget,
             timeout=options.timeout,
@@ -120,6 +120,13 @@ class Bridge:
             self.server.remove_node(node_id)
         except KeyError:
             log.debug("%s was not hosted any more", node_id)
+
+    def _host(self, table: MirrorTable) -> None:
+        """Host a mirrored node: the values it had when first read are its own (who: the node,
+        via ros2, unverified), not start values of the bridge's."""
+        snapshot = ((name, value) for name, value, _ in table.snapshot())
+        self.server.history(table.node_id).started(snapshot, table.revision, table.reported, time.time_ns())
+        self.server.add_node(table)
 
     def _show_unreachable(self, table: HostedTable) -> None:
         """Host a node whose services do not answer, with ``status=unreachable`` in its presence."""

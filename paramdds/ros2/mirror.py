@@ -526,7 +526,7 @@ class Mirror:
     def __init__(
         self,
         ros: RosSide,
-        host: Callable[[HostedTable], None],
+        host: Callable[[MirrorTable], None],
         unhost: Callable[[str], None],
         forget: Callable[[str, Sequence[str]], None],
         *,

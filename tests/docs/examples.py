@@ -65,6 +65,7 @@ VARY: dict[str, list[str]] = {
     "incarnation": [r'(?<="incarnation": ")[0-9a-f]{16}', r"\b[0-9a-f]{16}(?=:\d)"],
     "seconds": [r"\b\d+(?:\.\d+)? ?(?:s|ms)\b"],
     "time": [r"\b\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d(?:\.\d+)?Z"],  # ISO 8601 UTC (history)
+    "who": [r"(?<=\blast change: )\S+"],  # describe's author: a server's USER@host
 }
 
 # Python environments other than the test's own that a block may ask for with env=NAME.
