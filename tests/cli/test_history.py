@@ -22,7 +22,7 @@ import pytest
 from ..dds.helpers import DdsSession
 from ._support import PARAMDDS, Proc, cli_env, next_domain, run_cli, start_server
 
-pytestmark = pytest.mark.timeout(120)
+pytestmark = [pytest.mark.slow, pytest.mark.timeout(120)]  # real CLI processes: ~15 s
 
 NODE = "robot1"
 
