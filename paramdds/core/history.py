@@ -357,7 +357,7 @@ class NodeHistory:
 
 def _author(origin: Origin) -> tuple[str, bool, str]:
     """(who, verified, via as text) of an origin."""
-    return origin.who, origin.verified, str(getattr(origin.via, "value", origin.via))
+    return origin.who, origin.verified, origin.via_text
 
 
 def rewind(

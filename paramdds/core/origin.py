@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from enum import Enum
 from functools import cache
 
-__all__ = ["Origin", "Via", "acting", "current", "local_identity", "local_origin", "parse_via"]
+__all__ = ["Origin", "Via", "acting", "current", "local_identity", "local_origin", "parse_via", "via_text"]
 
 AS_ENV = "PARAMDDS_AS"  # the identity a process claims when none is given (--as NAME)
 
@@ -41,6 +41,11 @@ class Via(str, Enum):
     START = "start"  # the value a node started with, from its files or spec
 
 
+def via_text(via: Via | str) -> str:
+    """A channel as the wire and the records write it (a Via's value, or a newer peer's text)."""
+    return via.value if isinstance(via, Via) else str(via)
+
+
 def parse_via(text: str) -> Via | None:
     """The channel named ``text``; None for one this version does not know (a newer peer's)."""
     try:
@@ -56,6 +61,10 @@ class Origin:
     who: str
     via: Via | str  # a Via; the text of a channel this version does not know
     verified: bool = False
+
+    @property
+    def via_text(self) -> str:
+        return via_text(self.via)
 
 
 @cache

@@ -68,7 +68,7 @@ class LastChange:
     @classmethod
     def of(cls, change: ChangeSet) -> LastChange:
         o = change.origin
-        return cls(o.who, o.verified, str(getattr(o.via, "value", o.via)), change.time_ns, change.revision)
+        return cls(o.who, o.verified, o.via_text, change.time_ns, change.revision)
 
     def to_json(self) -> dict[str, object]:
         """``{"who", "verified", "via", "time" (ISO 8601 UTC), "revision"}``."""

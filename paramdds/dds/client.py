@@ -35,7 +35,7 @@ from cyclonedds.domain import DomainParticipant
 from ..core.call import Call, Failure, GetRequest, HistoryRequest, ListRequest, Request, SetRequest, Wake
 from ..core.history import HistoryPage, HistoryQuery, Outcome
 from ..core.history_pages import HistoryPages, TimeArg
-from ..core.origin import Via, local_identity
+from ..core.origin import Via, local_identity, via_text
 from ..core.replies import GetReply, HistoryReply, NodeInfo, SetReply
 from ..core.request import ParamsArg
 from ..core.results import ListResult
@@ -98,7 +98,7 @@ class ParameterClient:
         ``USER@host``); ``via``: the channel they are recorded under."""
         self.timeout = timeout
         self.who = as_ or local_identity()
-        self.via = str(getattr(via, "value", via))
+        self.via = via_text(via)
         self._ids = itertools.count(1)
         self._ids_lock = threading.Lock()
         if isinstance(participant, ClientTransport):

@@ -189,7 +189,7 @@ class StatePublication:
         try:
             for change in changes:
                 origin = change.origin
-                via = str(getattr(origin.via, "value", origin.via))  # a Via, or a newer peer's text
+                via = origin.via_text
                 for item in change.changes:
                     if item.kind is ChangeKind.DELETED:
                         self._dispose(change.node_id, item.name)
