@@ -43,6 +43,7 @@ from .states import ROUTE_WAIT, ask_states, gateways_of, site_active
 log = logging.getLogger(__name__)
 
 REFRESH_BATCH = 0.05  # seconds: nodes to ask for again are gathered this long, then asked per site
+CONFIRM_WAIT = 2.0  # seconds the router is given to say which tokens of a site are alive
 ASK_AGAIN = 3  # times a node whose state did not come, or did not decode, is asked for again
 
 
@@ -130,7 +131,8 @@ class ZenohStateFeed:
         self._to_refresh: set[tuple[str, str]] = set()
         self._asked_again: dict[str, int] = {}  # node -> times asked again (see _ask_again)
         self._refresher: threading.Thread | None = None
-        self._settling = False  # a settle of the nodes whose token went is due (see _on_alive)
+        self._suspects: set[str] = set()  # sites a token of which went, to ask the router about
+        self._verifying = False  # a confirmation of the tokens gone is due (see _confirm_later)
         # sites whose first gateway came before the first sync chose its sites (None: chosen)
         self._early: set[str] | None = set()
         # an exact list of sites is asked for site by site (an operator whose certificate is granted
@@ -295,9 +297,9 @@ class ZenohStateFeed:
             return
         book = self._sink
         with book.update() as change:
-            came_back = self._states.token(change, name, not _is_delete(sample), time.monotonic())
+            came_back = self._states.token(change, name, not _is_delete(sample))
         if _is_delete(sample):
-            self._settle_later(SITE_GRACE)
+            self._confirm_later(site)
         elif book.synced or came_back:
             # back (a gateway took over, an uplink came back, a session dropped by loss): what was
             # published meanwhile is lost, and so is a first query that was in flight (before the
@@ -313,13 +315,18 @@ class ZenohStateFeed:
             return
         if active_since is not None or not self._wanted_site(site):
             return
-        alive = not _is_delete(sample)
-        if alive:
-            self._ledger.gateways_up([site])
-        with self._sink.update() as change:
-            up = self._states.gateway(change, site, gateway, alive)
-        if not up:
+        if _is_delete(sample):  # believed once the router confirms it
+            with self._sink.update():
+                self._states.gateway_went(site, gateway)
+            self._confirm_later(site)
             return
+        self._ledger.gateways_up([site])
+        with self._sink.update() as change:
+            if not self._states.gateway(change, site, gateway, True):
+                return
+        self._site_back(site)
+
+    def _site_back(self, site: str) -> None:
         # a site's first gateway, or one back (what it published meanwhile is lost): ask for the
         # site's states, unless the first sync has not chosen its sites yet (it asks them after)
         with self._refresh_lock:
@@ -347,23 +354,41 @@ class ZenohStateFeed:
             early, self._early = self._early or set(), None
             return early - asked
 
-    def _settle_later(self, delay: float) -> None:
-        """Settle the nodes whose token went (:meth:`RemoteStates.settle`) ``delay`` seconds on."""
+    def _confirm_later(self, site: str) -> None:
+        """Ask the router :data:`SITE_GRACE` seconds on which tokens of ``site`` (and of every
+        other site a token of which went meanwhile) are still alive (:meth:`_confirm`)."""
         with self._refresh_lock:
-            if self._settling or self._sink.closed:
+            self._suspects.add(site)
+            if self._verifying or self._sink.closed:
                 return
-            self._settling = True
-        timer = threading.Timer(delay + 0.01, self._settle)
+            self._verifying = True
+        timer = threading.Timer(SITE_GRACE, self._confirm)
         timer.daemon = True
         timer.start()
 
-    def _settle(self) -> None:
+    def _confirm(self) -> None:
+        """The tokens alive now of the sites a token of which went, from the router (a
+        liveliness get each), decide what is gone (:meth:`RemoteStates.confirm`)."""
         with self._refresh_lock:
-            self._settling = False
-        with self._sink.update() as change:
-            again = self._states.settle(change, time.monotonic())
-        if again is not None:
-            self._settle_later(again)
+            self._verifying = False
+            sites, self._suspects = sorted(self._suspects), set()
+        book = self._sink
+        for site in sites:
+            with book.update():
+                mark = self._states.mark()
+            try:
+                gateways = gateways_of(self._session, CONFIRM_WAIT, site).get(site, set())
+                pattern = keys.site_pattern(site, keys.ALIVE)
+                alive = {n for n in _alive_of(self._session, pattern, CONFIRM_WAIT) if self._wanted(n)}
+            except Exception as exc:  # the session closed under us
+                log.debug("confirming the tokens of site %s failed: %s", site, exc)
+                return
+            with book.update() as change:
+                up, back = self._states.confirm(change, site, mark, gateways, alive)
+            if up:
+                self._site_back(site)
+            for name in back:
+                self._refresh(*keys.split_remote(name))
 
     def _refresh(self, site: str, node: str) -> None:
         """Ask for ``node``'s whole state again (``""``: every node of ``site``), soon (one

@@ -16,10 +16,15 @@ Zenoh for anything is :mod:`.monitor`'s. Its rules:
   router drops the session and every token of it) is one ``site_offline`` event, its
   nodes' ``offline`` events marked ``by_site``; a gateway of it coming back is one
   ``site_online``, and its nodes' ``online`` events are marked so too (a log shows the
-  site's line, not one per node). The router drops a session's tokens in no set order,
-  so a node token that goes while its site's gateway is still up takes the node offline
-  only :data:`SITE_GRACE` seconds later (:meth:`RemoteStates.settle`), unless the
-  site's gateways went meanwhile.
+  site's line, not one per node);
+* a token's going is believed once the router confirms it (:meth:`RemoteStates.confirm`,
+  with what a liveliness get found :data:`SITE_GRACE` seconds later): the router drops a
+  session's tokens in no set order, so a node whose token went first is shown online
+  until then, and its site's ``site_offline`` comes with it if the site's gateways went
+  too. The get is also the truth where the subscriber was wrong: with Zenoh 1.10 a
+  session dropped by the router (an uplink cut) made a client's liveliness subscriber
+  report a token of *another* site gone while the router still held it, and the dropped
+  session's own gateway token never reported gone.
 
 Every method runs inside an update of the book (its lock held), which guards this
 object too.
@@ -40,7 +45,7 @@ from ..core.values import ParameterValue
 from .codec import NodeStateMsg
 
 Table = dict[str, tuple[ParameterValue, ParameterDescriptor]]  # a node's parameters by name
-SITE_GRACE = 0.25  # seconds a node whose token went waits for its site's gateways to go too
+SITE_GRACE = 0.25  # seconds after a token went until the router is asked what is still alive
 
 
 class Outcome(Enum):
@@ -64,41 +69,78 @@ class RemoteStates:
         self._gateways: dict[str, set[str]] = {}  # site -> its gateways whose token is alive
         self._gw_gone: set[tuple[str, str]] = set()  # (site, gateway) seen going before being seen
         self._down: set[str] = set()  # sites seen up whose every gateway went since
-        self._leaving: dict[str, float] = {}  # node -> when its token went, its site's gateway up
+        self._leaving: set[str] = set()  # nodes whose token went, their site's gateway up: unconfirmed
         self._dropped: set[str] = set()  # nodes taken offline with their site, not online since
+        self._tick = 0  # counts the tokens seen coming and going
+        self._ticks: dict[object, int] = {}  # node or (site, gateway) -> tick of its last token event
 
     def tokens_found(self, names: Iterable[str]) -> None:
         """The tokens a liveliness get found alive (those seen going since are not)."""
         self._alive.update(n for n in names if n not in self._gone)
 
-    def token(self, change: BookUpdate, name: str, alive: bool, now: float = 0.0) -> bool:
-        """A node's token came (``alive``) or went at ``now`` (monotonic seconds); True when it
-        came back after going. A token that goes while its site's gateway is up takes the node
-        offline at the next :meth:`settle` past :data:`SITE_GRACE`."""
+    def token(self, change: BookUpdate, name: str, alive: bool) -> bool:
+        """A node's token came (``alive``) or went; True when it came back after going. A token
+        that goes while its site's gateway is up leaves the node online until :meth:`confirm`."""
+        self._touch(name)
         came_back = False
         if alive:
             came_back = name in self._gone
             self._alive.add(name)
             self._gone.discard(name)
-            self._leaving.pop(name, None)
+            self._leaving.discard(name)
         else:
             self._alive.discard(name)
             self._gone.add(name)
             if self._gateways.get(_site(name)):
-                self._leaving.setdefault(name, now)
+                self._leaving.add(name)
         self._show(change, name)
         return came_back
 
-    def settle(self, change: BookUpdate, now: float) -> float | None:
-        """Take offline the nodes whose token went :data:`SITE_GRACE` ago while their site
-        stayed up; the seconds until the next one is due (None: none waits)."""
-        due = [n for n, went in self._leaving.items() if now - went >= SITE_GRACE]
-        for name in due:
-            del self._leaving[name]
+    def gateway_went(self, site: str, gateway: str) -> None:
+        """A gateway's token was reported gone: believed at :meth:`confirm` (never at once)."""
+        self._touch((site, gateway))
+
+    def _touch(self, key: object) -> None:
+        self._tick += 1
+        self._ticks[key] = self._tick
+
+    def mark(self) -> int:
+        """Where the token events are now: take it before asking the router (see :meth:`confirm`)."""
+        return self._tick
+
+    def confirm(
+        self, change: BookUpdate, site: str, mark: int, gateways: set[str], alive: set[str]
+    ) -> tuple[bool, list[str]]:
+        """What the router held of ``site`` when asked after ``mark``: the ``gateways`` whose
+        token is alive and the nodes ``alive``. It decides every token of the site not seen
+        coming or going since ``mark`` (those are their own events'): gateways first (the
+        site's ``site_offline`` when none is left), then nodes. Returns whether the site has a
+        gateway again after none, and the nodes whose token is back (to ask for again)."""
+
+        def settled(key: object) -> bool:
+            return self._ticks.get(key, 0) <= mark
+
+        known = self._gateways.setdefault(site, set())
+        for gone in sorted(g for g in known - gateways if settled((site, g))):
+            self.gateway(change, site, gone, False)
+        up = False
+        for came in sorted(g for g in gateways - known if settled((site, g))):
+            up = self.gateway(change, site, came, True) or up
+        back: list[str] = []
+        ours = {n for n in (*self._alive, *self._leaving, *alive) if _site(n) == site and settled(n)}
+        for name in sorted(ours):
+            held = name in alive
+            if held and name not in self._alive and name not in self._leaving:
+                back.append(name)
+            self._leaving.discard(name)
+            if held:
+                self._alive.add(name)
+                self._gone.discard(name)
+            else:
+                self._alive.discard(name)
+                self._gone.add(name)
             self._show(change, name)
-        if not self._leaving:
-            return None
-        return max(0.0, min(self._leaving.values()) + SITE_GRACE - now)
+        return up, back
 
     def gateways_found(self, found: dict[str, set[str]]) -> None:
         """The gateways' tokens a liveliness get found alive, by site (those seen going since
@@ -111,6 +153,7 @@ class RemoteStates:
         """A gateway's token of ``site`` came (``alive``) or went: the site's event when the
         last one went, or the first one came back after that. True when the site has a
         gateway again after none (the first one seen, or one back)."""
+        self._touch((site, gateway))
         gateways = self._gateways.setdefault(site, set())
         if alive:
             first = not gateways
@@ -130,7 +173,7 @@ class RemoteStates:
             change.emit(MonitorEvent(EventKind.SITE_OFFLINE, stamp=time.time(), site=site))
         for name in [n for n in (*self._reported, *self._leaving) if _site(n) == site]:
             if not alive:
-                self._leaving.pop(name, None)
+                self._leaving.discard(name)
             self._show(change, name)
         return alive
 
@@ -142,7 +185,7 @@ class RemoteStates:
         site = _site(name)
         online = (
             self._reported.get(name, False)
-            and (name in self._alive or name in self._leaving)  # leaving: shown online for the grace
+            and (name in self._alive or name in self._leaving)  # leaving: online until confirmed
             and site not in self._down
         )
         if online == state.online:

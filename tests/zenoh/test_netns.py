@@ -151,7 +151,13 @@ def test_sites_in_namespaces_late_joiner_calls_and_an_uplink_cut_and_restored(si
 
     started = time.monotonic()
     events: list[MonitorEvent] = []
-    monitor = RemoteParameterMonitor(session, on_event=events.append)
+    seen: list[tuple[float, MonitorEvent]] = []  # what the monitor told, and when
+
+    def on_event(e: MonitorEvent) -> None:
+        events.append(e)
+        seen.append((time.monotonic(), e))
+
+    monitor = RemoteParameterMonitor(session, on_event=on_event)
     assert holds_online(monitor, ALL, 5.0), sorted(monitor.snapshot())
     took = time.monotonic() - started
     snap = monitor.snapshot()
@@ -167,7 +173,13 @@ def test_sites_in_namespaces_late_joiner_calls_and_an_uplink_cut_and_restored(si
         "the cut site's nodes still show online"
     )
     offline_after = time.monotonic() - cut
-    assert all(monitor.snapshot()[f"{s}/{n}"].online for s in ("north", "east") for n in NODES)
+    gone = [f"{s}/{n}" for s in ("north", "east") for n in NODES if not monitor.snapshot()[f"{s}/{n}"].online]
+    presence_seen = [
+        f"{t - cut:+.2f} s {e.event.value} {e.node or e.site}"
+        for t, e in list(seen)
+        if e.event not in (EventKind.ADDED, EventKind.MODIFIED)
+    ]
+    assert not gone, f"offline: {gone}; presence events: {presence_seen}"
     # one event for the site; its nodes' own offline events say they went with it
     presence = [e for e in list(events) if e.event in (EventKind.OFFLINE, EventKind.SITE_OFFLINE)]
     assert [(e.event, e.site) for e in presence if e.site] == [(EventKind.SITE_OFFLINE, "south")]

@@ -1,6 +1,7 @@
 """A whole site going offline and coming back (paramdds.zenoh.monitor_rules), without a
-session: one site event, its nodes' events marked ``by_site``, and the grace that waits
-for the site's gateways when node tokens go first."""
+session: one site event, its nodes' events marked ``by_site``, and a token's going
+believed only once the router confirms it (whatever the order of the tokens, and where
+the subscriber reported the wrong token gone)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import pytest
 from paramdds.core.monitor_events import EventKind, MonitorEvent
 from paramdds.core.state_book import StateBook
 from paramdds.zenoh.codec import NodeStateMsg
-from paramdds.zenoh.monitor_rules import SITE_GRACE, RemoteStates
+from paramdds.zenoh.monitor_rules import RemoteStates
 
 NODES = [f"north/n{k}" for k in range(25)]
 
@@ -33,16 +34,22 @@ class Site:
         self.events.clear()
 
     def gateway(self, site: str, gateway: str, alive: bool) -> None:
+        if not alive:  # reported gone: believed at confirm
+            with self.book.update():
+                self.rules.gateway_went(site, gateway)
+            return
         with self.book.update() as change:
             self.rules.gateway(change, site, gateway, alive)
 
-    def token(self, name: str, alive: bool, now: float = 0.0) -> None:
+    def token(self, name: str, alive: bool) -> None:
         with self.book.update() as change:
-            self.rules.token(change, name, alive, now)
+            self.rules.token(change, name, alive)
 
-    def settle(self, now: float) -> float | None:
+    def confirm(self, site: str, gateways: set[str], alive: set[str], mark: int | None = None) -> list[str]:
+        """What the router holds of ``site``, asked after ``mark`` (default: now); the nodes back."""
         with self.book.update() as change:
-            return self.rules.settle(change, now)
+            at = self.rules.mark() if mark is None else mark
+            return self.rules.confirm(change, site, at, gateways, alive)[1]
 
     def lines(self) -> list[str]:
         """What a log shows: the events not folded into their site's."""
@@ -57,16 +64,18 @@ class Site:
 def test_a_site_whose_gateway_went_is_one_event_whatever_the_order_of_its_tokens() -> None:
     s = Site()
     for name in NODES[:10]:  # some node tokens go first: the site's gateway is still up
-        s.token(name, False, now=1.0)
-    assert s.lines() == [] and s.online() == {*NODES, "south/n0"}  # within the grace
+        s.token(name, False)
+    assert s.lines() == [] and s.online() == {*NODES, "south/n0"}  # until the router confirms
     s.gateway("north", "g1", False)
     for name in NODES[10:]:
-        s.token(name, False, now=1.1)
+        s.token(name, False)
+    assert s.lines() == [] and s.online() == {*NODES, "south/n0"}
+    assert s.confirm("north", set(), set()) == []
     offline = [e for e in s.events if e.event is EventKind.OFFLINE]
     assert sorted(e.node for e in offline) == sorted(NODES) and all(e.by_site for e in offline)
     assert s.lines() == ["site_offline north"]
     assert s.online() == {"south/n0"}
-    assert s.settle(1.0 + SITE_GRACE) is None
+    assert s.confirm("north", set(), set()) == []
     assert s.lines() == []
 
 
@@ -75,12 +84,13 @@ def test_a_site_coming_back_is_one_event_and_its_nodes_come_back_with_it(gateway
     s = Site()
     s.gateway("north", "g1", False)
     for name in NODES:
-        s.token(name, False, now=1.0)
-    s.lines()
+        s.token(name, False)
+    s.confirm("north", set(), set())
+    assert s.lines() == ["site_offline north"]
     if gateway_first:  # reconnected (a new session: another token); the node tokens in any order
         s.gateway("north", "g2", True)
     for name in NODES:
-        s.token(name, True, now=2.0)
+        s.token(name, True)
     if not gateway_first:
         assert s.online() == {"south/n0"}  # no gateway of the site yet
         s.gateway("north", "g2", True)
@@ -90,27 +100,63 @@ def test_a_site_coming_back_is_one_event_and_its_nodes_come_back_with_it(gateway
     assert s.online() == {*NODES, "south/n0"}
 
 
-def test_a_node_that_goes_alone_goes_offline_after_the_grace_as_its_own_event() -> None:
+def test_a_node_that_goes_alone_goes_offline_once_confirmed_as_its_own_event() -> None:
     s = Site()
-    s.token("north/n3", False, now=5.0)
-    assert s.lines() == []
-    assert s.settle(5.0 + SITE_GRACE / 2) == SITE_GRACE / 2
-    assert s.settle(5.0 + SITE_GRACE) is None
+    s.token("north/n3", False)
+    assert s.lines() == [] and "north/n3" in s.online()
+    s.confirm("north", {"g1"}, set(NODES) - {"north/n3"})
     assert s.lines() == ["offline north/n3"]
 
 
-def test_a_node_token_back_within_the_grace_is_no_flap() -> None:
+def test_a_node_token_back_before_the_confirmation_is_no_flap() -> None:
     s = Site()  # a standby gateway took over at once: the node's token went and came back
-    s.token("north/n3", False, now=5.0)
-    s.token("north/n3", True, now=5.1)
-    assert s.settle(5.0 + SITE_GRACE) is None
+    s.token("north/n3", False)
+    s.token("north/n3", True)
+    s.confirm("north", {"g1"}, set(NODES))
     assert s.lines() == []
+
+
+def test_a_token_reported_gone_that_the_router_still_holds_stays_online() -> None:
+    s = Site()  # a subscriber told a token of north gone when another site's session dropped
+    s.token("north/n3", False)
+    s.gateway("north", "g1", False)
+    assert s.confirm("north", {"g1"}, set(NODES)) == []
+    assert s.lines() == [] and s.online() == {*NODES, "south/n0"}
+
+
+def test_a_site_whose_gateway_token_was_never_reported_gone_goes_offline_once_confirmed() -> None:
+    s = Site()  # the node tokens were reported gone, the gateway's was not (nor was any other)
+    for name in NODES:
+        s.token(name, False)
+    s.confirm("north", set(), set())
+    assert s.lines() == ["site_offline north"]
+    assert s.online() == {"south/n0"}
+
+
+def test_a_confirmation_asked_before_a_token_came_back_leaves_it_to_its_event() -> None:
+    s = Site()
+    s.token("north/n3", False)
+    with s.book.update():
+        mark = s.rules.mark()  # the router is asked here: it answers without n3
+    s.token("north/n3", True)  # then n3 comes back
+    s.confirm("north", {"g1"}, set(NODES) - {"north/n3"}, mark=mark)
+    assert s.lines() == [] and "north/n3" in s.online()
+
+
+def test_a_token_the_router_holds_that_was_seen_gone_is_back_and_asked_for() -> None:
+    s = Site()
+    s.token("north/n3", False)
+    s.confirm("north", {"g1"}, set(NODES) - {"north/n3"})
+    assert s.lines() == ["offline north/n3"]
+    assert s.confirm("north", {"g1"}, set(NODES)) == ["north/n3"]  # its coming back was missed
+    assert s.lines() == ["online north/n3"]
 
 
 def test_a_site_with_a_gateway_left_stays_up() -> None:
     s = Site()
     s.gateway("north", "g2", True)  # a standby
     s.gateway("north", "g1", False)
+    s.confirm("north", {"g2"}, set(NODES))
     assert s.lines() == []
     assert s.online() == {*NODES, "south/n0"}
 
@@ -118,6 +164,7 @@ def test_a_site_with_a_gateway_left_stays_up() -> None:
 def test_a_node_offline_when_its_site_came_back_comes_online_as_its_own_event() -> None:
     s = Site()
     s.gateway("north", "g1", False)
+    s.confirm("north", set(), set(NODES))
     s.gateway("north", "g1b", True)
     with s.book.update() as change:  # the gateway, asked again, says n3 is offline now
         s.rules.apply(s.book, change, "north/n3", NodeStateMsg("north", "n3", "g", 2, False))
@@ -129,8 +176,9 @@ def test_a_node_offline_when_its_site_came_back_comes_online_as_its_own_event() 
 
 def _site_went(s: Site) -> list[MonitorEvent]:
     for name in NODES[:3]:
-        s.token(name, False, now=1.0)
+        s.token(name, False)
     s.gateway("north", "g1", False)
+    s.confirm("north", set(), set())
     events = list(s.events)
     s.events.clear()
     return events
@@ -143,7 +191,7 @@ def test_watch_prints_one_line_for_a_site_that_went_and_came_back(capsys: pytest
     went = _site_went(s)
     s.gateway("north", "g2", True)
     for name in NODES:
-        s.token(name, True, now=2.0)
+        s.token(name, True)
     came = list(s.events)
     for output in ("text", "json"):
         printer = EventPrinter(output, [])
