@@ -35,6 +35,7 @@ class Via(str, Enum):
     API = "api"  # the Python API (a client, or the application's own table)
     WEB = "web"  # the web console
     ZENOH = "zenoh"  # a remote client across a Zenoh gateway
+    FOXGLOVE = "foxglove"  # a Foxglove or Lichtblick Parameters panel (paramdds foxglove)
     ROS2 = "ros2"  # a ROS 2 tool, on a mirrored or an exposed node
     LOAD = "load"  # a parameter file loaded into a running node
     ASSIGN = "assign"  # a retained value (paramdds assign)

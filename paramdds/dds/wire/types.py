@@ -162,7 +162,7 @@ class SetParametersRequest(IdlStruct, typename="paramdds.SetParametersRequest"):
     # ns since the Unix epoch (caller's clock) after which the node must not apply it; 0: none
     deadline: int64 = 0
     who: str = ""  # a claim, unless DDS Security authenticates the asker
-    via: str = ""  # cli, api, web, zenoh, ros2, load, assign, start
+    via: str = ""  # cli, api, web, zenoh, foxglove, ros2, load, assign, start
 
 
 @fast_cdr

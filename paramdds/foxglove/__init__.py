@@ -1,0 +1,1 @@
+"""paramdds foxglove: every node's parameters over the Foxglove WebSocket protocol (docs/foxglove.md)."""
