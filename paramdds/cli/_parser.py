@@ -200,5 +200,10 @@ def resolve_globals(args: argparse.Namespace, environ: dict[str, str] | None = N
         from ..zenoh.config import check_endpoint  # no Zenoh import: the shape only
 
         args.zenoh = check_endpoint(args.zenoh, error=UsageError)
+        from ..core.names import is_node_glob
+
+        node = getattr(args, "node", None)  # the verb's NODE, if it takes one
+        if isinstance(node, str) and not is_node_glob(node) and "/" not in node.lstrip("/"):
+            raise UsageError(f"over Zenoh a node is named SITE/NODE (north/{node.lstrip('/')}), got {node!r}")
     if args.timeout is None or not args.timeout > 0:
         raise UsageError(f"--timeout must be a positive number of seconds, got {args.timeout}")

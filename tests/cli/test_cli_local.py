@@ -95,6 +95,7 @@ def test_after_the_verb_wins_and_defaults_come_from_the_environment() -> None:
         ["nodes", "-o", "xml"],
         ["frobnicate"],
         ["list", "n", "-d", "999"],
+        ["--zenoh", "tcp/127.0.0.1:7447", "get", "robot1", "x"],  # over Zenoh a node is SITE/NODE
     ],
 )
 def test_usage_errors_exit_2_with_one_line(argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
