@@ -5,7 +5,9 @@ Routes (all JSON unless said; writes take a JSON body and are absent with --read
 =======  =================  ==========================================================
 GET      /                  the console page (static files under /static/)
 GET      /api/info          ``{"read_only", "token_required", "domain", "zenoh"}``
-GET      /api/nodes         ``?q=&offset=&limit=`` → ``{"total", "offset", "nodes": [summary]}``
+GET      /api/nodes         ``?q=&offset=&limit=`` → ``{"total", "offset", "nodes": [summary],
+                            "missing": [{"site", "status", "reason"}]}`` (``missing`` over Zenoh
+                            only: the known sites lacking, every one on every page)
 GET      /api/node          ``?node=`` → ``{"summary", "rows": [row]}``
 GET      /api/dump          ``?node=&descriptors=0|1`` → a ROS 2 parameter file (text/yaml)
 GET      /api/history       ``?node=&name=&since=&until=&who=&outcome=&limit=`` → ``{"node", "names",
@@ -203,7 +205,7 @@ class Console:
           - {name: offset, in: query, schema: {type: integer, minimum: 0, default: 0}}
           - {name: limit, in: query, schema: {type: integer, minimum: 1, maximum: 200, default: 50}}
         responses:
-          200: {description: '{"total", "offset", "nodes": [summary]}'}
+          200: {description: '{"total", "offset", "nodes": [summary], "missing" (Zenoh): [{"site", ...}]}'}
           400: {description: BAD_REQUEST}
         """
         self._check_read(request)
@@ -211,9 +213,10 @@ class Console:
         offset = int_arg(request, "offset", 0, 0, 10**9)
         limit = int_arg(request, "limit", 50, 1, PAGE_LIMIT)
         page = self.view.page(query, offset, limit)
-        return JSONResponse(
-            {"total": page.total, "offset": page.offset, "nodes": [summary_json(s) for s in page.nodes]}
-        )
+        body = {"total": page.total, "offset": page.offset, "nodes": [summary_json(s) for s in page.nodes]}
+        if self.view.follows_sites:  # over Zenoh: the sites lacking, whatever the query and page
+            body["missing"] = self.view.lacking()
+        return JSONResponse(body)
 
     async def node(self, request: Request) -> Response:
         """One node's parameters with descriptors.

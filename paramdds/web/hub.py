@@ -15,6 +15,11 @@ into at most three messages per subscriber:
 
 A subscriber whose queue is full (a stalled browser) gets no more messages until
 it drains, then one ``resync``: the page reloads its view instead of replaying.
+
+Over Zenoh (:meth:`Hub.follow_sites`) the sites the view lacks are compared with those
+last told at every flush and every :data:`SITES_CHECK` seconds (a site's answer or refusal
+ends a query, not always with an event); when they differ, every subscriber gets
+``nodes`` ``{"refresh": true}`` and the page re-reads its page, which lists them.
 """
 
 from __future__ import annotations
@@ -28,12 +33,13 @@ from dataclasses import dataclass, field
 
 from ..dds.monitor import EventKind, MonitorEvent
 from .model import Row, parameter_row, summary_json
-from .view import StateView
+from .view import Lacking, StateView
 
 FLUSH_DELAY = 0.015  # seconds a burst may gather before it is sent
 MAX_NODE_UPDATES = 200
 LOG_LIMIT = 50
 QUEUE_SIZE = 256  # messages per subscriber
+SITES_CHECK = 1.0  # seconds between looks at the sites lacking (over Zenoh)
 
 
 def sse(event: str, data: object) -> str:
@@ -84,6 +90,7 @@ class Hub:
         self._scheduled = False
         self._subscribers: set[Subscriber] = set()
         self._closed = False
+        self._lacking: list[Lacking] | None = None  # the sites lacking last told (None: not followed)
 
     # -- the monitor's side (Cyclone's thread) ----------------------------------------------
 
@@ -99,6 +106,29 @@ class Hub:
             self._loop.call_soon_threadsafe(self._loop.call_later, FLUSH_DELAY, self._flush)
 
     # -- the event loop's side ----------------------------------------------------------------
+
+    def follow_sites(self) -> None:
+        """Tell the pages when the sites the view lacks change (over Zenoh; see the module doc)."""
+        self._lacking = self._view.lacking()
+        self._loop.call_later(SITES_CHECK, self._check_sites)
+
+    def _check_sites(self) -> None:
+        if self._closed:
+            return
+        if self._sites_changed():
+            for sub in list(self._subscribers):
+                sub.put(sse("nodes", {"refresh": True}))
+        self._loop.call_later(SITES_CHECK, self._check_sites)
+
+    def _sites_changed(self) -> bool:
+        """Whether the sites lacking differ from those last told (remembered as told)."""
+        if self._lacking is None:
+            return False
+        lacking = self._view.lacking()
+        if lacking == self._lacking:
+            return False
+        self._lacking = lacking
+        return True
 
     def subscribe(self, node: str) -> Subscriber:
         sub = Subscriber(node)
@@ -127,7 +157,8 @@ class Hub:
         if not events or not self._subscribers:
             return
         changed = list(dict.fromkeys(e.node for e in events if e.node))
-        if len(changed) > MAX_NODE_UPDATES:
+        refresh = self._sites_changed()  # a site lacking came, or one went: the page re-reads its page
+        if refresh or len(changed) > MAX_NODE_UPDATES:
             nodes_message = sse("nodes", {"refresh": True})
         else:
             nodes_message = sse("nodes", {"nodes": [summary_json(s) for s in self._view.summaries(changed)]})
@@ -140,7 +171,7 @@ class Hub:
         for sub in list(self._subscribers):
             if sub.node in params:
                 sub.put(params[sub.node])
-            if changed:
+            if changed or refresh:
                 sub.put(nodes_message)
             sub.put(log_message)
 

@@ -194,7 +194,9 @@ async def _serve(args: argparse.Namespace, options: WebOptions, sock: socket.soc
     session = Session(args, app_name="paramdds-web")
     try:
         monitor = session.monitor(on_event=hub.on_event)
-        view.attach(monitor)
+        view.attach(monitor, session.missing_sites if options.zenoh else None)
+        if options.zenoh:  # the sites lacking are rows of the node list (view.lacking)
+            hub.follow_sites()
         client = AsyncParameterClient(session.client(Via.WEB))
         app = build_app(view, hub, client, options)
         config = uvicorn.Config(

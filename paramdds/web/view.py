@@ -12,6 +12,10 @@ incarnation*: the presence and the parameter samples of one change are separate
 instances and may arrive in separate batches, and compare-and-set needs the newest.
 A restarted server has a new incarnation and counts its revisions again (r9 after
 r13): the view follows it instead of keeping the highest revision ever seen.
+
+Over Zenoh the view also says which known sites it lacks (:meth:`StateView.lacking`,
+from the session's :meth:`~paramdds.session.Session.missing_sites`), once the monitor's
+first sync is done: before it, every site would read as lacking.
 """
 
 from __future__ import annotations
@@ -29,9 +33,11 @@ from .model import matches
 
 if TYPE_CHECKING:
     from ..dds.monitor import NodeState, ParameterMonitor
+    from ..zenoh.completeness import Lack
 
 T = TypeVar("T")
 Table = dict[str, tuple[ParameterValue, ParameterDescriptor]]
+Lacking = dict[str, str]  # a site the view lacks: {"site", "status" ("no answer", "not granted"), "reason"}
 
 
 @dataclass(frozen=True)
@@ -56,12 +62,29 @@ def held_last_changes(st: NodeState) -> dict[str, LastChange]:
 class StateView:
     def __init__(self, monitor: ParameterMonitor | None = None) -> None:
         self._monitor = monitor
+        self._missing: Callable[[], dict[str, Lack]] | None = None
         self._revisions: dict[str, tuple[int, int]] = {}  # node -> (incarnation, newest revision)
         self._lock = threading.Lock()
 
-    def attach(self, monitor: ParameterMonitor) -> None:
-        """Read ``monitor`` from now on (it is made after the hub that receives its events)."""
+    def attach(self, monitor: ParameterMonitor, missing: Callable[[], dict[str, Lack]] | None = None) -> None:
+        """Read ``monitor`` from now on (it is made after the hub that receives its events);
+        ``missing``: the sites it lacks, and why (over Zenoh)."""
         self._monitor = monitor
+        self._missing = missing
+
+    @property
+    def follows_sites(self) -> bool:
+        """Whether this view says which sites it lacks (over Zenoh)."""
+        return self._missing is not None
+
+    def lacking(self) -> list[Lacking]:
+        """The known sites this view lacks, by site (none over DDS, and until the first sync)."""
+        if self._missing is None or self._monitor is None or not self._monitor.synced:
+            return []
+        return [
+            {"site": site, "status": lack.status, "reason": lack.reason}
+            for site, lack in sorted(self._missing().items())
+        ]
 
     def note_revision(self, node: str, revision: int, incarnation: int = 0) -> None:
         with self._lock:

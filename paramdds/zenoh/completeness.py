@@ -6,7 +6,8 @@ says which known site a view lacks, and why. A site is *known* when it is named 
 ``SITE/NODE`` glob of an exact site, ``PARAMDDS_ZENOH_SITES``, ``sites=[...]``) or when
 any of its gateways or nodes was seen; it *answered* when a gateway of it was up and its
 state query ended before its timeout (every gateway serving it sent all its states). A
-site whose nodes hold liveliness tokens but whose states did not all arrive lacks them.
+site whose nodes hold liveliness tokens but whose states did not all arrive lacks them,
+and so does a site whose every gateway went since (``down``: killed, or its uplink cut).
 When no site is known at all, the view lacks every site (:data:`EVERY_SITE`): nothing
 answered, which an empty fleet, a router with no gateway and a certificate granted no
 site all look like. A site whose gateway is up but serves this client nothing is
@@ -27,6 +28,11 @@ class Lack(NamedTuple):
 
     reason: str
     refused: bool = False
+
+    @property
+    def status(self) -> str:
+        """The word a row of the site shows: ``not granted``, or ``no answer``."""
+        return "not granted" if self.refused else "no answer"
 
 
 class SiteLedger:
@@ -67,10 +73,11 @@ class SiteLedger:
         with self._lock:
             return self._named | self._seen
 
-    def missing(self, lacking: Iterable[str] = ()) -> dict[str, Lack]:
+    def missing(self, lacking: Iterable[str] = (), down: Iterable[str] = ()) -> dict[str, Lack]:
         """Why each known site is lacking from the view (none: the view is complete);
-        ``lacking``: sites with a node alive whose state is not held."""
-        short = set(lacking)
+        ``lacking``: sites with a node alive whose state is not held; ``down``: sites seen up
+        whose every gateway went since."""
+        short, gone = set(lacking), set(down)
         with self._lock:
             known = self._named | self._seen
             if not known:
@@ -82,16 +89,16 @@ class SiteLedger:
                 }
             lacks: dict[str, Lack] = {}
             for site in sorted(known):
-                if site in self._refused:
+                if site not in self._up or site in gone:
+                    lacks[site] = Lack(
+                        f"no gateway of site {site!r} is reachable (site not connected, its uplink "
+                        "down, or this client not granted it)"
+                    )
+                elif site in self._refused:
                     lacks[site] = Lack(
                         f"site {site!r} is not granted to this client (its gateway is up, but the "
                         "router's access control refuses this certificate the site)",
                         refused=True,
-                    )
-                elif site not in self._up:
-                    lacks[site] = Lack(
-                        f"no gateway of site {site!r} is reachable (site not connected, its uplink "
-                        "down, or this client not granted it)"
                     )
                 elif site not in self._answered:
                     lacks[site] = Lack(f"site {site!r} did not answer in time (its state query did not end)")

@@ -101,7 +101,7 @@ class RemoteParameterMonitor(ParameterMonitor):
 
     def missing_sites(self) -> dict[str, Lack]:
         """The known sites this monitor lacks (:mod:`.completeness`): site -> why; empty when
-        every site known answered in full (``*``: no site is known at all)."""
+        every site known answered in full and is still up (``*``: no site is known at all)."""
         return self._remote_feed.missing_sites()
 
 
@@ -213,7 +213,8 @@ class ZenohStateFeed:
     def missing_sites(self) -> dict[str, Lack]:
         with self._sink.update() as change:
             lacking = {n.split("/", 1)[0] for n in self._states.missing(change)}
-        return self._ledger.missing(lacking)
+            down = self._states.sites_down()
+        return self._ledger.missing(lacking, down)
 
     def _first_sync(self) -> None:
         book = self._sink

@@ -200,6 +200,10 @@ class RemoteStates:
         if by_site and len(change.events) > before:
             change.events[-1] = replace(change.events[-1], by_site=True)
 
+    def sites_down(self) -> set[str]:
+        """The sites seen up whose every gateway went since (their ``site_offline``)."""
+        return set(self._down)
+
     def missing(self, change: BookUpdate) -> list[str]:
         """The nodes whose token is alive but whose state the book does not hold."""
         return [n for n in self._alive if change.get(n) is None]

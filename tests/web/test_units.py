@@ -253,3 +253,54 @@ def test_a_status_change_alone_updates_the_node_list_and_the_log() -> None:
     nodes, log = _streamed(StateView(cast(ParameterMonitor, monitor)), "", [event])
     assert nodes.startswith("event: nodes") and '"node":"arm/driver"' in nodes and '"status":"stale"' in nodes
     assert log.startswith("event: log") and '"event":"status"' in log and '"status":"stale"' in log
+
+
+def test_the_sites_lacking_are_listed_once_synced_and_a_change_refreshes_the_page() -> None:
+    """Over Zenoh the view lists the sites it lacks once the first sync is done (before it,
+    every site would read as lacking); the event stream tells the page to re-read its page
+    when they change, at the flush of an event (a site_offline) or at the next check when a
+    change came with no event (a refusal), and not when they stay."""
+    from typing import cast
+
+    from paramdds.core.state_book import StateBook
+    from paramdds.dds.monitor import ParameterMonitor
+    from paramdds.web.hub import SITES_CHECK
+    from paramdds.zenoh.completeness import SiteLedger
+
+    monitor = StateBook()
+    ledger = SiteLedger(["east", "north"])
+    ledger.gateways_up(["north"])
+    ledger.answered(["north"])
+    down: set[str] = set()
+    view = StateView()
+    view.attach(cast(ParameterMonitor, monitor), lambda: ledger.missing(down=down))
+    assert view.follows_sites and view.lacking() == [] and not StateView().follows_sites
+    monitor.mark_synced()
+    assert [(m["site"], m["status"]) for m in view.lacking()] == [("east", "no answer")]
+    refresh = 'event: nodes\ndata: {"refresh":true}\n\n'
+
+    async def run() -> list[list[str]]:
+        hub = Hub(view, asyncio.get_running_loop())
+        hub.follow_sites()
+        sub = hub.subscribe("")
+        got: list[list[str]] = []
+
+        async def after(event: MonitorEvent | None, wait: float = 0.2) -> None:
+            if event is not None:
+                hub.on_event(event)
+            await asyncio.sleep(wait)
+            got.append([sub.queue.get_nowait() or "" for _ in range(sub.queue.qsize())])
+
+        down.add("north")
+        await after(MonitorEvent(EventKind.SITE_OFFLINE, site="north"))
+        await after(MonitorEvent(EventKind.SYNCED))  # nothing changed: no refresh
+        ledger.refused(["east"])
+        ledger.gateways_up(["east"])  # east's gateway is up but refuses this console: no event
+        await after(None, SITES_CHECK + 0.3)
+        hub.close()
+        return got
+
+    offline, same, refused = asyncio.run(run())
+    assert refresh in offline and refresh not in same and refused == [refresh]
+    shown = [(m["site"], m["status"]) for m in view.lacking()]
+    assert shown == [("east", "not granted"), ("north", "no answer")]

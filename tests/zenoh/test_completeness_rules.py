@@ -43,3 +43,16 @@ def test_a_site_refused_is_not_granted_and_a_refusal_alone_exits_1() -> None:
 
 def test_no_site_known_at_all_is_never_an_empty_complete_fleet() -> None:
     assert set(SiteLedger().missing()) == {EVERY_SITE}
+
+
+def test_a_site_whose_gateways_all_went_is_missing_until_one_is_back() -> None:
+    ledger = SiteLedger(["north"])
+    ledger.gateways_up(["north"])
+    ledger.answered(["north"])
+    assert ledger.missing() == {}
+    missing = ledger.missing(down=["north"])
+    assert list(missing) == ["north"] and missing["north"].status == "no answer"
+    assert "no gateway of site 'north' is reachable" in missing["north"].reason
+    ledger.refused(["north"])  # a refused site whose gateway went: unreachable is the first cause
+    assert ledger.missing(down=["north"])["north"].status == "no answer"
+    assert ledger.missing()["north"].status == "not granted"

@@ -174,3 +174,21 @@ def test_mutual_tls_and_access_by_certificate_name(tmp_path: Path, procs: list[P
     )
     assert empty.returncode == 3, empty
     assert "this client is granted no site" in empty.stderr
+
+    # the web console as that operator lists site c as a site lacking, not granted
+    port = free_port()
+    web = Proc(
+        [PARAMDDS, "--zenoh", endpoint, "web", "--bind", f"127.0.0.1:{port}"],
+        {**env, "PARAMDDS_ZENOH_TLS": str(op)},
+    )
+    procs.append(web)
+    web.wait_for("[WEB] Console on", 30)
+
+    def listed() -> tuple[list[str], list[tuple[str, str]]]:
+        import urllib.request
+
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/nodes", timeout=5) as r:
+            body = json.loads(r.read())
+        return [n["node"] for n in body["nodes"]], [(m["site"], m["status"]) for m in body["missing"]]
+
+    assert wait_for(lambda: listed() == (["a/robot1"], [("c", "not granted")]), 10.0), listed()

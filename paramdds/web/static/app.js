@@ -11,6 +11,7 @@ const PAGE = 50;
 const S = {
   info: { read_only: true, token_required: false },
   query: "", offset: 0, total: 0, nodes: [],
+  missing: [],          // over Zenoh: the sites the console lacks [{site, status, reason}], each a row
   selected: null, summary: null,
   rows: new Map(),      // name -> row {name, value, type, descriptor}
   dirty: new Map(),     // name -> value typed from the editor
@@ -177,6 +178,7 @@ async function loadNodes() {
   if (data.total && S.offset >= data.total) { S.offset = Math.max(0, Math.floor((data.total - 1) / PAGE) * PAGE); return loadNodes(); }
   S.total = data.total;
   S.nodes = data.nodes;
+  S.missing = data.missing || [];
   renderNodes();
   if (window.paramddsFirstRender === undefined) window.paramddsFirstRender = performance.now();
 }
@@ -191,10 +193,19 @@ function nodeItem(n) {
   li.addEventListener("click", () => select(n.node));
   return li;
 }
+// A site the console lacks (over Zenoh: its gateways unreachable, or not granted to this
+// console): a row of its own, SITE/*, shown as an offline node is, with why.
+function siteItem(m) {
+  return el("li", { "data-site": m.site, class: "offline lacking", title: m.reason },
+    el("span", { class: "n" }, el("span", { class: "dot" }), `${m.site}/*`,
+      el("span", { class: "status", title: m.reason, text: m.status })),
+    el("span", { class: "m", text: "site · offline" }));
+}
 function renderNodes() {
-  $("#nodes").replaceChildren(...S.nodes.map(nodeItem));
+  $("#nodes").replaceChildren(...S.missing.map(siteItem), ...S.nodes.map(nodeItem));
   const last = Math.min(S.total, S.offset + PAGE);
-  $("#node-count").textContent = `${S.total} node${S.total === 1 ? "" : "s"}` + (S.query ? ` matching '${S.query}'` : "");
+  const lacking = S.missing.length ? ` · ${S.missing.length} site${S.missing.length === 1 ? "" : "s"} lacking` : "";
+  $("#node-count").textContent = `${S.total} node${S.total === 1 ? "" : "s"}` + (S.query ? ` matching '${S.query}'` : "") + lacking;
   $("#page").textContent = S.total ? `${S.offset + 1}–${last} of ${S.total}` : "";
   $("#prev").disabled = S.offset === 0;
   $("#next").disabled = last >= S.total;
