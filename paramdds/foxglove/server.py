@@ -73,13 +73,16 @@ class Connection:
     all_parameters: bool = False  # subscribed to every parameter
     parameters: set[str] = field(default_factory=set)  # subscribed names
     channels: dict[int, int] = field(default_factory=dict)  # subscription id -> channel id
-    queue: asyncio.Queue[str | bytes | None] = field(default_factory=lambda: asyncio.Queue(QUEUE_SIZE))
+    # each item is a message, or a batch of them (one node's message each, on the channel)
+    queue: asyncio.Queue[str | bytes | list[bytes] | None] = field(
+        default_factory=lambda: asyncio.Queue(QUEUE_SIZE)
+    )
     closed: bool = False
 
-    def send(self, message: str | bytes | Mapping[str, object]) -> None:
+    def send(self, message: str | bytes | list[bytes] | Mapping[str, object]) -> None:
         if self.closed:
             return
-        data = message if isinstance(message, (str, bytes)) else p.dumps(message)
+        data = message if isinstance(message, (str, bytes, list)) else p.dumps(message)
         try:
             self.queue.put_nowait(data)
         except asyncio.QueueFull:  # too slow: closed, it reconnects and reads the state again
@@ -98,7 +101,8 @@ class Connection:
     async def write(self) -> None:
         while (data := await self.queue.get()) is not None:
             try:
-                await self.ws.send(data)
+                for frame in data if isinstance(data, list) else [data]:
+                    await self.ws.send(frame)
             except ConnectionClosed:
                 return
 
@@ -224,22 +228,12 @@ class FoxgloveServer:
                 mine = [u for name, u in updates.items() if conn.wants(name)]
                 if mine:
                     conn.send(p.parameter_values(mine))
-        if any(conn.channels for conn in self._connections):
-            for node in changed:
-                if node in tables:
-                    self._publish_node(node, *tables[node])
-
-    def _publish_node(
-        self, node: str, st: NodeState, table: Table, only: tuple[Connection, int] | None = None
-    ) -> None:
-        """One node's message on the descriptors channel, to every subscription (or ``only``)."""
-        last = {n: lc for n in table if (lc := st.last_change(n)) is not None}
-        message = p.node_message(node, st.online, st.revision, table, last)
-        payload = json.dumps(message, allow_nan=False, separators=(",", ":")).encode()
-        now = time.time_ns()
-        targets = [only] if only is not None else self._channel_subscriptions()
-        for conn, sub in targets:
-            conn.send(p.message_data(sub, now, payload))
+        subscriptions = self._channel_subscriptions()
+        if subscriptions:
+            payloads = [_node_payload(node, *tables[node]) for node in changed if node in tables]
+            now = time.time_ns()
+            for conn, sub in subscriptions:
+                conn.send([p.message_data(sub, now, payload) for payload in payloads])
 
     def _channel_subscriptions(self) -> list[tuple[Connection, int]]:
         return [
@@ -329,9 +323,9 @@ class FoxgloveServer:
                 conn.send(p.status(p.ERROR, f"subscription id {sub} is already in use"))
                 continue
             conn.channels[sub] = channel
-            for node, (st, table) in sorted(self._tables(None).items()):
-                if st.online:
-                    self._publish_node(node, st, table, only=(conn, sub))
+            now = time.time_ns()
+            online = sorted((node, held) for node, held in self._tables(None).items() if held[0].online)
+            conn.send([p.message_data(sub, now, _node_payload(node, *held)) for node, held in online])
 
     # -- sets -------------------------------------------------------------------------------
 
@@ -415,6 +409,14 @@ class FoxgloveServer:
             conn.close()
         for task in list(self._tasks):
             task.cancel()
+
+
+def _node_payload(node: str, st: NodeState, table: Table) -> bytes:
+    """One node's message on the descriptors channel, as JSON bytes."""
+    last = {n: lc for n in table if (lc := st.last_change(n)) is not None}
+    revision = max([st.revision, *(lc.revision for lc in last.values())])
+    message = p.node_message(node, st.online, revision, table, last)
+    return json.dumps(message, allow_nan=False, separators=(",", ":")).encode()
 
 
 def _req(rid: str | None) -> str:
