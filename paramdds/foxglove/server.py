@@ -200,14 +200,16 @@ class FoxgloveServer:
         if not events or not self._connections:
             return
         updates: dict[str, Entry] = {}
-        reread: set[str] = set()  # nodes that came, went or restarted: published as the state says
+        # nodes that came, went or restarted (each one's last such event): published as the state
+        # says, once it says the same (a restart's events arrive while its state is being updated)
+        reread: dict[str, EventKind] = {}
         changed: dict[str, None] = {}
         for e in events:
             if not e.node:
                 continue
             changed[e.node] = None
             if e.event in (EventKind.ONLINE, EventKind.OFFLINE, EventKind.RESTARTED):
-                reread.add(e.node)
+                reread[e.node] = e.event
             elif e.event in (EventKind.ADDED, EventKind.MODIFIED) and e.name:
                 full = foxglove_name(e.node, e.name)
                 updates[full] = to_foxglove(full, e.value)
@@ -215,9 +217,9 @@ class FoxgloveServer:
                 full = foxglove_name(e.node, e.name)
                 updates[full] = {"name": full}
         tables = self._tables(changed)
-        for node in reread:
+        for node, kind in reread.items():
             held = tables.get(node)
-            if held is None:
+            if held is None or held[0].online is (kind is EventKind.OFFLINE):
                 continue
             online, table = held[0].online, held[1]
             for n, (v, _d) in table.items():
