@@ -318,3 +318,41 @@ def test_bad_options_are_usage_errors(domain: int) -> None:
         busy.listen()
         done = run_cli(domain, "foxglove", "--port", str(busy.getsockname()[1]), timeout=30)
         assert done.returncode == 2 and "cannot listen" in done.stderr, done
+
+
+def test_beyond_loopback_every_connection_needs_the_token(domain: int, nodes: Proc, tmp_path: Path) -> None:
+    tokens = tmp_path / "tokens"
+    tokens.write_text("0123456789abcdef\n")
+    proc, url = start_foxglove(domain, "--host", "0.0.0.0", "--token-file", str(tokens))
+    assert url.startswith("ws://0.0.0.0:")
+    url = url.replace("0.0.0.0", "127.0.0.1")
+
+    async def go() -> None:
+        for given in ("", "?token=wrong-token-0000000"):
+            with pytest.raises(InvalidStatus, match="401"):
+                await connect(url + given, subprotocols=[V1])  # type: ignore[list-item]
+        ws = await opened(url + "?token=0123456789abcdef")
+        await ws.close()
+        ws = await connect(
+            url, subprotocols=[V1], additional_headers={"Authorization": "Bearer 0123456789abcdef"}
+        )  # type: ignore[list-item]
+        await ws.close()
+
+    try:
+        run(go())
+    finally:
+        assert proc.stop() == 0
+
+
+def test_on_loopback_a_foreign_host_name_is_refused(fox: tuple[Proc, str]) -> None:
+    """A page whose DNS name rebinds to 127.0.0.1 sends its own name as Host: refused (403)."""
+    _, url = fox
+    port = int(url.rsplit(":", 1)[1].strip("/"))
+    for host, status in (("evil.example", b" 403 "), (f"localhost:{port}", b" 101 ")):
+        with socket.create_connection(("127.0.0.1", port), timeout=5) as s:
+            s.sendall(
+                f"GET / HTTP/1.1\r\nHost: {host}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+                f"Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n"
+                f"Sec-WebSocket-Protocol: {V1}\r\n\r\n".encode()
+            )
+            assert status in s.recv(200), host
