@@ -11,7 +11,6 @@ import asyncio
 import json
 import socket
 import struct
-import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -183,12 +182,10 @@ def test_sets_refusals_and_changes_made_elsewhere(domain: int, fox: tuple[Proc, 
             ws, {"op": "setParameters", "id": "s4", "parameters": [{"name": "/arm.note", "value": {"a": 1}}]}
         )
         assert "nested object" in (await until(ws, status_of("s4")))["message"]
-        # a change made by the CLI reaches the subscriber within a second
-        started = time.monotonic()
+        # a change made by the CLI reaches the subscriber (how fast: tests/foxglove/test_ws_clients.py)
         done = asyncio.create_task(asyncio.to_thread(run_cli, domain, "set", "arm", "gain", "7"))
         change = await until(ws, pushed("/arm.gain"), timeout=10)
         assert {"name": "/arm.gain", "value": 7} in change["parameters"]
-        assert time.monotonic() - started < 5  # the CLI's own start is most of it
         assert (await done).returncode == 0
         await ws.close()
         await watcher.close()
