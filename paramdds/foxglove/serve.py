@@ -22,8 +22,9 @@ from websockets.http11 import Request, Response
 
 from ..core.origin import Via
 from ..exits import Exit
+from ..listen import bind_socket
 from ..session import Session
-from .access import Access, access_for, bind_socket
+from .access import Access, access_for
 from .protocol import SUBPROTOCOLS
 from .server import FoxgloveServer
 

@@ -35,8 +35,9 @@ from ..core.descriptors import ParameterDescriptor
 from ..core.monitor_events import EventKind, MonitorEvent, NodeState
 from ..core.values import Parameter, ParameterType, ParameterValue
 from ..errors import ParamddsError
+from ..listen import Token, matching
 from . import protocol as p
-from .access import Access, Token, given_token, host_name, matching
+from .access import Access, given_token, host_name
 from .names import BadValue, foxglove_name, from_foxglove, split_name, to_foxglove
 
 if TYPE_CHECKING:

@@ -52,7 +52,8 @@ from ..core.revision import Revision, incarnation_text
 from ..core.values import NOT_SET, Parameter
 from ..errors import ErrorCode, FileFormatError, NoHistoryError, ParamddsError
 from ..file_load import unchanged as unchanged_value
-from .guard import LOOPBACK_NAMES, Guard, error_response
+from ..listen import LOOPBACK_NAMES, Token, matching
+from .guard import Guard, error_response
 from .hub import Hub, sse
 from .inputs import (
     bool_field,
@@ -77,7 +78,7 @@ from .model import (
     summary_json,
     typed_parameters,
 )
-from .operator import Token, claimed_name, matching, operator
+from .operator import claimed_name, operator
 from .status import WebCode, WebError, code_of, error_body, status_of
 from .view import NodeDetail, StateView
 

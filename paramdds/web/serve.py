@@ -17,7 +17,6 @@ import json
 import socket
 import sys
 from collections.abc import Sequence
-from pathlib import Path
 
 import h11
 import uvicorn
@@ -25,11 +24,11 @@ from uvicorn.protocols.http.h11_impl import H11Protocol
 
 from ..core.origin import Via
 from ..exits import Exit, UsageError
+from ..listen import LOOPBACK_NAMES, bind_socket, is_loopback, read_tokens
 from ..session import Session
 from .app import WebOptions, build_app
-from .guard import LOOPBACK_NAMES, SECURITY_HEADERS
+from .guard import SECURITY_HEADERS
 from .hub import Hub
-from .operator import Token, parse_tokens
 from .status import WebCode, error_body
 from .view import StateView
 
@@ -49,38 +48,6 @@ def parse_bind(text: str) -> tuple[str, int]:
     if not 0 <= port <= 65535:
         raise UsageError(f"--bind: the port must be within [0, 65535], got {port}")
     return host, port
-
-
-def is_loopback(host: str) -> bool:
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
-
-
-def read_tokens(path: str) -> tuple[Token, ...]:
-    """The tokens of ``--token-file``: one word of 16+ characters, or ``NAME TOKEN`` per line
-    (:mod:`.operator`); a file that is neither is a usage error naming it."""
-    try:
-        return parse_tokens(Path(path).read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:  # unreadable, not UTF-8, or not a token file
-        raise UsageError(f"--token-file {path}: {exc}") from exc
-
-
-def bind_socket(host: str, port: int) -> socket.socket:
-    family = socket.AF_INET6 if ":" in host else socket.AF_INET
-    sock = socket.socket(family, socket.SOCK_STREAM)
-    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-    try:
-        sock.bind((host, port))
-    except OSError as exc:
-        sock.close()
-        raise UsageError(f"cannot listen on {host}:{port}: {exc.strerror or exc}") from exc
-    sock.listen(128)
-    sock.set_inheritable(True)
-    return sock
 
 
 class JsonH11Protocol(H11Protocol):

@@ -14,7 +14,8 @@ from paramdds.core.results import LastChange
 from paramdds.core.values import ParameterType, ParameterValue
 from paramdds.exits import UsageError
 from paramdds.foxglove import protocol as p
-from paramdds.foxglove.access import access_for, given_token, host_name, parse_tokens
+from paramdds.foxglove.access import access_for, given_token, host_name
+from paramdds.listen import parse_tokens
 
 
 def test_the_parameter_operations_parse() -> None:

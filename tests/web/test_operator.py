@@ -11,8 +11,9 @@ from paramdds.core.history import HistoryRecord
 from paramdds.core.results import LastChange
 from paramdds.core.values import ParameterValue
 from paramdds.exits import UsageError
+from paramdds.listen import Token, matching, parse_tokens
 from paramdds.web.model import history_row, parameter_row
-from paramdds.web.operator import Token, claimed_name, matching, operator, parse_tokens
+from paramdds.web.operator import claimed_name, operator
 from paramdds.web.serve import options_from
 from paramdds.web.status import WebError
 

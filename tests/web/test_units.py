@@ -17,9 +17,10 @@ from paramdds.core.values import ParameterType, ParameterValue
 from paramdds.dds.monitor import EventKind, MonitorEvent
 from paramdds.errors import ErrorCode, OutOfRangeError, TypeMismatchError
 from paramdds.exits import UsageError
+from paramdds.listen import is_loopback
 from paramdds.web.hub import Hub
 from paramdds.web.model import atomic_refusal, choices, parameter_row, typed_parameters, typed_value
-from paramdds.web.serve import is_loopback, options_from, parse_bind
+from paramdds.web.serve import options_from, parse_bind
 from paramdds.web.status import STATUS, WebCode, status_of
 from paramdds.web.view import StateView
 
