@@ -37,6 +37,7 @@ VERBS = (
     "diff",
     "assign",
     "web",
+    "record",
     "keystore",
     "ros2",
     "zenoh",
