@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from ..core.descriptors import ParameterDescriptor
-from ..core.history import HistoryRecord
+from ..core.history import HistoryQuery, HistoryRecord
 from ..core.jsonform import descriptor_of_json, json_descriptor, json_tagged_value, value_of_tagged
 from ..core.results import LastChange, iso_time
 from ..core.values import ParameterType, ParameterValue
@@ -358,6 +358,11 @@ class Recording:
         names = {s.node for s in self.snapshots} | {r.node for r in self.changes}
         return sorted(names)
 
+    def history(self, node: str, query: HistoryQuery) -> list[HistoryRecord]:
+        """``node``'s recorded changes that ``query`` matches, in file order (a recording
+        holds applied changes only: a query for refused writes matches none)."""
+        return [r for r in self.changes if r.node == node and query.matches(r)]
+
     def state_at(
         self, node: str, *, revision: int | None = None, time_ns: int | None = None
     ) -> tuple[dict[str, ParameterValue], dict[str, ParameterDescriptor]] | None:
@@ -426,6 +431,7 @@ def read_recording(path: str) -> Recording:
     """Every message of the recording at ``path``, in file order. A file cut short (its
     recorder killed) is read up to the tear and :attr:`Recording.torn` says so; a file that
     is not a recording raises FileFormatError."""
+    from mcap.exceptions import InvalidMagic
     from mcap.records import Channel as McapChannel
     from mcap.records import DataEnd, Message
     from mcap.stream_reader import StreamReader
@@ -433,10 +439,11 @@ def read_recording(path: str) -> Recording:
     try:
         stream = open(path, "rb")  # noqa: SIM115 (closed below, after the records are read)
     except OSError as exc:
-        raise FileFormatError(f"{path}: cannot read: {exc.strerror or exc}") from None
+        raise FileFormatError(f"cannot read: {exc.strerror or exc}", file=path) from None
     out = Recording()
     topics: dict[int, str] = {}
     count = 0
+    whole = False  # the data section's end was read
     with stream:
         try:
             for record in StreamReader(stream, skip_magic=False).records:
@@ -446,12 +453,15 @@ def read_recording(path: str) -> Recording:
                     count += 1
                     _take(out, topics.get(record.channel_id, ""), record)
                 elif isinstance(record, DataEnd):
+                    whole = True
                     break  # the summary that follows repeats what was read
         except ParamddsError as exc:
-            raise FileFormatError(f"{path}: not a paramdds recording: {exc}") from None
-        except Exception as exc:  # the mcap reader's errors at a torn tail (EOF, CRC, a bad length)
-            if count == 0 and not topics:
-                raise FileFormatError(f"{path}: not an MCAP file ({type(exc).__name__}: {exc})") from None
+            raise FileFormatError(f"not a paramdds recording: {exc}", file=path) from None
+        except InvalidMagic:
+            raise FileFormatError("not an MCAP file", file=path) from None
+        except Exception:  # the mcap reader's errors at a torn tail (EOF, CRC, a bad length)
+            pass
+        if not whole:
             out.torn = (
                 f"{path} ends early (its recorder was killed?): read up to byte {stream.tell()}, "
                 f"{count} messages"

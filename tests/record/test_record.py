@@ -93,6 +93,22 @@ def test_snapshot_then_every_change_in_order_with_its_author_and_sigterm_finishe
                 end[c["name"]] = c["new"]["value"]
         assert end == now[node]
 
+    # read back by the CLI, where no node runs: the same shapes as from the nodes
+    done = cli(domain, "history", "robot1", "--from", str(path), "-o", "json")
+    assert done.returncode == 0, done.stderr
+    history = [(r["name"], r["old"], r["new"], r["who"], r["via"]) for r in json.loads(done.stdout)]
+    assert history == [r[1:] for r in robot1]
+    done = cli(domain, "history", "robot1", "robot.enabled", "--from", str(path))
+    assert done.returncode == 0 and "robot.enabled: true → false  by carol (claimed) via cli" in done.stdout
+    first = revisions[0]
+    done = cli(domain, "diff", f"robot1@{first}", "robot1", "--from", str(path))
+    assert done.returncode == 1, done.stderr  # they differ
+    assert done.stdout.splitlines() == ["robot.enabled: true → false", "robot.max_velocity: 2.5 → 3.0"]
+    done = cli(domain, "diff", "robot1@2000-01-01", "robot1", "--from", str(path))
+    assert done.returncode == 1 and "does not reach node 'robot1'" in done.stderr
+    done = cli(domain, "history", "ghost", "--from", str(path))
+    assert done.returncode == 3 and done.stderr.count("\n") == 1, done.stderr
+
 
 def test_kill_9_leaves_a_file_readable_up_to_the_last_2_seconds(nodes: int, tmp_path: Path) -> None:
     domain = nodes
@@ -115,3 +131,8 @@ def test_kill_9_leaves_a_file_readable_up_to_the_last_2_seconds(nodes: int, tmp_
     older = [v for when, v in made if when < killed - 2.0]
     assert older, "the test made no change more than 2 s before the kill"
     assert recorded[: len(older)] == older, (recorded, made, killed)
+    done = cli(domain, "history", "robot1", "--from", str(path), "-o", "json")
+    assert done.returncode == 0, done.stderr
+    assert [r["new"] for r in json.loads(done.stdout)] == recorded
+    assert done.stderr.startswith("paramdds: note: ") and "ends early" in done.stderr
+    assert done.stderr.count("\n") == 1
