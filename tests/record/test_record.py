@@ -10,6 +10,7 @@ every change made more than 2 s before the kill.
 from __future__ import annotations
 
 import json
+import signal
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -136,3 +137,61 @@ def test_kill_9_leaves_a_file_readable_up_to_the_last_2_seconds(nodes: int, tmp_
     assert [r["new"] for r in json.loads(done.stdout)] == recorded
     assert done.stderr.startswith("paramdds: note: ") and "ends early" in done.stderr
     assert done.stderr.count("\n") == 1
+
+
+def test_a_stalled_recorder_fills_what_it_missed_from_history(nodes: int, tmp_path: Path) -> None:
+    """SIGSTOP the recorder while a parameter changes ten times: its reader keeps only the
+    newest sample, and the revisions between are read from the node's history."""
+    domain = nodes
+    path = tmp_path / "stalled.mcap"
+    rec = start_recorder(domain, path, "robot1")
+    try:
+        rec.popen.send_signal(signal.SIGSTOP)
+        try:
+            for i in range(10):
+                set_as(domain, "dave", "robot1", f"robot.max_velocity={20.0 + i}")
+        finally:
+            rec.popen.send_signal(signal.SIGCONT)
+        time.sleep(2.0)
+    finally:
+        assert rec.stop() == 0, rec.stderr_text()
+    msgs = messages(path)
+    assert not [b for t, _, b in msgs if t == "/paramdds/gaps"]
+    changes = [b for t, _, b in msgs if t == "/paramdds/changes"]
+    assert [c["new"]["value"] for c in changes] == [20.0 + i for i in range(10)]
+    assert [c["old"]["value"] for c in changes] == [1.5] + [20.0 + i for i in range(9)]
+    assert {c["who"] for c in changes} == {"dave"}
+    revisions = [c["revision"] for c in changes]
+    assert revisions == list(range(revisions[0], revisions[0] + 10))
+    sources = [c["source"] for c in changes]
+    assert "history" in sources, sources  # the stall made the reader skip: filled from history
+    assert all(t != "/paramdds/snapshot" or b["node"] == "robot1" for t, _, b in msgs)  # the glob
+
+
+def test_split_by_time_starts_each_file_with_a_snapshot(nodes: int, tmp_path: Path) -> None:
+    domain = nodes
+    path = tmp_path / "split.mcap"
+    rec = start_recorder(domain, path, "--split", "2s")
+    try:
+        assert rec.lines[-1][1].endswith("split-0001.mcap")
+        for i in range(8):
+            set_as(domain, "erin", "robot2", f"robot.wheel_count={10 + i}")
+            time.sleep(0.4)
+        rec.wait_for("split-0002.mcap", 10)
+    finally:
+        assert rec.stop() == 0, rec.stderr_text()
+    parts = sorted(tmp_path.glob("split-*.mcap"))
+    assert len(parts) >= 2 and not path.exists()
+    seen = []
+    for part in parts:
+        msgs = messages(part)  # each part finished: summary and footer
+        snaps = [b for t, _, b in msgs if t == "/paramdds/snapshot"]
+        assert {s["node"] for s in snaps} == {"robot1", "robot2"}
+        assert msgs[0][0] == "/paramdds/snapshot"
+        (robot2,) = [s for s in snaps if s["node"] == "robot2"]
+        wheels = {p["name"]: p["value"]["value"] for p in robot2["parameters"]}
+        changes = [b["new"]["value"] for t, _, b in msgs if t == "/paramdds/changes"]
+        # a part's snapshot holds the value the changes before it left
+        assert wheels["robot.wheel_count"] == (seen[-1] if seen else 4)
+        seen.extend(changes)
+    assert seen == [10 + i for i in range(8)]
