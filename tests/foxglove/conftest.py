@@ -7,8 +7,11 @@ git-ignored) and again only when the lock file changes: a stamp in ``node_module
 lock file's hash. A file lock keeps two pytest processes from installing at once.
 
 Without ``node``, ``npm`` or the registry the tests skip with the reason; under ``CI=true``
-they fail. :func:`run_node` runs one script to its end; :func:`start_node` starts one as a
-:class:`~tests.reliability.conftest.Proc` whose JSON lines a test reads as they come.
+they fail. Every script prints JSON lines and ends with a ``done`` event, or ``error`` or
+``timeout`` (``node/lines.js``; the FoxgloveClient scenarios build on ``node/client.js``).
+:func:`run_node` runs one script to its end; :func:`start_node` starts one as a
+:class:`~tests.reliability.conftest.Proc` whose JSON lines a test reads as they come. Tests
+elsewhere (``tests/record``) call :func:`require_node_packages` before them.
 """
 
 from __future__ import annotations

@@ -1,25 +1,9 @@
-// Shared by the scenario scripts: a FoxgloveClient over `ws`, JSON lines on stdout, a watchdog.
-//
-// Every script is run as `node SCRIPT URL SUBPROTOCOL [ARGS...]` and prints one JSON object a
-// line: {"event": ..., ...}. It ends with {"event": "done"} (exit 0), {"event": "error"} (exit 2)
-// or {"event": "timeout"} (exit 3, after FOXGLOVE_TEST_TIMEOUT seconds, default 20): never a hang.
+// A FoxgloveClient over `ws` for the scenario scripts, run as `node SCRIPT URL SUBPROTOCOL [ARGS...]`
+// (their output: see lines.js).
 "use strict";
 const { FoxgloveClient } = require("@foxglove/ws-protocol");
 const { WebSocket } = require("ws");
-
-function emit(event, fields = {}) {
-  process.stdout.write(JSON.stringify({ event, ...fields }) + "\n");
-}
-
-function finish(code, event, fields = {}) {
-  emit(event, fields);
-  // exit once stdout is flushed (a pipe may still hold the last lines)
-  process.stdout.write("", () => process.exit(code));
-}
-
-const seconds = Number(process.env.FOXGLOVE_TEST_TIMEOUT || 20);
-setTimeout(() => finish(3, "timeout", { seconds }), seconds * 1000);
-process.on("unhandledRejection", (err) => finish(2, "error", { message: String(err?.message ?? err) }));
+const { emit, run } = require("./lines");
 
 // Messages from the server, in arrival order, with a way to wait for the next one that matches.
 class Inbox {
@@ -77,16 +61,8 @@ function connect(url, subprotocol) {
 // The command line every script shares: URL SUBPROTOCOL, then the script's own arguments.
 function args() {
   const [url, subprotocol, ...rest] = process.argv.slice(2);
-  if (!url || !subprotocol) finish(2, "error", { message: "usage: node SCRIPT URL SUBPROTOCOL [ARGS...]" });
+  if (!url || !subprotocol) throw new Error("usage: node SCRIPT URL SUBPROTOCOL [ARGS...]");
   return { url, subprotocol, rest };
-}
-
-// Run `main` and end with done or error.
-function run(main) {
-  main().then(
-    () => finish(0, "done"),
-    (err) => finish(2, "error", { message: String(err?.message ?? err) }),
-  );
 }
 
 module.exports = { emit, connect, args, run };
