@@ -28,7 +28,7 @@ from ..core.monitor_events import MonitorEvent
 from ..errors import NoHistoryError, ParamddsError
 from ..exits import Exit, UsageError
 from ..session import Session
-from .mcapfile import McapFile, Split, part_path
+from .mcapfile import McapFile, Split, parse_split, part_path
 from .tracker import Out, Tracker
 
 if TYPE_CHECKING:
@@ -94,8 +94,15 @@ class HistoryFill:
         return [r for r in records if r.revision < before], "retention dropped it" if reply.compacted else ""
 
 
-def run_record(args: argparse.Namespace, nodes: list[str], split: Split) -> int:
-    """Record until SIGINT or SIGTERM; exit 0 once the file is finished."""
+def run_record(args: argparse.Namespace, nodes: list[str]) -> int:
+    """Record ``nodes`` (ids and globs; none: every node) to ``args.output_file`` until SIGINT
+    or SIGTERM, split by ``args.split``; exit 0 once the file is finished."""
+    split = Split()
+    if args.split is not None:
+        try:
+            split = parse_split(args.split)
+        except ValueError as exc:
+            raise UsageError(f"--split: {exc}") from None
     stop = threading.Event()
     events: queue.Queue[MonitorEvent] = queue.Queue()
     last_event = [time.monotonic()]

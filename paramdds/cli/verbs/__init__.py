@@ -37,6 +37,7 @@ VERBS = (
     "diff",
     "assign",
     "web",
+    "foxglove",
     "record",
     "keystore",
     "ros2",

@@ -39,13 +39,6 @@ def run(args: argparse.Namespace) -> int:
             f"'paramdds record' needs the foxglove extra ({', '.join(missing)} not installed): "
             f"{RECORD_INSTALL} in the paramdds checkout"
         )
-    from ...record.mcapfile import Split, parse_split
     from ...record.serve import run_record
 
-    split = Split()
-    if args.split is not None:
-        try:
-            split = parse_split(args.split)
-        except ValueError as exc:
-            raise UsageError(f"--split: {exc}") from None
-    return run_record(args, [node_glob_arg(n) for n in args.nodes], split)
+    return run_record(args, [node_glob_arg(n) for n in args.nodes])
