@@ -7,7 +7,8 @@ Schemas (schema encoding ``jsonschema``, what Foxglove and Lichtblick read):
 * :data:`SNAPSHOT` ``/paramdds/snapshot``: one node's whole state, one message per node at
   the start of each file: ``{node, online, incarnation, revision, time, parameters: [{name,
   type, value, descriptor, last_change}]}`` (``value`` tagged ``{type, value}``, ``descriptor``
-  in its tagged JSON form, ``last_change`` ``{who, verified, via, time, revision}`` or null);
+  in its tagged JSON form, ``last_change`` ``{who, verified, via, time, revision}`` or null;
+  ``incarnation``, a 64-bit number, as a decimal string: JavaScript's numbers hold 53 bits);
 * :data:`CHANGES` ``/paramdds/changes``: one parameter's change: ``{node, name, kind, type,
   value, old, new, who, verified, via, revision, time, source}``; ``value`` is the new value as
   a number when it is one (a bool is 0 or 1), else null: what a Plot panel graphs; ``old``
@@ -110,7 +111,7 @@ SNAPSHOT = Channel(
         "properties": {
             "node": {"type": "string"},
             "online": {"type": "boolean"},
-            "incarnation": {"type": "integer"},
+            "incarnation": {"type": "string", "description": "the server's start (a u64, as text)"},
             "revision": {"type": "integer"},
             "time": {"type": "string", "format": "date-time"},
             "parameters": {
@@ -169,7 +170,7 @@ PRESENCE = Channel(
             "node": {"type": "string"},
             "event": {"type": "string", "enum": ["online", "offline", "restarted"]},
             "online": {"type": "boolean"},
-            "incarnation": {"type": "integer"},
+            "incarnation": {"type": "string", "description": "the server's start (a u64, as text)"},
             "revision": {"type": "integer"},
             "time": {"type": "string", "format": "date-time"},
         },
@@ -239,7 +240,7 @@ def snapshot_message(
     return {
         "node": node,
         "online": online,
-        "incarnation": incarnation,
+        "incarnation": str(incarnation),
         "revision": revision,
         "time": iso_time(time_ns),
         "parameters": [
@@ -299,7 +300,7 @@ def presence_message(
         "node": node,
         "event": event,
         "online": online,
-        "incarnation": incarnation,
+        "incarnation": str(incarnation),
         "revision": revision,
         "time": iso_time(time_ns),
     }
