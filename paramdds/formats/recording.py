@@ -464,8 +464,8 @@ def read_recording(path: str) -> Recording:
             pass
         if not whole:
             out.torn = (
-                f"{path} ends early (its recorder was killed?): read up to byte {stream.tell()}, "
-                f"{count} messages"
+                f"{path} is not finished (still being recorded, or its recorder was killed): "
+                f"read up to its last whole chunk, {count} messages"
             )
     return out
 

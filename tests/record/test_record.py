@@ -135,7 +135,7 @@ def test_kill_9_leaves_a_file_readable_up_to_the_last_2_seconds(nodes: int, tmp_
     done = cli(domain, "history", "robot1", "--from", str(path), "-o", "json")
     assert done.returncode == 0, done.stderr
     assert [r["new"] for r in json.loads(done.stdout)] == recorded
-    assert done.stderr.startswith("paramdds: note: ") and "ends early" in done.stderr
+    assert done.stderr.startswith("paramdds: note: ") and "is not finished" in done.stderr
     assert done.stderr.count("\n") == 1
 
 
