@@ -1,7 +1,8 @@
 """``paramdds record``: a monitor's every change, with its author, written to MCAP until SIGINT or SIGTERM.
 
-The monitor (over DDS, or with ``--zenoh`` every site's) queues its events from the
-start; once discovery has settled the recorder takes its state as each node's snapshot,
+The file is created first (a path that cannot be written is exit 2 at once). The monitor
+(over DDS, or with ``--zenoh`` every site's) queues its events from the start; once
+discovery has settled the recorder takes its state as each node's snapshot,
 writes it, flushes, and prints ``[RECORD] Recording N nodes to FILE``. Then the main
 thread turns the queued events into messages (:mod:`.tracker`: each change once; revisions
 the monitor skipped filled from the node's history, or recorded as a gap) and writes them
@@ -118,10 +119,10 @@ def run_record(args: argparse.Namespace, nodes: list[str]) -> int:
     try:
         with Session(args) as session:
             recorder = Recorder(args.output_file, split, HistoryFill(session))
+            file = recorder.open_next()  # first: a path that cannot be written fails at once
             started = time.monotonic()
             monitor = session.monitor(nodes or None, on_event=on_event)
             _settle(monitor, started, args.timeout, lambda: last_event[0], stop)
-            file = recorder.open_next()
             recorder.write(recorder.tracker.start(monitor.snapshot(), time.time_ns()))
             file.flush()
             _say(f"[RECORD] Recording {recorder.tracker.nodes} nodes to {file.path}")
