@@ -23,14 +23,19 @@ from ._support import NAMES, PARAMS, cli, messages, set_as, start_recorder, stre
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(180)]  # real servers and a recorder: ~10 s each
 
 
+SERVERS: dict[int, dict[str, Proc]] = {}  # a test's servers by domain, to stop one of them
+
+
 @pytest.fixture
 def nodes(domain_id: int, tmp_path: Path) -> Iterator[int]:
     params = tmp_path / "params.yaml"
     params.write_text(PARAMS)
-    servers = [start_server(domain_id, "-n", name, "-p", str(params)) for name in ("robot1", "robot2")]
+    servers = {name: start_server(domain_id, "-n", name, "-p", str(params)) for name in ("robot1", "robot2")}
+    SERVERS[domain_id] = servers
     yield domain_id
-    for s in servers:
+    for s in servers.values():
         s.stop()
+    del SERVERS[domain_id]
 
 
 def _state(domain: int, node: str) -> dict[str, object]:
@@ -53,6 +58,8 @@ def test_snapshot_then_every_change_in_order_with_its_author_and_sigterm_finishe
         set_as(domain, "alice", "robot1", "robot.max_velocity=3.0")
         time.sleep(1.0)
         now = {n: _state(domain, n) for n in ("robot1", "robot2")}
+        SERVERS[domain]["robot2"].stop()  # a graceful stop: offline at once
+        time.sleep(1.5)
     finally:
         assert rec.stop() == 0, rec.stderr_text()
 
@@ -86,6 +93,9 @@ def test_snapshot_then_every_change_in_order_with_its_author_and_sigterm_finishe
     revisions = [c["revision"] for c in changes if c["node"] == "robot1"]
     assert revisions == sorted(revisions) and len(set(revisions)) == 3
     assert all(c["source"] == "live" for c in changes)
+    presence = [(b["node"], b["event"], b["online"]) for t, _, b in msgs if t == "/paramdds/presence"]
+    assert presence == [("robot2", "offline", False)]
+    assert not [b for t, _, b in msgs if t == "/paramdds/gaps"]
     # the recorded end state is each node's state
     for node in ("robot1", "robot2"):
         end = {p["name"]: p["value"]["value"] for p in snaps[node]["parameters"]}
