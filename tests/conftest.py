@@ -20,9 +20,13 @@ from __future__ import annotations
 
 import os
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from typing import TYPE_CHECKING
 
 import pytest
+
+if TYPE_CHECKING:
+    from .zenoh.conftest import Fleet
 
 os.environ["PARAMDDS_LOCALHOST"] = "1"
 TEST_TAG = f"paramdds-test-{os.getpid()}"
@@ -71,6 +75,19 @@ def make_dds_env(domain_id: int, **extra: str) -> dict[str, str]:
     env["CYCLONEDDS_URI"] = TEST_URI
     env.update(extra)
     return env
+
+
+@pytest.fixture
+def fleet() -> Iterator[Fleet]:
+    """Sites on loopback behind one Zenoh router (:class:`tests.zenoh.conftest.Fleet`), stopped at
+    the end; skips without the zenoh extra."""
+    from .zenoh.conftest import Fleet
+
+    f = Fleet([])
+    try:
+        yield f
+    finally:
+        f.close()
 
 
 @pytest.fixture

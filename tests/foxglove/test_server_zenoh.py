@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import asyncio
 import json
-from collections.abc import Iterator
 
 import pytest
 
@@ -14,15 +13,6 @@ from .test_server import READY, ask, opened, replied, until
 pytest.importorskip("zenoh", reason="the zenoh extra is not installed (pip install -e '.[zenoh]')")
 
 from ..zenoh.conftest import Fleet
-
-
-@pytest.fixture
-def fleet() -> Iterator[Fleet]:
-    f = Fleet([])
-    try:
-        yield f
-    finally:
-        f.close()
 
 
 def test_a_fleet_through_zenoh(fleet: Fleet) -> None:

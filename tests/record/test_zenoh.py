@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import subprocess
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -15,14 +14,6 @@ from ._support import messages
 
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(180)]
 
-
-@pytest.fixture
-def fleet() -> Iterator[Fleet]:
-    f = Fleet([])
-    try:
-        yield f
-    finally:
-        f.close()
 
 
 def test_a_remote_site_is_recorded_with_its_authors(fleet: Fleet, tmp_path: Path) -> None:

@@ -12,7 +12,7 @@ import json
 import re
 import time
 import urllib.request
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 
 import pytest
 from playwright.sync_api import Page, expect
@@ -24,14 +24,6 @@ pytestmark = [pytest.mark.slow, pytest.mark.timeout(120)]
 
 OFFLINE = re.compile(r"\boffline\b")
 
-
-@pytest.fixture
-def fleet() -> Iterator[Fleet]:
-    f = Fleet([])
-    try:
-        yield f
-    finally:
-        f.close()
 
 
 def until(check: Callable[[], object], timeout: float = 15.0) -> object:

@@ -104,16 +104,6 @@ def procs() -> Iterator[list[Proc]]:
         proc.stop()
 
 
-@pytest.fixture
-def fleet() -> Iterator[Fleet]:
-    procs: list[Proc] = []
-    f = Fleet(procs)
-    try:
-        yield f
-    finally:
-        f.close()
-
-
 def wait_for(predicate: Callable[[], bool], timeout: float, step: float = 0.02) -> bool:
     import time
 
