@@ -10,12 +10,17 @@ call bounded by a 5 s timeout; a node that failed is ignored from then on (the b
 ignore list). Then S changes (sets) of ``/bench_n0000``'s ``group0.param_000`` through its
 parameter client, each timed until its ``/parameter_events`` message reaches this
 process (where the bridge would push it to the panel). Prints one JSON line.
+
+The node spins in an executor on a thread of its own, as the bridge's node spins in its
+own; the main thread issues the calls and polls their futures every millisecond. This is
+rclpy, not the bridge's C++: the same calls, with Python's cost per callback.
 """
 
 from __future__ import annotations
 
 import json
 import sys
+import threading
 import time
 from typing import Any
 
@@ -35,6 +40,7 @@ def probe(n: int, rounds: int, sets: int) -> dict[str, Any]:
     quiet_imports()
     import rclpy
     from rcl_interfaces.msg import ParameterEvent
+    from rclpy.executors import SingleThreadedExecutor
     from rclpy.parameter import Parameter
     from rclpy.parameter_client import AsyncParameterClient
     from rclpy.qos import qos_profile_parameter_events
@@ -43,19 +49,37 @@ def probe(n: int, rounds: int, sets: int) -> dict[str, Any]:
     node = rclpy.create_node("foxglove_bridge_probe")
     me = node.get_fully_qualified_name()
     wanted = {f"/bench_n{i:04d}" for i in range(n)}
-    clients: dict[str, Any] = {}
     deadline = time.monotonic() + 120 + n / 5
-    while True:  # the bridge has been running: every node's services are known and ready
+    while True:  # the graph is known without spinning (rmw's discovery thread keeps it)
         present = {fqn_of(name, ns) for name, ns in node.get_node_names_and_namespaces()} & wanted
-        for fqn in present - clients.keys():
-            clients[fqn] = AsyncParameterClient(node, fqn)
-        if present == wanted and all(c.services_are_ready() for c in clients.values()):
+        if present == wanted:
             break
         if time.monotonic() > deadline:
             raise SystemExit(f"ros probe: {len(present)} of {n} nodes in the graph")
-        rclpy.spin_once(node, timeout_sec=0.05)
+        time.sleep(0.05)
+    # every entity before the executor spins (rclpy deadlocks creating one while it does)
+    clients = {fqn: AsyncParameterClient(node, fqn) for fqn in sorted(wanted)}
+    seen: list[float] = []
+    expected: dict[str, Any] = {}
+
+    def on_event(event: Any) -> None:
+        if event.node == NODE0 and "at" in expected:
+            for p in event.changed_parameters:
+                if p.name == PARAM0 and p.value.double_value == expected["value"]:
+                    seen.append(_ms(expected.pop("at")))
+
+    node.create_subscription(ParameterEvent, "/parameter_events", on_event, qos_profile_parameter_events)
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    threading.Thread(target=executor.spin, daemon=True).start()
+    while not all(c.services_are_ready() for c in clients.values()):  # the bridge has been running
+        if time.monotonic() > deadline:
+            raise SystemExit("ros probe: parameter services not ready")
+        time.sleep(0.05)
+    time.sleep(1.0)  # the event subscription matches the nodes' writers
     ignored: set[str] = {me}
     round_ms: list[float] = []
+    graph_ms: list[float] = []
     answered: list[int] = []
     params: list[int] = []
     for _ in range(rounds):
@@ -68,17 +92,18 @@ def probe(n: int, rounds: int, sets: int) -> dict[str, Any]:
             types = {t for _srv, ts in node.get_service_names_and_types_by_node(name, ns) for t in ts}
             if _LIST in types and _GET in types:
                 targets.append(fqn)
+        graph_ms.append(_ms(t0))
         pending: dict[Any, tuple[str, str, float]] = {}
         failed: set[str] = set()
         for fqn in targets:
-            client = clients.setdefault(fqn, AsyncParameterClient(node, fqn))
-            if not client.services_are_ready():
+            client = clients.get(fqn)
+            if client is None or not client.services_are_ready():  # a new client is never ready yet
                 failed.add(fqn)
                 continue
             pending[client.list_parameters([], 0)] = (fqn, "list", time.perf_counter())
         got: dict[str, int] = {}
         while pending:
-            rclpy.spin_once(node, timeout_sec=0.002)
+            time.sleep(0.001)
             now = time.perf_counter()
             for future, (fqn, what, started) in list(pending.items()):
                 if future.done():
@@ -96,19 +121,6 @@ def probe(n: int, rounds: int, sets: int) -> dict[str, Any]:
         answered.append(len(got))
         params.append(sum(got.values()))
 
-    seen: list[float] = []
-    expected: dict[str, Any] = {}
-
-    def on_event(event: Any) -> None:
-        if event.node == NODE0 and "at" in expected:
-            for p in event.changed_parameters:
-                if p.name == PARAM0 and p.value.double_value == expected["value"]:
-                    seen.append(_ms(expected.pop("at")))
-
-    node.create_subscription(ParameterEvent, "/parameter_events", on_event, qos_profile_parameter_events)
-    settle = time.monotonic() + 1.0  # the subscription matches the nodes' event writers
-    while time.monotonic() < settle:
-        rclpy.spin_once(node, timeout_sec=0.01)
     latency: list[float] = []
     lost = 0
     warm = max(1, sets // 10)
@@ -119,16 +131,18 @@ def probe(n: int, rounds: int, sets: int) -> dict[str, Any]:
         future = clients[NODE0].set_parameters([Parameter(PARAM0, value=expected["value"])])
         end = time.monotonic() + TIMEOUT
         while (len(seen) == before or not future.done()) and time.monotonic() < end:
-            rclpy.spin_once(node, timeout_sec=0.001)
+            time.sleep(0.0005)
         if len(seen) == before:
             lost += 1
             expected.pop("at", None)
         elif i >= warm:
             latency.append(seen[-1])
+    executor.shutdown(timeout_sec=2.0)
     node.destroy_node()
     rclpy.try_shutdown()
     return {
         "round_ms": round_ms,
+        "graph_ms": graph_ms,
         "answered": answered,
         "params": params,
         "ignored": len(ignored) - 1,
