@@ -37,6 +37,7 @@ VERBS = (
     "diff",
     "assign",
     "web",
+    "foxglove",
     "keystore",
     "ros2",
     "zenoh",
