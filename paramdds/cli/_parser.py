@@ -153,8 +153,11 @@ def build_parser(argv: Sequence[str] | None = None) -> Parser:
             sub.add_parser(name, aliases=ALIASES.get(name, ()))  # not this run's verb: its name is enough
             continue
         module = verb(name)
+        # a verb may give a global option another meaning (record's -o is its file): OVERRIDES_GLOBALS
+        conflict = "resolve" if getattr(module, "OVERRIDES_GLOBALS", False) else "error"
         p: Parser = sub.add_parser(
-            name, aliases=ALIASES.get(name, ()), help=module.HELP, description=module.HELP
+            name, aliases=ALIASES.get(name, ()), help=module.HELP, description=module.HELP,
+            conflict_handler=conflict,
         )
         _add_globals(p, top=False)
         module.add_arguments(p)

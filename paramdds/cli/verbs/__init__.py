@@ -38,6 +38,7 @@ VERBS = (
     "assign",
     "web",
     "foxglove",
+    "record",
     "keystore",
     "ros2",
     "zenoh",

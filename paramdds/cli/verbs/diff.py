@@ -44,6 +44,12 @@ ANY_NODE = "any_node"  # the node a file is read for when no side names one (its
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("a", metavar="A", help="a node, NODE@REV, NODE@TIME, a glob ('robot*') or a file")
     p.add_argument("b", metavar="B", help="the same kinds as A")
+    p.add_argument(
+        "--from",
+        dest="from_file",
+        metavar="FILE.mcap",
+        help="read the nodes (as they were, and now: at the recording's end) from a recording",
+    )
 
 
 @dataclass(frozen=True)
@@ -94,6 +100,8 @@ def run(args: argparse.Namespace) -> int:
     missing: dict[str, Lack] = {}
     if a.path is not None and b.path is not None:
         blocks = files_blocks(a, b)
+    elif args.from_file is not None:
+        blocks = recording_blocks(args.from_file, a, b)
     else:
         from ...session import Session
 
@@ -256,6 +264,53 @@ def _rebuilt(client: ParameterClient, node: str, now: Values, point: Point) -> V
             f"cannot rebuild node {node!r} at {point}: retention dropped its history before that{oldest}"
         )
     return {n: v for n, v in rewind(now, reply.records).items() if v.type is not ParameterType.NOT_SET}
+
+
+# -- a recording ------------------------------------------------------------------------
+
+
+def recording_blocks(path: str, a: Side, b: Side) -> list[Block]:
+    """``--from FILE.mcap``: the node sides as the recording holds them (``NODE``: at its end;
+    ``NODE@REV``, ``NODE@TIME``: as they were then), the same blocks as :func:`node_blocks`."""
+    from ...core.diff import compare
+    from .._recording import open_recording
+
+    recording = open_recording(path)
+
+    def states(side: Side) -> dict[str, tuple[Values, Descriptors]]:
+        from ...core.names import NodeFilter
+        from ...errors import NoHistoryError, UnavailableError
+
+        assert side.pattern is not None
+        wanted = NodeFilter([side.pattern])
+        matched = [n for n in recording.nodes if n in wanted]
+        if not matched:
+            raise UnavailableError(f"no node of the recording {path} matches {side.pattern}")
+        out = {}
+        for node in matched:
+            p = side.point
+            state = recording.state_at(
+                node,
+                revision=p.revision if p else None,
+                time_ns=round(p.time_s * 1e9) if p and p.time_s is not None else None,
+            )
+            if state is None:
+                raise NoHistoryError(f"the recording {path} does not reach node {node!r} at {p}")
+            out[node] = state
+        return out
+
+    if a.pattern is None or (b.is_glob and not a.is_glob):  # the node (or glob) side first
+        return [Block(k.node, k.b, k.a, _swap(k.differences)) for k in recording_blocks(path, b, a)]
+    fixed = next(iter(states(b).values()))[0] if b.path is None else None
+    blocks = []
+    for node, (values, descriptors) in states(a).items():
+        if fixed is not None:
+            other = fixed
+        else:
+            assert b.path is not None
+            other = _fitted(file_values(b.path, node), descriptors)
+        blocks.append(Block(node, node if a.is_glob else a.text, b.text, compare(values, other)))
+    return blocks
 
 
 def _fitted(values: Values, descriptors: Descriptors) -> Values:

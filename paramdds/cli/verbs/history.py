@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from ...core.history import HistoryRecord
     from ...core.values import ParameterValue
+    from .._when import Point
 
 HELP = "who changed what, and when: a node's past changes and refused writes"
 
@@ -30,6 +31,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--until", metavar="TIME", help="up to TIME (ISO 8601, or an age: 10m)")
     p.add_argument("--who", metavar="PATTERN", default="", help="only changes by these (a glob: '*@lab')")
     p.add_argument("--refused", action="store_true", help="only the writes the node refused")
+    p.add_argument(
+        "--from",
+        dest="from_file",
+        metavar="FILE.mcap",
+        help="read the changes from a recording (paramdds record) instead of asking the node",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -44,6 +51,8 @@ def run(args: argparse.Namespace) -> int:
     names = names_arg(args.names)
     since = parse_point(args.since) if args.since is not None else None
     until = parse_time(args.until) if args.until is not None else None
+    if args.from_file is not None:
+        return _from_recording(args, node, names, since, until)
     with Session(args) as session:
         reply = session.client().history(
             node,
@@ -59,6 +68,32 @@ def run(args: argparse.Namespace) -> int:
     if reply.compacted:
         problem(compacted_line(node, records))
         return Exit.REFUSED
+    return Exit.OK
+
+
+def _from_recording(
+    args: argparse.Namespace, node: str, names: list[str], since: Point | None, until: float | None
+) -> int:
+    """``history --from FILE.mcap``: the node's changes as the recording holds them."""
+    from ...core.history import HistoryQuery, Outcome
+    from ...errors import UnavailableError
+    from ...exits import Exit
+    from .._output import emit
+    from .._recording import open_recording
+
+    recording = open_recording(args.from_file)
+    if node not in recording.nodes:
+        raise UnavailableError(f"node {node!r} is not in the recording {args.from_file}")
+    query = HistoryQuery(
+        names=tuple(names),
+        since_revision=since.revision if since else None,
+        since_time_ns=round(since.time_s * 1e9) if since and since.time_s is not None else None,
+        until_time_ns=round(until * 1e9) if until is not None else None,
+        who=args.who,
+        outcome=Outcome.REFUSED if args.refused else Outcome.ALL,
+    )
+    records = recording.history(node, query)
+    emit(args.output, [r.to_json() for r in records], "\n".join(history_line(r) for r in records))
     return Exit.OK
 
 
