@@ -33,6 +33,8 @@ SCENARIOS = {
     "fresh get, warm get/set, graph size, a host killed, the bridge (needs the ros2 extra)",
     "foxglove": "a Foxglove client's get-all at 100, 1,000, 10,000 nodes x 20 params and change-to-client "
     "latency (paramdds foxglove) vs foxglove_bridge's way over rclpy nodes (foxglove extra)",
+    "record": "paramdds record: its CPU and bytes per change at 10, 100, 1,000 changes/s, "
+    "vs paramdds watch following the same changes (foxglove extra)",
 }
 
 
@@ -91,6 +93,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="N,N…",
         help="foxglove: node counts of the ROS 2 baseline (default 100,300)",
     )
+    p.add_argument(
+        "--rates", type=_int_list, metavar="R,R…", help="record: changes per second (default 10,100,1000)"
+    )
     p.add_argument("--sites", type=_int_list, metavar="S,S…", help="zenoh: site counts (default 1,10)")
     p.add_argument(
         "--clients",
@@ -108,7 +113,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--window", type=positive_int, metavar="W", help="throughput: requests in flight per client"
     )
     p.add_argument(
-        "--seconds", type=positive_float, metavar="S", help="throughput, persist: measured seconds per round"
+        "--seconds",
+        type=positive_float,
+        metavar="S",
+        help="throughput, persist: measured seconds per round; record: seconds per rate (default 5)",
     )
 
 
