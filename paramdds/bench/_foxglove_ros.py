@@ -71,7 +71,8 @@ def probe(n: int, rounds: int, sets: int) -> dict[str, Any]:
     node.create_subscription(ParameterEvent, "/parameter_events", on_event, qos_profile_parameter_events)
     executor = SingleThreadedExecutor()
     executor.add_node(node)
-    threading.Thread(target=executor.spin, daemon=True).start()
+    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner.start()
     while not all(c.services_are_ready() for c in clients.values()):  # the bridge has been running
         if time.monotonic() > deadline:
             raise SystemExit("ros probe: parameter services not ready")
@@ -137,9 +138,10 @@ def probe(n: int, rounds: int, sets: int) -> dict[str, Any]:
             expected.pop("at", None)
         elif i >= warm:
             latency.append(seen[-1])
+    rclpy.try_shutdown()  # wakes the executor, which returns from spin (ros2_host's order)
+    spinner.join(timeout=5.0)
     executor.shutdown(timeout_sec=2.0)
     node.destroy_node()
-    rclpy.try_shutdown()
     return {
         "round_ms": round_ms,
         "graph_ms": graph_ms,
