@@ -421,7 +421,7 @@ def table(data: dict[str, Any]) -> str:
         lines.append(
             "ROS 2 baseline at N = "
             + ", ".join(map(str, data["ros_counts"]))
-            + " only (rclpy nodes: larger N do not fit this machine in a bench run); its first round "
-            "(the bridge's per-node clients new) is left out of its get-all times"
+            + " only (rclpy nodes: larger N do not fit this machine in a bench run); the rclpy "
+            "process's first round (its first call on each client) is left out of its get-all times"
         )
     return "\n".join(lines) + "\n" + render(heads, body)
