@@ -59,13 +59,16 @@ class Feeder:
                     self.refused += 1
 
     def paced(self, rate: int, seconds: float) -> tuple[int, float]:
-        """``rate`` changes per second for ``seconds``; (changes sent, seconds taken)."""
+        """``rate`` changes per second, ``rate * seconds`` in all (the last ones sent at once
+        if this process fell behind); (changes sent, seconds taken)."""
         name = param_name(0)
         batch = max(1, rate // 100)
+        total = int(seconds * rate)
         sent = 0
         start = time.monotonic()
-        while (elapsed := time.monotonic() - start) < seconds:
-            due = min(int(elapsed * rate) + batch, int(seconds * rate))
+        while sent < total:
+            elapsed = time.monotonic() - start
+            due = total if elapsed >= seconds else min(int(elapsed * rate) + batch, total)
             lines = []
             while sent < due:
                 i = self._sent
@@ -74,7 +77,8 @@ class Feeder:
                 sent += 1
             if lines:
                 self.server.send("\n".join(lines))
-            time.sleep(0.01)
+            if sent < total:
+                time.sleep(0.01)
         return sent, time.monotonic() - start
 
     def wait_answered(self, timeout: float) -> None:
