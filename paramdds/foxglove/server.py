@@ -26,7 +26,7 @@ import threading
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, NamedTuple, Protocol
 
 from websockets.asyncio.server import ServerConnection
 from websockets.exceptions import ConnectionClosed
@@ -49,6 +49,16 @@ TOKEN_URL = "ws://HOST:PORT/?token=TOKEN"
 QUEUE_SIZE = 1024  # outgoing messages a connection may fall behind by
 Entry = dict[str, object]  # one parameter of a parameterValues message
 Table = dict[str, tuple[ParameterValue, ParameterDescriptor]]
+
+
+class Held(NamedTuple):
+    """What the monitor holds of a node, read under its lock: presence, revision, a copy of its table,
+    and its state (read afterwards for the last changes alone)."""
+
+    online: bool
+    revision: int
+    table: Table
+    state: NodeState
 
 
 class States(Protocol):
@@ -139,15 +149,15 @@ class FoxgloveServer:
         if self._states is not None:
             self._states.wait_until(run, 0.0)
 
-    def _tables(self, nodes: Iterable[str] | None) -> dict[str, tuple[NodeState, Table]]:
-        """Nodes (None: every one) with a copy of their parameter tables, read under the monitor's lock."""
-        out: dict[str, tuple[NodeState, Table]] = {}
+    def _tables(self, nodes: Iterable[str] | None) -> dict[str, Held]:
+        """What the monitor holds of ``nodes`` (None: every one), read under its lock."""
+        out: dict[str, Held] = {}
 
         def take(states: dict[str, NodeState]) -> None:
             for node in states if nodes is None else nodes:
                 st = states.get(node)
                 if st is not None:
-                    out[node] = (st, dict(st.parameters))
+                    out[node] = Held(st.online, st.revision, dict(st.parameters), st)
 
         self._peek(take)
         return out
@@ -162,9 +172,9 @@ class FoxgloveServer:
         online node has (the others are left out, as foxglove_bridge does)."""
         if not names:
             out: list[Entry] = []
-            for node, (st, table) in self._tables(None).items():
-                if st.online:
-                    out += [to_foxglove(foxglove_name(node, n), v) for n, (v, _d) in table.items()]
+            for node, held in self._tables(None).items():
+                if held.online:
+                    out += [to_foxglove(foxglove_name(node, n), v) for n, (v, _d) in held.table.items()]
             return out
         wanted: dict[str, list[tuple[str, str]]] = {}
         for full in dict.fromkeys(names):
@@ -174,9 +184,9 @@ class FoxgloveServer:
         tables = self._tables(wanted)
         found: list[Entry] = []
         for node, asked in wanted.items():
-            held = tables.get(node)
-            if held is not None and held[0].online:
-                table = held[1]
+            named = tables.get(node)
+            if named is not None and named.online:
+                table = named.table
                 found += [to_foxglove(full, table[n][0]) for full, n in asked if n in table]
         return found
 
@@ -200,14 +210,16 @@ class FoxgloveServer:
         if not events or not self._connections:
             return
         updates: dict[str, Entry] = {}
-        reread: set[str] = set()  # nodes that came, went or restarted: published as the state says
+        # nodes that came, went or restarted (each one's last such event): published as the state
+        # says, once it says the same (a restart's events arrive while its state is being updated)
+        reread: dict[str, EventKind] = {}
         changed: dict[str, None] = {}
         for e in events:
             if not e.node:
                 continue
             changed[e.node] = None
             if e.event in (EventKind.ONLINE, EventKind.OFFLINE, EventKind.RESTARTED):
-                reread.add(e.node)
+                reread[e.node] = e.event
             elif e.event in (EventKind.ADDED, EventKind.MODIFIED) and e.name:
                 full = foxglove_name(e.node, e.name)
                 updates[full] = to_foxglove(full, e.value)
@@ -215,11 +227,11 @@ class FoxgloveServer:
                 full = foxglove_name(e.node, e.name)
                 updates[full] = {"name": full}
         tables = self._tables(changed)
-        for node in reread:
+        for node, kind in reread.items():
             held = tables.get(node)
-            if held is None:
+            if held is None or held.online is (kind is EventKind.OFFLINE):
                 continue
-            online, table = held[0].online, held[1]
+            online, table = held.online, held.table
             for n, (v, _d) in table.items():
                 full = foxglove_name(node, n)
                 updates[full] = to_foxglove(full, v if online else None)
@@ -230,7 +242,7 @@ class FoxgloveServer:
                     conn.send(p.parameter_values(mine))
         subscriptions = self._channel_subscriptions()
         if subscriptions:
-            payloads = [_node_payload(node, *tables[node]) for node in changed if node in tables]
+            payloads = [_node_payload(node, tables[node]) for node in changed if node in tables]
             now = time.time_ns()
             for conn, sub in subscriptions:
                 conn.send([p.message_data(sub, now, payload) for payload in payloads])
@@ -324,8 +336,8 @@ class FoxgloveServer:
                 continue
             conn.channels[sub] = channel
             now = time.time_ns()
-            online = sorted((node, held) for node, held in self._tables(None).items() if held[0].online)
-            conn.send([p.message_data(sub, now, _node_payload(node, *held)) for node, held in online])
+            online = sorted((node, held) for node, held in self._tables(None).items() if held.online)
+            conn.send([p.message_data(sub, now, _node_payload(node, held)) for node, held in online])
 
     # -- sets -------------------------------------------------------------------------------
 
@@ -367,7 +379,7 @@ class FoxgloveServer:
         out: list[Entry] = []
         for node, items in by_node.items():
             held = tables.get(node)
-            online, table = (held[0].online, held[1]) if held is not None else (False, {})
+            online, table = (held.online, held.table) if held is not None else (False, {})
             out += [to_foxglove(full, table[n][0] if online and n in table else None) for full, n, _ in items]
         return out
 
@@ -376,10 +388,10 @@ class FoxgloveServer:
         conn: Connection,
         node: str,
         items: list[tuple[str, str, Mapping[str, object]]],
-        held: tuple[NodeState, Table] | None,
+        held: Held | None,
         rid: str | None,
     ) -> list[Entry]:
-        table = held[1] if held is not None else {}
+        table = held.table if held is not None else {}
         params: list[Parameter] = []
         for _full, name, entry in items:
             current: ParameterType | None = table[name][0].type if name in table else None
@@ -411,11 +423,11 @@ class FoxgloveServer:
             task.cancel()
 
 
-def _node_payload(node: str, st: NodeState, table: Table) -> bytes:
+def _node_payload(node: str, held: Held) -> bytes:
     """One node's message on the descriptors channel, as JSON bytes."""
-    last = {n: lc for n in table if (lc := st.last_change(n)) is not None}
-    revision = max([st.revision, *(lc.revision for lc in last.values())])
-    message = p.node_message(node, st.online, revision, table, last)
+    last = {n: lc for n in held.table if (lc := held.state.last_change(n)) is not None}
+    revision = max([held.revision, *(lc.revision for lc in last.values())])
+    message = p.node_message(node, held.online, revision, held.table, last)
     return json.dumps(message, allow_nan=False, separators=(",", ":")).encode()
 
 

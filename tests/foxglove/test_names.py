@@ -71,7 +71,11 @@ def test_every_type_round_trips_through_a_javascript_client(value: ParameterValu
 
 
 def test_the_hints_are_those_of_the_protocol() -> None:
-    assert to_foxglove("/a.x", ParameterValue.of(T.DOUBLE, 1.0)) == {"name": "/a.x", "value": 1.0, "type": "float64"}
+    assert to_foxglove("/a.x", ParameterValue.of(T.DOUBLE, 1.0)) == {
+        "name": "/a.x",
+        "value": 1.0,
+        "type": "float64",
+    }
     assert to_foxglove("/a.x", ParameterValue.of(T.DOUBLE_ARRAY, [0.5])) == {
         "name": "/a.x",
         "value": [0.5],

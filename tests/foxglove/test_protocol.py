@@ -22,7 +22,9 @@ def test_the_parameter_operations_parse() -> None:
     assert p.parse('{"op":"getParameters","parameterNames":["/arm.x"]}') == p.GetParameters(("/arm.x",), None)
     set_ = p.parse('{"op":"setParameters","parameters":[{"name":"/arm.x","value":1}],"id":"s"}')
     assert set_ == p.SetParameters(({"name": "/arm.x", "value": 1},), "s")
-    assert p.parse('{"op":"subscribeParameterUpdates","parameterNames":["/a.b"]}') == p.SubscribeParameters(("/a.b",))
+    assert p.parse('{"op":"subscribeParameterUpdates","parameterNames":["/a.b"]}') == p.SubscribeParameters(
+        ("/a.b",)
+    )
     assert p.parse('{"op":"unsubscribeParameterUpdates","parameterNames":[]}') == p.UnsubscribeParameters(())
     assert p.parse('{"op":"subscribe","subscriptions":[{"id":3,"channelId":1}]}') == p.Subscribe(((3, 1),))
     assert p.parse('{"op":"unsubscribe","subscriptionIds":[3]}') == p.Unsubscribe((3,))
@@ -74,7 +76,9 @@ def test_the_channel_messages_follow_the_advertised_schema() -> None:
     table = {
         "speed": (
             ParameterValue.of(ParameterType.DOUBLE, 1.5),
-            ParameterDescriptor("speed", ParameterType.DOUBLE, floating_point_range=FloatingPointRange(0.0, 5.0)),
+            ParameterDescriptor(
+                "speed", ParameterType.DOUBLE, floating_point_range=FloatingPointRange(0.0, 5.0)
+            ),
         ),
         "key": (ParameterValue.of(ParameterType.BYTE_ARRAY, b"\x01"), ParameterDescriptor("key")),
     }
@@ -118,4 +122,8 @@ def test_a_token_comes_in_the_url_or_as_a_bearer_header() -> None:
     assert given_token("/", {"Authorization": "Bearer xyz"}) == "xyz"
     assert given_token("/", {"Authorization": "Basic xyz"}) == ""
     assert given_token("/", {}) == ""
-    assert (host_name("[::1]:8765"), host_name("LocalHost:1"), host_name("robot")) == ("::1", "localhost", "robot")
+    assert (host_name("[::1]:8765"), host_name("LocalHost:1"), host_name("robot")) == (
+        "::1",
+        "localhost",
+        "robot",
+    )

@@ -11,7 +11,6 @@ import asyncio
 import json
 import socket
 import struct
-import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -109,10 +108,16 @@ def test_the_ready_line_and_both_subprotocols(fox: tuple[Proc, str]) -> None:
             got = await until(ws, replied("all"))
             by_name = {p["name"]: p for p in got["parameters"]}
             assert len(by_name) == 18
-            assert by_name["/arm.limits"] == {"name": "/arm.limits", "value": [0.5, 1.0, 2.0], "type": "float64_array"}
+            assert by_name["/arm.limits"] == {
+                "name": "/arm.limits",
+                "value": [0.5, 1.0, 2.0],
+                "type": "float64_array",
+            }
             assert by_name["/base.key"] == {"name": "/base.key", "value": "AQKr", "type": "byte_array"}
             assert by_name["/base.gain"] == {"name": "/base.gain", "value": 4}
-            await ask(ws, {"op": "getParameters", "parameterNames": ["/arm.mode", "/arm.nope", "bad"], "id": "2"})
+            await ask(
+                ws, {"op": "getParameters", "parameterNames": ["/arm.mode", "/arm.nope", "bad"], "id": "2"}
+            )
             assert (await until(ws, replied("2")))["parameters"] == [{"name": "/arm.mode", "value": "auto"}]
             await ws.close()
         with pytest.raises(InvalidStatus, match="400"):
@@ -137,7 +142,10 @@ def test_sets_refusals_and_changes_made_elsewhere(domain: int, fox: tuple[Proc, 
             {
                 "op": "setParameters",
                 "id": "s1",
-                "parameters": [{"name": "/arm.note", "value": "from fox"}, {"name": "/base.gain", "value": 6}],
+                "parameters": [
+                    {"name": "/arm.note", "value": "from fox"},
+                    {"name": "/base.gain", "value": 6},
+                ],
             },
         )
         got = await until(ws, replied("s1"))
@@ -151,24 +159,33 @@ def test_sets_refusals_and_changes_made_elsewhere(domain: int, fox: tuple[Proc, 
             seen.update({p["name"]: p.get("value") for p in msg["parameters"]})
         assert seen == {"/arm.note": "from fox", "/base.gain": 6}
         # refused by the node: its current value and a warning with its reason and the request id
-        await ask(ws, {"op": "setParameters", "id": "s2", "parameters": [{"name": "/arm.speed", "value": 9.0, "type": "float64"}]})
+        await ask(
+            ws,
+            {
+                "op": "setParameters",
+                "id": "s2",
+                "parameters": [{"name": "/arm.speed", "value": 9.0, "type": "float64"}],
+            },
+        )
         warned = await until(ws, status_of("s2"))
         assert warned["level"] == 1 and "must be within [0.0, 5.0]" in warned["message"]
-        assert (await until(ws, replied("s2")))["parameters"] == [{"name": "/arm.speed", "value": 1.5, "type": "float64"}]
+        assert (await until(ws, replied("s2")))["parameters"] == [
+            {"name": "/arm.speed", "value": 1.5, "type": "float64"}
+        ]
         # a node that does not exist: an error, same shape
         await ask(ws, {"op": "setParameters", "id": "s3", "parameters": [{"name": "/ghost.x", "value": 1}]})
         failed = await until(ws, status_of("s3"))
         assert failed["level"] == 2 and "ghost" in failed["message"]
         assert (await until(ws, replied("s3")))["parameters"] == [{"name": "/ghost.x"}]
         # a value that is no parameter value
-        await ask(ws, {"op": "setParameters", "id": "s4", "parameters": [{"name": "/arm.note", "value": {"a": 1}}]})
+        await ask(
+            ws, {"op": "setParameters", "id": "s4", "parameters": [{"name": "/arm.note", "value": {"a": 1}}]}
+        )
         assert "nested object" in (await until(ws, status_of("s4")))["message"]
-        # a change made by the CLI reaches the subscriber within a second
-        started = time.monotonic()
+        # a change made by the CLI reaches the subscriber (how fast: tests/foxglove/test_ws_clients.py)
         done = asyncio.create_task(asyncio.to_thread(run_cli, domain, "set", "arm", "gain", "7"))
         change = await until(ws, pushed("/arm.gain"), timeout=10)
         assert {"name": "/arm.gain", "value": 7} in change["parameters"]
-        assert time.monotonic() - started < 5  # the CLI's own start is most of it
         assert (await done).returncode == 0
         await ws.close()
         await watcher.close()
@@ -197,7 +214,9 @@ def test_descriptors_and_blame_on_the_channel(fox: tuple[Proc, str]) -> None:
         await ask(ws, {"op": "setParameters", "parameters": [{"name": "/base.mode", "value": "manual"}]})
         body = json.loads((await until(ws, lambda m: isinstance(m, bytes)))[13:])
         mode = next(p for p in body["parameters"] if p["parameter"] == "mode")
-        assert body["node"] == "base" and mode["value"] == "manual" and mode["last_change"]["via"] == "foxglove"
+        assert (
+            body["node"] == "base" and mode["value"] == "manual" and mode["last_change"]["via"] == "foxglove"
+        )
         await ws.close()
 
     run(go())
@@ -208,7 +227,10 @@ def test_a_client_leaving_mid_call_harms_nobody(fox: tuple[Proc, str]) -> None:
 
     async def go() -> None:
         leaving = await opened(url)
-        await ask(leaving, {"op": "setParameters", "id": "x", "parameters": [{"name": "/arm.tags", "value": ["mid"]}]})
+        await ask(
+            leaving,
+            {"op": "setParameters", "id": "x", "parameters": [{"name": "/arm.tags", "value": ["mid"]}]},
+        )
         await ask(leaving, {"op": "getParameters", "parameterNames": [], "id": "y"})
         await asyncio.sleep(0.05)  # read by the server (a reset drops what it has not read yet)
         leaving.transport.abort()  # gone mid-call, without a close handshake
@@ -238,8 +260,8 @@ def test_an_offline_node_is_unset_and_comes_back(domain: int, nodes: Proc) -> No
         left = (await until(ws, replied("b")))["parameters"]
         assert len(left) == 9 and not any(p["name"].startswith("/cart.") for p in left)
         back = await asyncio.to_thread(start_server, domain, "-n", "cart", "-p", PARAMS)
-        back_again = {"name": "/cart.gain", "value": 4}
-        await until(ws, lambda m: pushed("/cart.gain")(m) and back_again in m["parameters"], timeout=20)
+        came = await until(ws, pushed("/cart.gain"), timeout=20)  # no unset first: a restart is no offline
+        assert {"name": "/cart.gain", "value": 4} in came["parameters"]
         await ws.close()
         back.stop()
 
@@ -257,11 +279,16 @@ def test_tokens(domain: int, nodes: Proc, tmp_path: Path) -> None:
 
     async def go() -> None:
         ws = await opened(url)  # on loopback anyone connects; a set needs the token
-        await ask(ws, {"op": "setParameters", "id": "t1", "parameters": [{"name": "/arm.note", "value": "nope"}]})
+        await ask(
+            ws, {"op": "setParameters", "id": "t1", "parameters": [{"name": "/arm.note", "value": "nope"}]}
+        )
         assert "need the token" in (await until(ws, status_of("t1")))["message"]
         await ws.close()
         ws = await opened(url + "?token=0123456789abcdef")
-        await ask(ws, {"op": "setParameters", "id": "t2", "parameters": [{"name": "/arm.note", "value": "by carol"}]})
+        await ask(
+            ws,
+            {"op": "setParameters", "id": "t2", "parameters": [{"name": "/arm.note", "value": "by carol"}]},
+        )
         assert (await until(ws, replied("t2")))["parameters"] == [{"name": "/arm.note", "value": "by carol"}]
         await ws.close()
 
@@ -288,3 +315,41 @@ def test_bad_options_are_usage_errors(domain: int) -> None:
         busy.listen()
         done = run_cli(domain, "foxglove", "--port", str(busy.getsockname()[1]), timeout=30)
         assert done.returncode == 2 and "cannot listen" in done.stderr, done
+
+
+def test_beyond_loopback_every_connection_needs_the_token(domain: int, nodes: Proc, tmp_path: Path) -> None:
+    tokens = tmp_path / "tokens"
+    tokens.write_text("0123456789abcdef\n")
+    proc, url = start_foxglove(domain, "--host", "0.0.0.0", "--token-file", str(tokens))
+    assert url.startswith("ws://0.0.0.0:")
+    url = url.replace("0.0.0.0", "127.0.0.1")
+
+    async def go() -> None:
+        for given in ("", "?token=wrong-token-0000000"):
+            with pytest.raises(InvalidStatus, match="401"):
+                await connect(url + given, subprotocols=[V1])  # type: ignore[list-item]
+        ws = await opened(url + "?token=0123456789abcdef")
+        await ws.close()
+        ws = await connect(
+            url, subprotocols=[V1], additional_headers={"Authorization": "Bearer 0123456789abcdef"}
+        )  # type: ignore[list-item]
+        await ws.close()
+
+    try:
+        run(go())
+    finally:
+        assert proc.stop() == 0
+
+
+def test_on_loopback_a_foreign_host_name_is_refused(fox: tuple[Proc, str]) -> None:
+    """A page whose DNS name rebinds to 127.0.0.1 sends its own name as Host: refused (403)."""
+    _, url = fox
+    port = int(url.rsplit(":", 1)[1].strip("/"))
+    for host, status in (("evil.example", b" 403 "), (f"localhost:{port}", b" 101 ")):
+        with socket.create_connection(("127.0.0.1", port), timeout=5) as s:
+            s.sendall(
+                f"GET / HTTP/1.1\r\nHost: {host}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+                f"Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n"
+                f"Sec-WebSocket-Protocol: {V1}\r\n\r\n".encode()
+            )
+            assert status in s.recv(200), host
