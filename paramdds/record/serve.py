@@ -60,6 +60,10 @@ class Recorder:
             raise UsageError(str(exc)) from None
         return self.file
 
+    def flush(self) -> None:
+        if self.file is not None:
+            self.file.flush()
+
     def write(self, messages: Sequence[Out]) -> None:
         assert self.file is not None
         for channel, body, log_time in messages:
@@ -76,18 +80,28 @@ class Recorder:
 
 
 class HistoryFill:
-    """Reads the revisions a monitor skipped from the node's history (the tracker's ``fill``)."""
+    """Reads the revisions a monitor skipped from the node's history (the tracker's ``fill``).
+
+    ``before`` runs first (the recorder flushes what it holds: a read may take up to
+    ``--timeout``, and a kill meanwhile must not cost more than the flush interval). A node
+    that said it keeps no history is not asked again."""
 
     def __init__(self, session: Session) -> None:
         self._session = session
         self._client: ParameterClient | None = None
+        self._none: set[str] = set()  # nodes that keep no history
+        self.before: Callable[[], None] = lambda: None
 
     def __call__(self, node: str, after: int, before: int) -> tuple[Sequence[HistoryRecord], str]:
+        if node in self._none:
+            return (), "the node keeps no history"
+        self.before()
         if self._client is None:
             self._client = self._session.client()
         try:
             reply = self._client.history(node, since_revision=after, outcome=Outcome.APPLIED)
         except NoHistoryError:
+            self._none.add(node)
             return (), "the node keeps no history"
         except ParamddsError as exc:
             return (), f"the node's history could not be read: {exc}"
@@ -118,7 +132,9 @@ def run_record(args: argparse.Namespace, nodes: list[str]) -> int:
     previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
         with Session(args) as session:
-            recorder = Recorder(args.output_file, split, HistoryFill(session))
+            fill = HistoryFill(session)
+            recorder = Recorder(args.output_file, split, fill)
+            fill.before = recorder.flush
             file = recorder.open_next()  # first: a path that cannot be written fails at once
             started = time.monotonic()
             monitor = session.monitor(nodes or None, on_event=on_event)

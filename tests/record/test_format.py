@@ -187,3 +187,16 @@ def test_any_value_survives_a_file(tmp_path: Path, value: PV) -> None:
     f.finish()
     (record,) = fmt.read_recording(str(path)).changes
     assert record.new is not None and record.new.same_as(value) and record.verified
+
+
+def test_a_file_is_full_at_its_split_size(tmp_path: Path) -> None:
+    f = McapFile(str(tmp_path / "s.mcap"))
+    split = Split(size=64 * 1024)
+    body = fmt.gap_message("n", 1, 3, "x" * 200, NOW)
+    while not f.full(split):
+        for _ in range(50):
+            f.write(fmt.GAPS, body, NOW)
+        f.flush()  # the size counts what is written: chunks close on flush
+    assert f.size() >= 64 * 1024 and not f.full(Split())
+    f.finish()
+    assert len(fmt.read_recording(str(tmp_path / "s.mcap")).gaps) > 50

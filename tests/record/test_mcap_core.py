@@ -1,6 +1,6 @@
 """A recording read by the TypeScript reader `@mcap/core`: the messages Python reads, a torn file too.
 
-Two recorders run at once while nodes change: one is stopped with SIGTERM (a finished
+Two recorders run at once while nodes change: one is stopped with SIGINT (a finished
 file), the other killed with ``kill -9`` (a torn one). ``node read_mcap.js`` reads each
 with ``McapStreamReader`` (zstd from ``@mcap/support``): the finished file is complete and
 its messages are Python's, byte for byte as JSON; the torn one is read up to the tear,
@@ -10,6 +10,7 @@ the kill among them.
 
 from __future__ import annotations
 
+import signal
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -59,8 +60,10 @@ def test_mcap_core_reads_a_finished_and_a_killed_recording(
             time.sleep(0.2)
         killed_at = b.kill()
         time.sleep(1.5)
+        a.popen.send_signal(signal.SIGINT)  # Ctrl-C finishes the file as SIGTERM does
+        assert a.popen.wait(15) == 0, a.stderr_text()
     finally:
-        assert a.stop() == 0, a.stderr_text()
+        a.stop()
         b.stop()
 
     python = messages(finished)

@@ -205,3 +205,31 @@ def test_split_by_time_starts_each_file_with_a_snapshot(nodes: int, tmp_path: Pa
         assert wheels["robot.wheel_count"] == (seen[-1] if seen else 4)
         seen.extend(changes)
     assert seen == [10 + i for i in range(8)]
+
+
+def test_a_restarted_node_is_presence_not_changes(nodes: int, tmp_path: Path) -> None:
+    """A node stopped and started again with the same values: offline, restarted, online;
+    its values, the same, are no change, and its revisions starting again are no gap."""
+    domain = nodes
+    path = tmp_path / "restart.mcap"
+    rec = start_recorder(domain, path, "robot1")
+    params = tmp_path / "params.yaml"
+    try:
+        SERVERS[domain]["robot1"].stop()
+        time.sleep(1.0)
+        SERVERS[domain]["robot1"] = start_server(domain, "-n", "robot1", "-p", str(params))
+        time.sleep(1.5)
+        set_as(domain, "gina", "robot1", "robot.wheel_count=8")
+        time.sleep(1.0)
+    finally:
+        assert rec.stop() == 0, rec.stderr_text()
+    msgs = messages(path)
+    presence = [(b["node"], b["event"]) for t, _, b in msgs if t == "/paramdds/presence"]
+    assert presence == [("robot1", "offline"), ("robot1", "restarted"), ("robot1", "online")], presence
+    changes = [
+        (b["name"], b["old"]["value"], b["new"]["value"], b["who"])
+        for t, _, b in msgs
+        if t == "/paramdds/changes"
+    ]
+    assert changes == [("robot.wheel_count", 4, 8, "gina")]
+    assert not [b for t, _, b in msgs if t == "/paramdds/gaps"]

@@ -16,6 +16,10 @@ that is not there; a point a node's history no longer reaches (retention dropped
 a node that keeps no history is one line, exit 1; over Zenoh, a known site a glob did not
 reach is one line each, exit 3 (as ``get``). ``-o json``: a list of blocks, one per
 node compared: ``{"node", "a", "b", "equal", "differences": [{"name", "kind", "a", "b"}]}``.
+
+``--from FILE.mcap``: the node sides are read from a recording (``paramdds record``):
+``NODE`` as it was at the recording's end, ``NODE@REV`` / ``NODE@TIME`` rebuilt from its
+snapshot and changes; a point before the recording is one line, exit 1.
 """
 
 from __future__ import annotations

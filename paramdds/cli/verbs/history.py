@@ -9,6 +9,10 @@ records (``node, name, revision, time, who, verified, via, old, new, outcome, re
 When retention dropped part of the range asked for, what is kept is printed and one
 line on stderr says so: exit 1 (the node lacked something, as ``get`` of a missing name).
 A node that keeps no history is one line, exit 1; a node that is not there, exit 3.
+
+``--from FILE.mcap`` reads the node's changes from a recording (``paramdds record``)
+instead of asking the node: the same lines; a node the recording lacks is exit 3, a
+file that is not a recording exit 2, a file cut short one note line on stderr.
 """
 
 from __future__ import annotations
