@@ -61,8 +61,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--nodes",
         type=_int_list,
         metavar="N,N…",
-        help="scaling, foxglove: node counts (default 10,50,100,200; 100,1000,10000); "
-        "hosting, web: node ids in the one process (default 1000); fleet: node ids per server process (1000)",
+        help="scaling, foxglove: node counts (default 10,50,100,200; 100,300,1000,10000); "
+        "hosting, web: node ids in the one process (default 1000); fleet: node ids per server process (1000);"
+        " record: nodes changing (10)",
     )
     p.add_argument(
         "--params",
