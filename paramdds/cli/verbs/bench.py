@@ -31,6 +31,10 @@ SCENARIOS = {
     "direct DDS, uplink bytes per change with 1 and 10 viewers, vs one stretched DDS domain (zenoh extra)",
     "ros2": "real ROS 2 (rclpy from PyPI) vs paramdds at N = 10, 100, 300 real nodes: fresh state, "
     "fresh get, warm get/set, graph size, a host killed, the bridge (needs the ros2 extra)",
+    "foxglove": "a Foxglove client's get-all at 100, 1,000, 10,000 nodes x 20 params and change-to-client "
+    "latency (paramdds foxglove) vs foxglove_bridge's way over rclpy nodes (foxglove extra)",
+    "record": "paramdds record: its CPU and bytes per change at 10, 100, 1,000 changes/s, "
+    "vs paramdds watch following the same changes (foxglove extra)",
 }
 
 
@@ -57,8 +61,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--nodes",
         type=_int_list,
         metavar="N,N…",
-        help="scaling: node counts (default 10,50,100,200); "
-        "hosting, web: node ids in the one process (default 1000); fleet: node ids per server process (1000)",
+        help="scaling, foxglove: node counts (default 10,50,100,200; 100,300,1000,10000); "
+        "hosting, web: node ids in the one process (default 1000); fleet: node ids per server process (1000);"
+        " record: nodes changing (10)",
     )
     p.add_argument(
         "--params",
@@ -70,7 +75,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--requests",
         type=positive_int,
         metavar="N",
-        help="latency: requests per system (default 2000); web: sets (200); "
+        help="latency: requests per system (default 2000); web: sets (200); foxglove: changes (200); "
         "persist: journal changes (100000); fleet: gets per second (1000)",
     )
     p.add_argument(
@@ -78,7 +83,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--rounds", type=positive_int, metavar="R", help="alternation rounds / repetitions")
     p.add_argument(
-        "--servers", type=positive_int, metavar="K", help="server processes: scaling (default 2), fleet (10)"
+        "--servers",
+        type=positive_int,
+        metavar="K",
+        help="server processes: scaling (default 2), fleet (10), foxglove's ROS 2 hosts (4)",
+    )
+    p.add_argument(
+        "--ros-nodes",
+        type=_int_list,
+        metavar="N,N…",
+        help="foxglove: node counts of the ROS 2 baseline (default 100,300)",
+    )
+    p.add_argument(
+        "--rates", type=_int_list, metavar="R,R…", help="record: changes per second (default 10,100,1000)"
     )
     p.add_argument("--sites", type=_int_list, metavar="S,S…", help="zenoh: site counts (default 1,10)")
     p.add_argument(
@@ -97,7 +114,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--window", type=positive_int, metavar="W", help="throughput: requests in flight per client"
     )
     p.add_argument(
-        "--seconds", type=positive_float, metavar="S", help="throughput, persist: measured seconds per round"
+        "--seconds",
+        type=positive_float,
+        metavar="S",
+        help="throughput, persist: measured seconds per round; record: seconds per rate (default 5)",
     )
 
 
