@@ -77,10 +77,11 @@ class Fleet:
         self.params.write_text(PARAMS)
         self.procs: list[Proc] = []
 
-    def start(self) -> None:
+    def start(self, *foxglove_args: str) -> None:
         self.arm_base = self._start_server("arm", "base")
         self.cam = self._start_server("cam")
-        self.foxglove = Proc([PARAMDDS, "foxglove", "-d", str(self.domain), "--port", "0"], self.env)
+        argv = [PARAMDDS, "foxglove", "-d", str(self.domain), "--port", "0", *foxglove_args]
+        self.foxglove = Proc(argv, self.env)
         self.procs.append(self.foxglove)
         _, line = self.foxglove.wait_for(lambda line: READY.match(line) is not None, 30)
         match = READY.match(line)
@@ -291,6 +292,10 @@ def test_a_killed_node_is_unset_for_subscribers_and_left_out_of_get_all(
     assert "/arm.speed" not in by_name(gone["message"])
     names = set(by_name(event(run_node("get.js", fleet.url, subprotocol), "reply")["message"]))
     assert names == {f"/{node}.{name}" for node in ("arm", "base") for name in EXPECTED}
+    events = run_node("set.js", fleet.url, subprotocol, json.dumps([{"name": "/cam.name", "value": "x"}]))
+    assert [as_pair(p) for p in event(events, "reply")["message"]["parameters"]] == [(None, None)]
+    (status,) = [e["message"] for e in events if e["event"] == "status"]
+    assert status["level"] == 2 and status["id"] == "set-1" and "cam" in status["message"], status
 
     fleet.restart_cam()
     _, back = waits_for_event(
@@ -370,3 +375,36 @@ def test_descriptors_and_blame_channel_carries_each_nodes_parameters(fleet: Flee
     last = speed["last_change"]
     assert last["via"] == "foxglove" and last["who"] and last["revision"] == changed["data"]["revision"], last
     assert isinstance(last["verified"], bool) and last["time"], last
+
+
+def test_a_set_to_a_node_nobody_serves_is_an_error_status(fleet: Fleet) -> None:
+    events = run_node("set.js", fleet.url, SUBPROTOCOLS[0], json.dumps([{"name": "/ghost.x", "value": 1}]))
+    assert [as_pair(p) for p in event(events, "reply")["message"]["parameters"]] == [(None, None)]
+    (status,) = [e["message"] for e in events if e["event"] == "status"]
+    assert status["level"] == 2 and status["id"] == "set-1" and "ghost" in status["message"], status
+
+
+def test_a_token_in_the_url_lets_a_browser_client_set_under_its_name(
+    domain_id: int, tmp_path: Path, node_dir: Path
+) -> None:
+    token = "0123456789abcdef-carol"
+    tokens = tmp_path / "tokens"
+    tokens.write_text(f"carol {token}\n")
+    fleet = Fleet(domain_id, tmp_path)
+    try:
+        fleet.start("--token-file", str(tokens))
+        request = json.dumps([{"name": "/arm.count", "value": 5}])
+        for url in (fleet.url, f"{fleet.url}/?token=not-the-token-at-all"):
+            events = run_node("set.js", url, SUBPROTOCOLS[0], request)
+            assert as_pair(by_name(event(events, "reply")["message"])["/arm.count"]) == (4, None)
+            (status,) = [e["message"] for e in events if e["event"] == "status"]
+            assert status["level"] == 2 and "token" in status["message"], status
+
+        events = run_node("set.js", f"{fleet.url}/?token={token}", SUBPROTOCOLS[0], request)
+        assert as_pair(by_name(event(events, "reply")["message"])["/arm.count"]) == (5, None)
+        done = fleet.cli("describe", "arm", "count", "-o", "json")
+        assert done.returncode == 0, done.stderr
+        last = json.loads(done.stdout)["count"]["last_change"]
+        assert (last["who"], last["via"]) == ("carol", "foxglove"), last
+    finally:
+        fleet.stop()
