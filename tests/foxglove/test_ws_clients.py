@@ -114,8 +114,14 @@ class Fleet:
         return json.loads(done.stdout)[name]
 
     def stop(self) -> None:
-        for proc in reversed(self.procs):
-            proc.stop()
+        """Stop everything; the Foxglove server must have exited 0 on SIGTERM, without a traceback."""
+        codes = {id(proc): proc.stop() for proc in reversed(self.procs)}
+        if hasattr(self, "foxglove"):
+            stderr = self.foxglove.stderr_text()
+            assert codes[id(self.foxglove)] == 0 and "Traceback" not in stderr, (
+                codes[id(self.foxglove)],
+                stderr,
+            )
 
 
 @pytest.fixture
@@ -364,7 +370,8 @@ def test_descriptors_and_blame_channel_carries_each_nodes_parameters(fleet: Flee
     assert arm["fixed"]["descriptor"]["read_only"] is True
 
     request = [{"name": "/arm.speed", "value": 2.5, "type": "float64"}]
-    run_node("set.js", fleet.url, subprotocol, json.dumps(request))
+    events = run_node("set.js", fleet.url, subprotocol, json.dumps(request))
+    assert as_pair(by_name(event(events, "reply")["message"])["/arm.speed"]) == (2.5, "float64"), events
     _, changed = waits_for_event(
         watcher,
         "message",
