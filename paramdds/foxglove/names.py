@@ -17,9 +17,10 @@ from __future__ import annotations
 
 import base64
 import binascii
+import math
 from collections.abc import Mapping
 
-from ..core.jsonform import json_value, value_of_json
+from ..core.jsonform import json_scalar, json_value, value_of_json
 from ..core.values import NOT_SET, ParameterType, ParameterValue
 from ..errors import ParamddsError
 
@@ -34,6 +35,7 @@ _HINT_OF = {
     ParameterType.BYTE_ARRAY: BYTE_ARRAY,
 }
 _TYPE_OF_HINT = {hint: ptype for ptype, hint in _HINT_OF.items()}
+_PLAIN = frozenset({ParameterType.BOOL, ParameterType.INTEGER, ParameterType.STRING})
 
 
 class BadValue(ParamddsError):
@@ -58,8 +60,15 @@ def split_name(full: str) -> tuple[str, str] | None:
 def to_foxglove(name: str, value: ParameterValue | None) -> dict[str, object]:
     """One entry of a ``parameterValues`` message: ``{"name", "value", "type"?}``; no ``value``
     when ``value`` is None or not_set (unset: an offline node's, a deleted parameter's)."""
+    if value is None:
+        return {"name": name}
+    ptype, v = value.type, value.value
+    if ptype in _PLAIN:  # the common cases first: a get of every node makes 200,000 of these
+        return {"name": name, "value": v}
+    if ptype is ParameterType.DOUBLE:
+        return {"name": name, "value": v if math.isfinite(v) else json_scalar(v), "type": FLOAT64}  # type: ignore[arg-type]
     out: dict[str, object] = {"name": name}
-    if value is None or value.type is ParameterType.NOT_SET:
+    if ptype is ParameterType.NOT_SET:
         return out
     if value.type is ParameterType.BYTE_ARRAY:
         assert isinstance(value.value, bytes)

@@ -33,6 +33,7 @@ if TYPE_CHECKING:
 READY = "[FOXGLOVE] Foxglove WebSocket server on ws://{host}:{port} ({nodes} nodes)"
 SETTLE = 0.5  # seconds a fresh monitor gives discovery before it counts the nodes
 MAX_MESSAGE = 16 * 2**20  # bytes of one client message
+CLOSE_TIMEOUT = 1.0  # seconds a client has to answer the closing handshake when the server stops
 
 
 def run(args: argparse.Namespace) -> int:
@@ -81,9 +82,12 @@ async def _serve(args: argparse.Namespace, access: Access, sock: socket.socket) 
             subprotocols=[*SUBPROTOCOLS],  # type: ignore[list-item]
             process_request=refuse,
             compression=None,
+            close_timeout=CLOSE_TIMEOUT,
             max_size=MAX_MESSAGE,
             server_header="paramdds",
         ):
+            if stop.is_set():  # stopped while starting: no ready line
+                return
             name, port = sock.getsockname()[:2]
             shown = f"[{name}]" if ":" in name else name
             sys.stdout.write(READY.format(host=shown, port=port, nodes=server.online_count()) + "\n")

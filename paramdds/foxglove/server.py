@@ -26,7 +26,7 @@ import threading
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, NamedTuple, Protocol
 
 from websockets.asyncio.server import ServerConnection
 from websockets.exceptions import ConnectionClosed
@@ -51,6 +51,16 @@ Entry = dict[str, object]  # one parameter of a parameterValues message
 Table = dict[str, tuple[ParameterValue, ParameterDescriptor]]
 
 
+class Held(NamedTuple):
+    """What the monitor holds of a node, read under its lock: presence, revision, a copy of its table,
+    and its state (read afterwards for the last changes alone)."""
+
+    online: bool
+    revision: int
+    table: Table
+    state: NodeState
+
+
 class States(Protocol):
     """What the server reads of a monitor: its live state, under its lock."""
 
@@ -73,13 +83,16 @@ class Connection:
     all_parameters: bool = False  # subscribed to every parameter
     parameters: set[str] = field(default_factory=set)  # subscribed names
     channels: dict[int, int] = field(default_factory=dict)  # subscription id -> channel id
-    queue: asyncio.Queue[str | bytes | None] = field(default_factory=lambda: asyncio.Queue(QUEUE_SIZE))
+    # each item is a message, or a batch of them (one node's message each, on the channel)
+    queue: asyncio.Queue[str | bytes | list[bytes] | None] = field(
+        default_factory=lambda: asyncio.Queue(QUEUE_SIZE)
+    )
     closed: bool = False
 
-    def send(self, message: str | bytes | Mapping[str, object]) -> None:
+    def send(self, message: str | bytes | list[bytes] | Mapping[str, object]) -> None:
         if self.closed:
             return
-        data = message if isinstance(message, (str, bytes)) else p.dumps(message)
+        data = message if isinstance(message, (str, bytes, list)) else p.dumps(message)
         try:
             self.queue.put_nowait(data)
         except asyncio.QueueFull:  # too slow: closed, it reconnects and reads the state again
@@ -98,7 +111,8 @@ class Connection:
     async def write(self) -> None:
         while (data := await self.queue.get()) is not None:
             try:
-                await self.ws.send(data)
+                for frame in data if isinstance(data, list) else [data]:
+                    await self.ws.send(frame)
             except ConnectionClosed:
                 return
 
@@ -135,15 +149,15 @@ class FoxgloveServer:
         if self._states is not None:
             self._states.wait_until(run, 0.0)
 
-    def _tables(self, nodes: Iterable[str] | None) -> dict[str, tuple[NodeState, Table]]:
-        """Nodes (None: every one) with a copy of their parameter tables, read under the monitor's lock."""
-        out: dict[str, tuple[NodeState, Table]] = {}
+    def _tables(self, nodes: Iterable[str] | None) -> dict[str, Held]:
+        """What the monitor holds of ``nodes`` (None: every one), read under its lock."""
+        out: dict[str, Held] = {}
 
         def take(states: dict[str, NodeState]) -> None:
             for node in states if nodes is None else nodes:
                 st = states.get(node)
                 if st is not None:
-                    out[node] = (st, dict(st.parameters))
+                    out[node] = Held(st.online, st.revision, dict(st.parameters), st)
 
         self._peek(take)
         return out
@@ -158,9 +172,9 @@ class FoxgloveServer:
         online node has (the others are left out, as foxglove_bridge does)."""
         if not names:
             out: list[Entry] = []
-            for node, (st, table) in self._tables(None).items():
-                if st.online:
-                    out += [to_foxglove(foxglove_name(node, n), v) for n, (v, _d) in table.items()]
+            for node, held in self._tables(None).items():
+                if held.online:
+                    out += [to_foxglove(foxglove_name(node, n), v) for n, (v, _d) in held.table.items()]
             return out
         wanted: dict[str, list[tuple[str, str]]] = {}
         for full in dict.fromkeys(names):
@@ -170,9 +184,9 @@ class FoxgloveServer:
         tables = self._tables(wanted)
         found: list[Entry] = []
         for node, asked in wanted.items():
-            held = tables.get(node)
-            if held is not None and held[0].online:
-                table = held[1]
+            named = tables.get(node)
+            if named is not None and named.online:
+                table = named.table
                 found += [to_foxglove(full, table[n][0]) for full, n in asked if n in table]
         return found
 
@@ -196,14 +210,16 @@ class FoxgloveServer:
         if not events or not self._connections:
             return
         updates: dict[str, Entry] = {}
-        reread: set[str] = set()  # nodes that came, went or restarted: published as the state says
+        # nodes that came, went or restarted (each one's last such event): published as the state
+        # says, once it says the same (a restart's events arrive while its state is being updated)
+        reread: dict[str, EventKind] = {}
         changed: dict[str, None] = {}
         for e in events:
             if not e.node:
                 continue
             changed[e.node] = None
             if e.event in (EventKind.ONLINE, EventKind.OFFLINE, EventKind.RESTARTED):
-                reread.add(e.node)
+                reread[e.node] = e.event
             elif e.event in (EventKind.ADDED, EventKind.MODIFIED) and e.name:
                 full = foxglove_name(e.node, e.name)
                 updates[full] = to_foxglove(full, e.value)
@@ -211,11 +227,11 @@ class FoxgloveServer:
                 full = foxglove_name(e.node, e.name)
                 updates[full] = {"name": full}
         tables = self._tables(changed)
-        for node in reread:
+        for node, kind in reread.items():
             held = tables.get(node)
-            if held is None:
+            if held is None or held.online is (kind is EventKind.OFFLINE):
                 continue
-            online, table = held[0].online, held[1]
+            online, table = held.online, held.table
             for n, (v, _d) in table.items():
                 full = foxglove_name(node, n)
                 updates[full] = to_foxglove(full, v if online else None)
@@ -224,22 +240,12 @@ class FoxgloveServer:
                 mine = [u for name, u in updates.items() if conn.wants(name)]
                 if mine:
                     conn.send(p.parameter_values(mine))
-        if any(conn.channels for conn in self._connections):
-            for node in changed:
-                if node in tables:
-                    self._publish_node(node, *tables[node])
-
-    def _publish_node(
-        self, node: str, st: NodeState, table: Table, only: tuple[Connection, int] | None = None
-    ) -> None:
-        """One node's message on the descriptors channel, to every subscription (or ``only``)."""
-        last = {n: lc for n in table if (lc := st.last_change(n)) is not None}
-        message = p.node_message(node, st.online, st.revision, table, last)
-        payload = json.dumps(message, allow_nan=False, separators=(",", ":")).encode()
-        now = time.time_ns()
-        targets = [only] if only is not None else self._channel_subscriptions()
-        for conn, sub in targets:
-            conn.send(p.message_data(sub, now, payload))
+        subscriptions = self._channel_subscriptions()
+        if subscriptions:
+            payloads = [_node_payload(node, tables[node]) for node in changed if node in tables]
+            now = time.time_ns()
+            for conn, sub in subscriptions:
+                conn.send([p.message_data(sub, now, payload) for payload in payloads])
 
     def _channel_subscriptions(self) -> list[tuple[Connection, int]]:
         return [
@@ -329,9 +335,9 @@ class FoxgloveServer:
                 conn.send(p.status(p.ERROR, f"subscription id {sub} is already in use"))
                 continue
             conn.channels[sub] = channel
-            for node, (st, table) in sorted(self._tables(None).items()):
-                if st.online:
-                    self._publish_node(node, st, table, only=(conn, sub))
+            now = time.time_ns()
+            online = sorted((node, held) for node, held in self._tables(None).items() if held.online)
+            conn.send([p.message_data(sub, now, _node_payload(node, held)) for node, held in online])
 
     # -- sets -------------------------------------------------------------------------------
 
@@ -373,7 +379,7 @@ class FoxgloveServer:
         out: list[Entry] = []
         for node, items in by_node.items():
             held = tables.get(node)
-            online, table = (held[0].online, held[1]) if held is not None else (False, {})
+            online, table = (held.online, held.table) if held is not None else (False, {})
             out += [to_foxglove(full, table[n][0] if online and n in table else None) for full, n, _ in items]
         return out
 
@@ -382,10 +388,10 @@ class FoxgloveServer:
         conn: Connection,
         node: str,
         items: list[tuple[str, str, Mapping[str, object]]],
-        held: tuple[NodeState, Table] | None,
+        held: Held | None,
         rid: str | None,
     ) -> list[Entry]:
-        table = held[1] if held is not None else {}
+        table = held.table if held is not None else {}
         params: list[Parameter] = []
         for _full, name, entry in items:
             current: ParameterType | None = table[name][0].type if name in table else None
@@ -415,6 +421,14 @@ class FoxgloveServer:
             conn.close()
         for task in list(self._tasks):
             task.cancel()
+
+
+def _node_payload(node: str, held: Held) -> bytes:
+    """One node's message on the descriptors channel, as JSON bytes."""
+    last = {n: lc for n in held.table if (lc := held.state.last_change(n)) is not None}
+    revision = max([held.revision, *(lc.revision for lc in last.values())])
+    message = p.node_message(node, held.online, revision, held.table, last)
+    return json.dumps(message, allow_nan=False, separators=(",", ":")).encode()
 
 
 def _req(rid: str | None) -> str:
