@@ -10,9 +10,10 @@ class Inbox {
   constructor(client) {
     this.pending = [];
     this.waiters = [];
-    for (const op of ["serverInfo", "parameterValues", "status", "removeStatus", "advertise"]) {
+    for (const op of ["serverInfo", "parameterValues", "status", "removeStatus"]) {
       client.on(op, (message) => this.push({ op, ...message }));
     }
+    client.on("advertise", (channels) => this.push({ op: "advertise", channels }));
   }
   push(message) {
     const waiter = this.waiters.find((w) => w.test(message));
