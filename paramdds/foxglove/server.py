@@ -48,6 +48,7 @@ log = logging.getLogger(__name__)
 
 TOKEN_URL = "ws://HOST:PORT/?token=TOKEN"
 QUEUE_SIZE = 1024  # outgoing messages a connection may fall behind by
+CATCH_UP = 2.0  # seconds a set's echo waits for the monitor to hold what was set
 Entry = dict[str, object]  # one parameter of a parameterValues message
 Table = dict[str, tuple[ParameterValue, ParameterDescriptor]]
 
@@ -412,7 +413,29 @@ class FoxgloveServer:
             reasons = "; ".join(f"{r.name}: {r.reason or r.code}" for r in reply.results if not r.successful)
             conn.send(p.status(p.WARNING, f"{node} refused the set: {reasons}{_req(rid)}", rid))
             return self._current({node: items})
+        # a node publishes its new values just after its reply: the echo waits (bounded) until the
+        # monitor holds them, so that a get made after it reads what was set
+        await asyncio.to_thread(self._wait_held, node, params, reply.revision)
         return [to_foxglove(full, param.value) for (full, _n, _e), param in zip(items, params, strict=True)]
+
+    def _wait_held(self, node: str, params: Sequence[Parameter], revision: int) -> bool:
+        """Wait up to :data:`CATCH_UP` seconds until the monitor holds ``params`` on ``node`` (each
+        value, or a later change of it than ``revision``)."""
+
+        def held(states: dict[str, NodeState]) -> bool:
+            st = states.get(node)
+            if st is None:
+                return False
+            for param in params:
+                entry = st.parameters.get(param.name)
+                blame = st.blame.get(param.name)
+                if not (entry is not None and entry[0].same_as(param.value)) and not (
+                    blame is not None and blame[4] > revision
+                ):
+                    return False
+            return True
+
+        return self._states is None or self._states.wait_until(held, CATCH_UP)
 
     async def close(self) -> None:
         """Stop taking events and end every connection's writer."""

@@ -75,6 +75,17 @@ async def until(ws: ClientConnection, pred: Any, timeout: float = 10.0) -> Any:
                 return msg
 
 
+async def until_each(ws: ClientConnection, preds: dict[str, Any], timeout: float = 10.0) -> dict[str, Any]:
+    """The first message for which each of ``preds`` holds, in whatever order they come."""
+    found: dict[str, Any] = {}
+    async with asyncio.timeout(timeout):
+        while len(found) < len(preds):
+            raw = await ws.recv()
+            msg = json.loads(raw) if isinstance(raw, str) else raw
+            found.update({key: msg for key, pred in preds.items() if key not in found and pred(msg)})
+    return found
+
+
 def replied(rid: str) -> Any:
     return lambda m: isinstance(m, dict) and m.get("op") == "parameterValues" and m.get("id") == rid
 

@@ -8,7 +8,7 @@ import json
 import pytest
 
 from ..reliability.conftest import PARAMDDS, Proc, make_dds_env
-from .test_server import READY, ask, opened, replied, until
+from .test_server import READY, ask, opened, replied, until, until_each
 
 pytest.importorskip("zenoh", reason="the zenoh extra is not installed (pip install -e '.[zenoh]')")
 
@@ -45,11 +45,12 @@ def test_a_fleet_through_zenoh(fleet: Fleet) -> None:
                 "parameters": [{"name": "/s1/arm.robot.max_velocity", "value": 2, "type": "float64"}],
             },
         )
-        echoed = await until(ws, replied("s"), timeout=15)
+        pushes = lambda m: m.get("op") == "parameterValues" and "id" not in m  # noqa: E731
+        got = await until_each(ws, {"echo": replied("s"), "push": pushes}, timeout=15)  # in either order
+        echoed, pushed = got["echo"], got["push"]
         assert echoed["parameters"] == [
             {"name": "/s1/arm.robot.max_velocity", "value": 2.0, "type": "float64"}
         ]
-        pushed = await until(ws, lambda m: m.get("op") == "parameterValues" and "id" not in m, timeout=15)
         assert json.dumps(pushed["parameters"]) == json.dumps(echoed["parameters"])
         await ws.close()
 
