@@ -47,7 +47,7 @@ if TYPE_CHECKING:
     from websockets.asyncio.client import ClientConnection
 
 SUBPROTOCOL = "foxglove.websocket.v1"
-READY = re.compile(r"^\[FOXGLOVE\] Foxglove WebSocket server on (ws://\S+) \((\d+) nodes\)$")
+READY = re.compile(r"^\[FOXGLOVE\] Foxglove WebSocket server on (ws://\S+) \((\d+) nodes?\)$")
 PER_SERVER = 1000  # node ids per server worker process
 NODE0, PARAM0 = "bench_n0000", "group0.param_000"
 PUSH_TIMEOUT = 5.0

@@ -32,7 +32,7 @@ from .fleet import cpu_seconds
 from .foxglove import ReadyProcess
 from .worker import param_name
 
-RECORD_READY = re.compile(r"^\[RECORD\] Recording (\d+) nodes to (.+)$")
+RECORD_READY = re.compile(r"^\[RECORD\] Recording (\d+) nodes? to (.+)$")
 ANY_LINE = re.compile(r".*")
 NODE_GLOB = "bench_n*"
 

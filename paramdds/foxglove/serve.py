@@ -31,7 +31,7 @@ from .server import FoxgloveServer
 if TYPE_CHECKING:
     from ..dds.monitor import ParameterMonitor
 
-READY = "[FOXGLOVE] Foxglove WebSocket server on ws://{host}:{port} ({nodes} nodes)"
+READY = "[FOXGLOVE] Foxglove WebSocket server on ws://{host}:{port} ({nodes})"
 SETTLE = 0.5  # seconds a fresh monitor gives discovery before it counts the nodes
 MAX_MESSAGE = 16 * 2**20  # bytes of one client message
 CLOSE_TIMEOUT = 1.0  # seconds a client has to answer the closing handshake when the server stops
@@ -91,9 +91,13 @@ async def _serve(args: argparse.Namespace, access: Access, sock: socket.socket) 
                 return
             name, port = sock.getsockname()[:2]
             shown = f"[{name}]" if ":" in name else name
-            sys.stdout.write(READY.format(host=shown, port=port, nodes=server.online_count()) + "\n")
+            sys.stdout.write(READY.format(host=shown, port=port, nodes=_nodes(server.online_count())) + "\n")
             sys.stdout.flush()
             await stop.wait()
             await server.close()
     finally:
         await asyncio.to_thread(session.close)
+
+
+def _nodes(count: int) -> str:
+    return f"{count} node" if count == 1 else f"{count} nodes"

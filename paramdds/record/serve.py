@@ -3,7 +3,7 @@
 The file is created first (a path that cannot be written is exit 2 at once). The monitor
 (over DDS, or with ``--zenoh`` every site's) queues its events from the start; once
 discovery has settled the recorder takes its state as each node's snapshot,
-writes it, flushes, and prints ``[RECORD] Recording N nodes to FILE``. Then the main
+writes it, flushes, and prints ``[RECORD] Recording N nodes to FILE`` (``1 node``). Then the main
 thread turns the queued events into messages (:mod:`.tracker`: each change once; revisions
 the monitor skipped filled from the node's history, or recorded as a gap) and writes them
 (:mod:`.mcapfile`), flushing within :data:`~.mcapfile.FLUSH_S` of each message. SIGINT and
@@ -76,7 +76,7 @@ class Recorder:
         nxt = self.open_next()
         self.write(self.tracker.snapshots(time.time_ns()))
         nxt.flush()
-        _say(f"[RECORD] Recording {self.tracker.nodes} nodes to {nxt.path}")
+        _say(f"[RECORD] Recording {_nodes(self.tracker.nodes)} to {nxt.path}")
 
 
 class HistoryFill:
@@ -141,7 +141,7 @@ def run_record(args: argparse.Namespace, nodes: list[str]) -> int:
             _settle(monitor, started, args.timeout, lambda: last_event[0], stop)
             recorder.write(recorder.tracker.start(monitor.snapshot(), time.time_ns()))
             file.flush()
-            _say(f"[RECORD] Recording {recorder.tracker.nodes} nodes to {file.path}")
+            _say(f"[RECORD] Recording {_nodes(recorder.tracker.nodes)} to {file.path}")
             try:
                 _loop(recorder, events, stop)
             finally:
@@ -196,3 +196,7 @@ def _settle(
 def _say(line: str) -> None:
     sys.stdout.write(line + "\n")
     sys.stdout.flush()
+
+
+def _nodes(count: int) -> str:
+    return f"{count} node" if count == 1 else f"{count} nodes"

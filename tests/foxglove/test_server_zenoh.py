@@ -24,7 +24,7 @@ def test_a_fleet_through_zenoh(fleet: Fleet) -> None:
     )
     fleet.procs.append(proc)
     _, line = proc.wait_for(READY, 30)
-    assert line.endswith("(1 nodes)"), line
+    assert line.endswith("(1 node)"), line
     url = line.split(" on ", 1)[1].split(" ", 1)[0]
 
     async def go() -> None:

@@ -26,7 +26,7 @@ from .conftest import run_node, start_node
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(120)]
 
 SUBPROTOCOLS = ["foxglove.websocket.v1", "foxglove.sdk.v1"]
-READY = re.compile(r"^\[FOXGLOVE\] Foxglove WebSocket server on (ws://\S+) \((\d+) nodes\)$")
+READY = re.compile(r"^\[FOXGLOVE\] Foxglove WebSocket server on (ws://\S+) \((\d+) nodes?\)$")
 
 PARAMS = """\
 /**:

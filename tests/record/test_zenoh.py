@@ -23,7 +23,7 @@ def test_a_remote_site_is_recorded_with_its_authors(fleet: Fleet, tmp_path: Path
     env = make_dds_env(fleet.domain("cloud"))
     rec = Proc([PARAMDDS, "--zenoh", fleet.endpoint, "record", "-o", str(path)], env)
     fleet.procs.append(rec)
-    rec.wait_for("[RECORD] Recording 1 nodes to", 30)
+    rec.wait_for("[RECORD] Recording 1 node to", 30)
     cli = [PARAMDDS, "--zenoh", fleet.endpoint, "--as", "carol", "set", "s1/robot1", "robot.max_velocity=2.5"]
     done = subprocess.run(cli, env=env, capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
