@@ -40,7 +40,8 @@ def over_the_wire(entry: dict[str, object]) -> dict[str, object]:
 
 
 def as_javascript(obj: object) -> object:
-    """What a JavaScript client sends back after reading ``obj``: ``2.0`` became ``2``."""
+    """What a JavaScript client sends back after reading ``obj``: ``2.0`` became ``2``, and
+    ``-0.0`` became ``0`` (``JSON.stringify(-0)`` is ``"0"``)."""
     if isinstance(obj, float) and obj.is_integer():
         return int(obj)
     if isinstance(obj, list):
@@ -59,15 +60,27 @@ def test_every_type_round_trips_through_json(value: ParameterValue) -> None:
         assert from_foxglove(entry).same_as(value)
 
 
+def unsigned_zeros(value: ParameterValue) -> ParameterValue:
+    """``value`` with every -0.0 as 0.0: what survives a JavaScript client's JSON."""
+    if value.type is T.DOUBLE and value.value == 0.0:
+        return ParameterValue.of(T.DOUBLE, 0.0)
+    if value.type is T.DOUBLE_ARRAY:
+        return ParameterValue.of(T.DOUBLE_ARRAY, [0.0 if x == 0.0 else x for x in value.value])  # type: ignore[union-attr]
+    return value
+
+
 @given(values())
 def test_every_type_round_trips_through_a_javascript_client(value: ParameterValue) -> None:
-    """A double stays a double: the hint (sent back as the client last saw it) restores 2 as 2.0."""
+    """A double stays a double: the hint (sent back as the client last saw it) restores 2 as 2.0.
+    The one loss is JavaScript's own: a -0.0 comes back as 0.0."""
     entry = as_javascript(over_the_wire(to_foxglove("/arm.x", value)))
     assert isinstance(entry, dict)
-    assert from_foxglove(entry, value.type).same_as(value)
+    expected = unsigned_zeros(value)
+    assert from_foxglove(entry, value.type).same_as(expected)
     without_hint = {k: v for k, v in entry.items() if k != "type"}
     if value.type is not T.BYTE_ARRAY:  # base64 text alone is a string: its node's type decides
-        assert from_foxglove(without_hint, value.type).same_as(value)
+        assert from_foxglove(without_hint, value.type).same_as(expected)
+
 
 
 def test_the_hints_are_those_of_the_protocol() -> None:
