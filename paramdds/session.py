@@ -24,7 +24,9 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 # verbs that stay up: their participants keep Cyclone's default announcement interval
-LONG_LIVED_VERBS = frozenset({"server", "demo", "client", "watch", "assign", "web", "ros2", "foxglove"})
+LONG_LIVED_VERBS = frozenset(
+    {"server", "demo", "client", "watch", "assign", "web", "ros2", "foxglove", "record"}
+)
 
 
 class Session:
