@@ -31,6 +31,7 @@ from cyclonedds.domain import DomainParticipant
 from cyclonedds.topic import Topic
 
 from ._binding import install_native_filter
+from .topics import created, make_topic
 
 try:
     from . import _nodefilter  # type: ignore[attr-defined]
@@ -227,7 +228,7 @@ def filtered_topic(participant: DomainParticipant, name: str, data_type: type, f
     """
     if flt._c is None:
         _warn_once()
-        return Topic(participant, name, data_type)
-    topic = FilteredTopic(participant, name, data_type, flt)
+        return make_topic(participant, name, data_type)
+    topic = created(lambda: FilteredTopic(participant, name, data_type, flt), name)
     install_native_filter(topic, flt._c.function(), flt._c.argument())
     return topic

@@ -17,7 +17,6 @@ from typing import Any
 from cyclonedds.core import Policy
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.qos import Qos
-from cyclonedds.topic import Topic
 
 from ..core.monitor_events import NodeState
 from ..core.state_book import StateBook
@@ -25,6 +24,7 @@ from .dispatch import Dispatcher
 from .monitor_rules import apply_sample
 from .participant import poll_peers
 from .qos import QosProfiles
+from .topics import make_topic
 from .transport import transport_of
 from .wire import types as wire
 from .wire.state import StateKey, StateSample, decode_key, decode_state
@@ -49,7 +49,7 @@ class DdsStateFeed:
         qos = self._qos or QosProfiles.load()
         self._last_sample = time.monotonic()
         # no topic filter (it deadlocks against take under load): apply_sample skips other nodes
-        topic = Topic(participant, "ParameterEvents", wire.ParameterEvent)
+        topic = make_topic(participant, "ParameterEvents", wire.ParameterEvent)
         # its tick looks into peers whose type or QoS does not match (see .peers)
         self._dispatcher = Dispatcher(
             participant, "paramdds-monitor", tick=partial(poll_peers, participant), period=1.0

@@ -63,7 +63,6 @@ from cyclonedds.domain import DomainParticipant
 from cyclonedds.pub import DataWriter
 from cyclonedds.qos import Qos
 from cyclonedds.sub import DataReader
-from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
 from ..core import deadline as deadlines
@@ -83,6 +82,7 @@ from .node_worker import NodeWorker, Staged
 from .participant import poll_peers
 from .publication import Persistence, StatePublication
 from .qos import QosProfiles
+from .topics import make_topic
 from .transport import transport_of
 from .wire import types as wire
 from .wire.cdr import MalformedSample, encode
@@ -160,13 +160,13 @@ class ParameterServer:
         state_qos += _manual_liveliness()
         with self._transport.refused(f"serving nodes {sorted(self._where.nodes or ())}"):
             state_writer = BatchingWriter(
-                self._pub, Topic(participant, "ParameterEvents", wire.ParameterEvent), state_qos
+                self._pub, make_topic(participant, "ParameterEvents", wire.ParameterEvent), state_qos
             )
             self.publication = StatePublication(state_writer, presence_tags, self._tables.__contains__)
             replies = ("SetParametersResponse", "GetParametersResponse", "ListParametersResponse")
             self._reply_writers = {
                 name: (BatchingWriter if name == "SetParametersResponse" else DataWriter)(
-                    self._pub, Topic(self._dp, name, wire.TOPICS[name]), self._qos.writer(name)
+                    self._pub, make_topic(self._dp, name, wire.TOPICS[name]), self._qos.writer(name)
                 )
                 for name in replies
             }
@@ -263,8 +263,8 @@ class ParameterServer:
             self._started = True
             self._refilter()
         # not filtered: assignments for nodes not hosted yet are kept for when they are added
-        topic = Topic(self._dp, "SetParametersRequest", wire.SetParametersRequest)
-        reader = DataReader(self._sub, topic, self._qos.assignment_reader())
+        requests = make_topic(self._dp, "SetParametersRequest", wire.SetParametersRequest)
+        reader = DataReader(self._sub, requests, self._qos.assignment_reader())
         self._dispatcher.add(reader, self._transport.guard(reader, self._on_assignment))
         if self._twins.native:  # other processes' presence of our nodes, and nothing else
             twins = filtered_topic(self._dp, "ParameterEvents", wire.ParameterEvent, self._twins)
@@ -334,7 +334,7 @@ class ParameterServer:
         """
         try:
             reader = DataReader(
-                self._sub, Topic(self._dp, "ParameterEvents", wire.ParameterEvent), self._twin_qos()
+                self._sub, make_topic(self._dp, "ParameterEvents", wire.ParameterEvent), self._twin_qos()
             )
             deadline = time.monotonic() + seconds
             while time.monotonic() < deadline and not self._closed:

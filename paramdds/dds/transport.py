@@ -44,10 +44,10 @@ from cyclonedds.domain import DomainParticipant
 from cyclonedds.pub import DataWriter, Publisher
 from cyclonedds.qos import Policy, Qos
 from cyclonedds.sub import DataReader, Subscriber
-from cyclonedds.topic import Topic
 
 from ..core.names import canonical_node_id
 from ..errors import NotPermittedError, ParamddsError
+from .topics import make_topic
 from .wire import types as wire
 
 if TYPE_CHECKING:
@@ -206,7 +206,7 @@ class Transport:
         keeps a role's writers."""
         with self.refused(f"{_ACTIONS.get(topic, topic)} on node {node!r}"):
             return DataWriter(
-                self._publisher_for(node), Topic(self.participant, topic, wire.TOPICS[topic]), qos
+                self._publisher_for(node), make_topic(self.participant, topic, wire.TOPICS[topic]), qos
             )
 
     def _publisher_for(self, node: str) -> Any:
