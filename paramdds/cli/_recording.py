@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import importlib.util
 import sys
 from typing import TYPE_CHECKING
 
-from ..exits import UsageError
+from ._extras import require_extra
 
 if TYPE_CHECKING:
     from ..formats.recording import Recording
@@ -15,8 +14,7 @@ if TYPE_CHECKING:
 def open_recording(path: str) -> Recording:
     """The recording at ``path`` (UsageError, exit 2: no mcap package, or not a recording). A
     file cut short by a killed recorder is read up to the tear, with one line on stderr."""
-    if importlib.util.find_spec("mcap") is None:
-        raise UsageError("--from needs the mcap package (the foxglove extra): pip install -e '.[foxglove]'")
+    require_extra("--from", "foxglove", ("mcap",))
     from ..formats.recording import read_recording
 
     recording = read_recording(path)

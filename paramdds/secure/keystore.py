@@ -69,7 +69,8 @@ def _crypto() -> Any:
         from cryptography import x509
     except ImportError as exc:
         raise KeystoreError(
-            "the keystore needs the 'cryptography' package: pip install 'paramdds[secure]'"
+            "the keystore needs the secure extra (cryptography not installed): "
+            "pip install -e '.[secure]' in the paramdds checkout"
         ) from exc
     return x509
 

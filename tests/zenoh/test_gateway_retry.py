@@ -41,7 +41,7 @@ def test_a_missing_secure_extra_is_a_usage_error_naming_it(
         importlib.util, "find_spec", lambda name, *a: None if name == "cryptography" else real(name, *a)
     )
     monkeypatch.setitem(sys.modules, "cryptography", None)  # as if not installed: importing fails
-    extra = r"cryptography not installed\): pip install 'paramdds\[secure\]'"
+    extra = r"cryptography not installed\): pip install -e '\.\[secure\]' in the paramdds checkout"
     with pytest.raises(UsageError, match=r"'paramdds keystore' needs the secure extra \(" + extra):
         keystore.run(argparse.Namespace(action="init", keystore=str(tmp_path / "ks")))
     assert not (tmp_path / "ks").exists()  # nothing half made

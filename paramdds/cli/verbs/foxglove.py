@@ -6,9 +6,6 @@ import argparse
 
 HELP = "every node's parameters in Foxglove and Lichtblick over WebSocket (needs the foxglove extra)"
 
-FOXGLOVE_PACKAGES = ("websockets",)
-FOXGLOVE_INSTALL = "pip install -e '.[foxglove]'"  # as docs/foxglove.md says it, run in the paramdds checkout
-
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
@@ -35,17 +32,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import importlib.util
-
     from ...exits import UsageError
+    from .._extras import require_extra
     from .._values import node_glob_arg
 
-    missing = [name for name in FOXGLOVE_PACKAGES if importlib.util.find_spec(name) is None]
-    if missing:
-        raise UsageError(
-            f"'paramdds foxglove' needs the foxglove extra ({', '.join(missing)} not installed): "
-            f"{FOXGLOVE_INSTALL} in the paramdds checkout"
-        )
+    require_extra("'paramdds foxglove'", "foxglove", ("websockets",))  # the server needs no mcap
     if not 0 <= args.port <= 65535:
         raise UsageError(f"--port must be within [0, 65535], got {args.port}")
     args.nodes = [node_glob_arg(n) for n in args.nodes]

@@ -7,7 +7,6 @@ import argparse
 
 from .._parser import Parser
 
-SECURE_INSTALL = "pip install 'paramdds[secure]'"
 HELP = "secure mode: CAs, governance and identities; the secure Cyclone build"
 
 
@@ -28,29 +27,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     a.add_argument("--prefix", metavar="DIR", required=True, help="where to install the secure build")
 
 
-def need_cryptography(what: str) -> None:
-    """UsageError (exit 2) naming the secure extra when the ``cryptography`` package is missing."""
-    import importlib.util
-
-    from ...exits import UsageError
-
-    if importlib.util.find_spec("cryptography") is None:
-        raise UsageError(
-            f"{what} needs the secure extra (cryptography not installed): {SECURE_INSTALL}"
-        )
-
-
 def run(args: argparse.Namespace) -> int:
     import sys
     from pathlib import Path
 
     from ...exits import Exit, UsageError
+    from .._extras import require_extra
 
     if args.action == "install":
         from ...secure.install import run as install
 
         return install(args)
-    need_cryptography("'paramdds keystore'")
+    require_extra("'paramdds keystore'", "secure")
     from ...secure.keystore import KeystoreError, add_identity, init_keystore
 
     root = Path(args.keystore)

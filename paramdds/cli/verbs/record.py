@@ -12,8 +12,6 @@ import argparse
 HELP = "record every parameter change, with its author, to an MCAP file (needs the foxglove extra)"
 
 OVERRIDES_GLOBALS = True  # -o is the file here, not the global output format (one format: MCAP)
-RECORD_PACKAGES = ("mcap",)
-RECORD_INSTALL = "pip install -e '.[foxglove]'"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -28,17 +26,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import importlib.util
-
-    from ...exits import UsageError
+    from .._extras import require_extra
     from .._values import node_glob_arg
 
-    missing = [name for name in RECORD_PACKAGES if importlib.util.find_spec(name) is None]
-    if missing:
-        raise UsageError(
-            f"'paramdds record' needs the foxglove extra ({', '.join(missing)} not installed): "
-            f"{RECORD_INSTALL} in the paramdds checkout"
-        )
+    require_extra("'paramdds record'", "foxglove", ("mcap",))
     from ...record.serve import run_record
 
     return run_record(args, [node_glob_arg(n) for n in args.nodes])

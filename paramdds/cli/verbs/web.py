@@ -6,9 +6,6 @@ import argparse
 
 HELP = "a live browser console for every node's parameters (needs the web extra)"
 
-WEB_PACKAGES = ("starlette", "uvicorn")
-WEB_INSTALL = "pip install -e '.[web]'"  # as docs/web.md says it, run in the paramdds checkout
-
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
@@ -41,16 +38,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import importlib.util
+    from .._extras import require_extra
 
-    from ...exits import UsageError
-
-    missing = [name for name in WEB_PACKAGES if importlib.util.find_spec(name) is None]
-    if missing:
-        raise UsageError(
-            f"'paramdds web' needs the web extra ({', '.join(missing)} not installed): "
-            f"{WEB_INSTALL} in the paramdds checkout"
-        )
+    require_extra("'paramdds web'", "web")
     if args.port is not None:
         host = args.bind.rpartition(":")[0] or "127.0.0.1"
         args.bind = f"{host}:{args.port}"

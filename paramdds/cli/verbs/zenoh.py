@@ -131,11 +131,11 @@ def run(args: argparse.Namespace) -> int:
         from pathlib import Path
 
         from ...zenoh.tls import issue
-        from .keystore import need_cryptography
+        from .._extras import require_extra
 
         if not args.keystore or not args.out:
             raise UsageError("--issue-cert needs --keystore DIR and --out DIR")
-        need_cryptography("'paramdds zenoh --issue-cert'")
+        require_extra("'paramdds zenoh --issue-cert'", "secure")
         out = issue(Path(args.keystore), args.issue_cert, args.host, Path(args.out))
         sys.stdout.write(f"[ZENOH] Certificate {args.issue_cert} in {out}: ca.pem cert.pem key.pem\n")
         return Exit.OK
