@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import sys
 import threading
-import time
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
@@ -47,14 +46,12 @@ class EventPrinter:
         self._lock = threading.Lock()
         self._synced = False
         self.broken = threading.Event()
-        self.last_event = time.monotonic()
 
     def __call__(self, event: MonitorEvent) -> None:
         from ..dds.monitor import EventKind
 
-        self.last_event = time.monotonic()
         if event.event is EventKind.SYNCED:
-            return  # printed by :meth:`synced`, once the state has settled (see settle())
+            return  # printed by :meth:`synced`, once the state has settled (ParameterMonitor.settle)
         if event.event in (EventKind.SITE_OFFLINE, EventKind.SITE_ONLINE):
             if self._synced:
                 self._write(self._site_line(event))

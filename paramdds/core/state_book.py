@@ -135,6 +135,7 @@ class StateBook:
         self._callbacks: list[EventCallback] = [on_event] if on_event else []
         self._synced = False
         self._closed = False
+        self._last_event = time.monotonic()  # when events were last delivered
         only = (nodes if isinstance(nodes, NodeFilter) else NodeFilter(nodes)) if nodes else None
         self._only: NodeFilter | None = only  # node ids and globs (``fleet/*``); None: every node
 
@@ -149,6 +150,11 @@ class StateBook:
     @property
     def closed(self) -> bool:
         return self._closed
+
+    @property
+    def last_event(self) -> float:
+        """When (``time.monotonic()``) events were last delivered; the book's start before any."""
+        return self._last_event
 
     # -- queries ----------------------------------------------------------------------
 
@@ -234,6 +240,8 @@ class StateBook:
         self._deliver([MonitorEvent(EventKind.SYNCED, stamp=time.time())])
 
     def _deliver(self, events: list[MonitorEvent]) -> None:
+        if events:
+            self._last_event = time.monotonic()
         for event in events:
             for fn in self._callbacks:
                 try:  # one failing callback must not cost the others (or the rest of the batch)

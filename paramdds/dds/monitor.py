@@ -10,6 +10,8 @@ the same calls and events.
 
 from __future__ import annotations
 
+import threading
+import time
 from collections.abc import Callable, Iterable
 
 from cyclonedds.domain import DomainParticipant
@@ -23,6 +25,7 @@ from .qos import QosProfiles
 
 __all__ = [
     "QUIET",
+    "SETTLE",
     "EventCallback",
     "EventKind",
     "MonitorEvent",
@@ -30,6 +33,8 @@ __all__ = [
     "ParameterMonitor",
     "StateFeed",
 ]
+
+SETTLE = 0.5  # seconds a fresh monitor gives discovery before it calls the state complete
 
 
 class ParameterMonitor:
@@ -95,3 +100,31 @@ class ParameterMonitor:
 
     def wait_synced(self, timeout: float) -> bool:
         return self._book.wait_synced(timeout)
+
+    def settle(
+        self, limit: float, *, started: float | None = None, stop: threading.Event | None = None
+    ) -> bool:
+        """Wait, at most ``limit`` s from ``started`` (``time.monotonic()``; default now), until
+        this monitor holds the current state of every node there is: what a fresh process
+        needs before it prints, records or serves "everything".
+
+        A fresh process cannot know when discovery is over, so besides the feed's own sync
+        it waits at least :data:`SETTLE` s from ``started``, then for every online node to be
+        complete and :data:`QUIET` s without events. False when the limit came first, or
+        ``stop`` was set (it also ends the wait).
+        """
+        begun = time.monotonic() if started is None else started
+        deadline = begun + limit
+        pause = stop.wait if stop is not None else time.sleep
+        self.wait_synced(limit)
+        pause(max(0.0, begun + SETTLE - time.monotonic()))
+        while stop is None or not stop.is_set():
+            remaining = deadline - time.monotonic()
+            done = self.wait_until(
+                lambda s: all(st.complete or not st.online for st in s.values()), max(0.0, remaining)
+            )
+            wait = self._book.last_event + QUIET - time.monotonic()
+            if wait <= 0 or remaining <= 0:
+                return done and remaining > 0
+            pause(wait)
+        return False

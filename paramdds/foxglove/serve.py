@@ -14,8 +14,6 @@ import asyncio
 import signal
 import socket
 import sys
-import time
-from typing import TYPE_CHECKING
 
 from websockets.asyncio.server import ServerConnection, serve
 from websockets.http11 import Request, Response
@@ -28,11 +26,7 @@ from .access import Access, access_for
 from .protocol import SUBPROTOCOLS
 from .server import FoxgloveServer
 
-if TYPE_CHECKING:
-    from ..dds.monitor import ParameterMonitor
-
 READY = "[FOXGLOVE] Foxglove WebSocket server on ws://{host}:{port} ({nodes})"
-SETTLE = 0.5  # seconds a fresh monitor gives discovery before it counts the nodes
 MAX_MESSAGE = 16 * 2**20  # bytes of one client message
 CLOSE_TIMEOUT = 1.0  # seconds a client has to answer the closing handshake when the server stops
 
@@ -47,15 +41,6 @@ def run(args: argparse.Namespace) -> int:
     return Exit.OK
 
 
-def _settle(monitor: ParameterMonitor, limit: float) -> None:
-    """Give the monitor up to ``limit`` s to hold every online node's whole state."""
-    started = time.monotonic()
-    monitor.wait_synced(limit)
-    time.sleep(max(0.0, started + SETTLE - time.monotonic()))
-    remaining = max(0.0, started + limit - time.monotonic())
-    monitor.wait_until(lambda s: all(st.complete or not st.online for st in s.values()), remaining)
-
-
 async def _serve(args: argparse.Namespace, access: Access, sock: socket.socket) -> None:
     from ..dds.client import AsyncParameterClient
 
@@ -67,7 +52,7 @@ async def _serve(args: argparse.Namespace, access: Access, sock: socket.socket) 
     session = Session(args, app_name="paramdds-foxglove")
     try:
         monitor = await asyncio.to_thread(session.monitor, args.nodes or None, server.on_event)
-        await asyncio.to_thread(_settle, monitor, args.timeout)
+        await asyncio.to_thread(monitor.settle, args.timeout)
         client = AsyncParameterClient(session.client(Via.FOXGLOVE))
         server.attach(monitor, client)
 

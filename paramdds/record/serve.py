@@ -34,10 +34,7 @@ from .tracker import Out, Tracker
 
 if TYPE_CHECKING:
     from ..dds.client import ParameterClient
-    from ..dds.monitor import ParameterMonitor
 
-SETTLE = 0.5  # seconds a fresh monitor gives discovery before its state counts as whole
-QUIET = 0.1  # seconds without events before the state counts as received
 TICK = 0.2  # seconds the loop waits for an event at most (how soon a signal is seen)
 
 
@@ -120,10 +117,7 @@ def run_record(args: argparse.Namespace, nodes: list[str]) -> int:
             raise UsageError(f"--split: {exc}") from None
     stop = threading.Event()
     events: queue.Queue[MonitorEvent] = queue.Queue()
-    last_event = [time.monotonic()]
-
     def on_event(e: MonitorEvent) -> None:
-        last_event[0] = time.monotonic()
         events.put(e)
 
     def on_signal(_signum: int, _frame: FrameType | None) -> None:
@@ -138,7 +132,7 @@ def run_record(args: argparse.Namespace, nodes: list[str]) -> int:
             file = recorder.open_next()  # first: a path that cannot be written fails at once
             started = time.monotonic()
             monitor = session.monitor(nodes or None, on_event=on_event)
-            _settle(monitor, started, args.timeout, lambda: last_event[0], stop)
+            monitor.settle(args.timeout, started=started, stop=stop)
             recorder.write(recorder.tracker.start(monitor.snapshot(), time.time_ns()))
             file.flush()
             _say(f"[RECORD] Recording {_nodes(recorder.tracker.nodes)} to {file.path}")
@@ -173,24 +167,6 @@ def _loop(recorder: Recorder, events: queue.Queue[MonitorEvent], stop: threading
         elif recorder.split.seconds and file.full(recorder.split):
             file.flush()
             recorder.roll()
-
-
-def _settle(
-    m: ParameterMonitor, started: float, limit: float, last: Callable[[], float], stop: threading.Event
-) -> None:
-    """Wait (at most ``limit`` s) until the monitor holds every node's state: its own sync, at
-    least :data:`SETTLE` s, every online node complete, and :data:`QUIET` s without events
-    (``last()``: when the last one came)."""
-    deadline = started + limit
-    m.wait_synced(limit)
-    stop.wait(max(0.0, started + SETTLE - time.monotonic()))
-    while not stop.is_set():
-        remaining = deadline - time.monotonic()
-        m.wait_until(lambda s: all(st.complete or not st.online for st in s.values()), max(0.0, remaining))
-        wait = last() + QUIET - time.monotonic()
-        if wait <= 0 or remaining <= 0:
-            return
-        stop.wait(wait)
 
 
 def _say(line: str) -> None:

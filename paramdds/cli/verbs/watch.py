@@ -51,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
     from ...exits import Exit
     from ...session import Session
     from .._events import EventPrinter
-    from .._live import settle, wait_until_interrupted
+    from .._live import wait_until_interrupted
     from .._values import node_glob_arg
 
     if args.since is not None:
@@ -61,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     with Session(args) as session:
         started = time.monotonic()
         monitor = session.monitor(nodes or None, on_event=printer)
-        settled = settle(monitor, started, args.timeout, lambda: printer.last_event)
+        settled = monitor.settle(args.timeout, started=started)
         printer.synced(settled, time.monotonic() - started)
         missing = session.missing_sites()
         if missing:
@@ -84,7 +84,7 @@ def run_since(args: argparse.Namespace) -> int:
     from ...exits import Exit, UsageError
     from ...session import Session
     from .._events import EventPrinter
-    from .._live import settle, wait_until_interrupted
+    from .._live import wait_until_interrupted
     from .._output import problem
     from .._values import node_arg
 
@@ -105,7 +105,7 @@ def run_since(args: argparse.Namespace) -> int:
 
         started = time.monotonic()
         monitor = session.monitor([node], on_event=on_event)
-        settle(monitor, started, args.timeout, lambda: printer.last_event)
+        monitor.settle(args.timeout, started=started)
         state = monitor.snapshot().get(node)
         if state is not None and state.online and args.since > state.revision:
             raise UsageError(
