@@ -1,4 +1,5 @@
-"""What a front end that listens needs (the web console, the Foxglove server): its socket, its tokens.
+"""What a front end that listens needs (the web console, the Foxglove server): its socket, its
+tokens, and the monitor's events handed over to its event loop (:class:`Handover`).
 
 A token file holds one token (a word of 16+ characters) or one line per operator, ``NAME
 TOKEN`` (blank lines and ``#`` comments skipped): a write made with a named token is
@@ -9,12 +10,16 @@ address serves this machine only; the front ends' rules for other binds are thei
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 import hmac
 import ipaddress
 import socket
-from collections.abc import Sequence
+import threading
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Generic, TypeVar
 
 from .exits import UsageError
 
@@ -94,3 +99,52 @@ def bind_socket(host: str, port: int) -> socket.socket:
     sock.listen(128)
     sock.set_inheritable(True)
     return sock
+
+
+T = TypeVar("T")
+
+
+class Handover(Generic[T]):
+    """Items put from any thread (a monitor's events, on Cyclone's thread) reach ``flush`` on
+    the asyncio ``loop`` as one list per burst, in order: a flush is scheduled only when none
+    is pending (``delay`` s after the burst's first item), so a burst costs the loop one call.
+    Once closed, nothing more is scheduled."""
+
+    def __init__(
+        self, loop: asyncio.AbstractEventLoop, flush: Callable[[list[T]], None], delay: float = 0.0
+    ) -> None:
+        self._loop = loop
+        self._flush = flush
+        self._delay = delay
+        self._lock = threading.Lock()
+        self._pending: list[T] = []
+        self._scheduled = False
+        self._closed = False
+
+    def put(self, item: T) -> None:
+        with self._lock:
+            self._pending.append(item)
+            if self._scheduled or self._closed:
+                return
+            self._scheduled = True
+        with contextlib.suppress(RuntimeError):  # the loop is closed: the front end is stopping
+            if self._delay > 0:
+                self._loop.call_soon_threadsafe(self._loop.call_later, self._delay, self._run)
+            else:
+                self._loop.call_soon_threadsafe(self._run)
+
+    def close(self) -> None:
+        with self._lock:
+            self._closed = True
+
+    def drain(self) -> None:
+        """Hand what is pending to ``flush`` now (on the loop's thread; a scheduled run finds
+        nothing left)."""
+        self._run()
+
+    def _run(self) -> None:
+        with self._lock:
+            items, self._pending = self._pending, []
+            self._scheduled = False
+        if items:
+            self._flush(items)

@@ -22,7 +22,6 @@ import asyncio
 import contextlib
 import json
 import logging
-import threading
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -35,7 +34,7 @@ from ..core.descriptors import ParameterDescriptor
 from ..core.monitor_events import EventKind, MonitorEvent, NodeState
 from ..core.values import Parameter, ParameterType, ParameterValue
 from ..errors import ParamddsError
-from ..listen import Token, matching
+from ..listen import Handover, Token, matching
 from . import protocol as p
 from .access import Access, given_token, host_name
 from .names import BadValue, foxglove_name, from_foxglove, split_name, to_foxglove
@@ -131,10 +130,7 @@ class FoxgloveServer:
         self._setter: Setter | None = None
         self._connections: set[Connection] = set()
         self._tasks: set[asyncio.Task[None]] = set()
-        self._lock = threading.Lock()
-        self._pending: list[MonitorEvent] = []
-        self._scheduled = False
-        self._closed = False
+        self._events = Handover(loop, self._flush)
 
     def attach(self, states: States, setter: Setter) -> None:
         """Serve ``states`` (the monitor, made after this server, which receives its events) and
@@ -195,21 +191,12 @@ class FoxgloveServer:
     # -- the monitor's side (its thread) ----------------------------------------------------
 
     def on_event(self, event: MonitorEvent) -> None:
-        with self._lock:
-            self._pending.append(event)
-            if self._scheduled or self._closed:
-                return
-            self._scheduled = True
-        with contextlib.suppress(RuntimeError):  # the loop is closed: the server is stopping
-            self._loop.call_soon_threadsafe(self._flush)
+        self._events.put(event)
 
     # -- the event loop's side --------------------------------------------------------------
 
-    def _flush(self) -> None:
-        with self._lock:
-            events, self._pending = self._pending, []
-            self._scheduled = False
-        if not events or not self._connections:
+    def _flush(self, events: list[MonitorEvent]) -> None:
+        if not self._connections:
             return
         updates: dict[str, Entry] = {}
         # nodes that came, went or restarted (each one's last such event): published as the state
@@ -439,8 +426,7 @@ class FoxgloveServer:
 
     async def close(self) -> None:
         """Stop taking events and end every connection's writer."""
-        with self._lock:
-            self._closed = True
+        self._events.close()
         for conn in list(self._connections):
             conn.close()
         for task in list(self._tasks):

@@ -25,13 +25,12 @@ ends a query, not always with an event); when they differ, every subscriber gets
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import json
-import threading
 import time
 from dataclasses import dataclass, field
 
 from ..dds.monitor import EventKind, MonitorEvent
+from ..listen import Handover
 from .model import Row, parameter_row, summary_json
 from .view import Lacking, StateView
 
@@ -85,9 +84,7 @@ class Hub:
     def __init__(self, view: StateView, loop: asyncio.AbstractEventLoop) -> None:
         self._view = view
         self._loop = loop
-        self._lock = threading.Lock()
-        self._pending: list[MonitorEvent] = []
-        self._scheduled = False
+        self._events = Handover(loop, self._flush, FLUSH_DELAY)
         self._subscribers: set[Subscriber] = set()
         self._closed = False
         self._lacking: list[Lacking] | None = None  # the sites lacking last told (None: not followed)
@@ -97,13 +94,7 @@ class Hub:
     def on_event(self, event: MonitorEvent) -> None:
         if event.node and event.event is not EventKind.DELETED:
             self._view.note_revision(event.node, event.revision, event.incarnation)
-        with self._lock:
-            self._pending.append(event)
-            if self._scheduled or self._closed:
-                return
-            self._scheduled = True
-        with contextlib.suppress(RuntimeError):  # the loop is closed: the server is stopping
-            self._loop.call_soon_threadsafe(self._loop.call_later, FLUSH_DELAY, self._flush)
+        self._events.put(event)
 
     # -- the event loop's side ----------------------------------------------------------------
 
@@ -140,8 +131,8 @@ class Hub:
 
     def close(self) -> None:
         """End every stream (each gets ``None``)."""
-        with self._lock:
-            self._closed = True
+        self._closed = True
+        self._events.close()
         for sub in list(self._subscribers):
             try:
                 sub.queue.put_nowait(None)
@@ -150,11 +141,8 @@ class Hub:
                 sub.queue.put_nowait(None)
         self._subscribers.clear()
 
-    def _flush(self) -> None:
-        with self._lock:
-            events, self._pending = self._pending, []
-            self._scheduled = False
-        if not events or not self._subscribers:
+    def _flush(self, events: list[MonitorEvent]) -> None:
+        if not self._subscribers:
             return
         changed = list(dict.fromkeys(e.node for e in events if e.node))
         refresh = self._sites_changed()  # a site lacking came, or one went: the page re-reads its page

@@ -76,7 +76,7 @@ def test_changes_go_to_their_subscribers_only_and_coalesce() -> None:
         for v in (5, 6):
             server.on_event(event(EventKind.MODIFIED, "arm", "gain", v))
         server.on_event(event(EventKind.MODIFIED, "base", "gain", 1))
-        server._flush()
+        server._events.drain()
         assert sent(every) == [
             p.parameter_values([{"name": "/arm.gain", "value": 6}, {"name": "/base.gain", "value": 1}])
         ]
@@ -94,14 +94,14 @@ def test_an_offline_node_is_unset_and_a_node_coming_back_is_not_until_its_state_
         conn = connection(server)
         conn.all_parameters = True
         server.on_event(event(EventKind.OFFLINE, "arm"))
-        server._flush()
+        server._events.drain()
         assert sent(conn) == [p.parameter_values([{"name": "/arm.gain"}])]
         server.on_event(event(EventKind.RESTARTED, "arm"))  # while its state still says offline
-        server._flush()
+        server._events.drain()
         assert sent(conn) == []
         arm.online = True
         server.on_event(event(EventKind.ONLINE, "arm"))
-        server._flush()
+        server._events.drain()
         assert sent(conn) == [p.parameter_values([{"name": "/arm.gain", "value": 4}])]
         assert server.values(()) == [{"name": "/arm.gain", "value": 4}]
         arm.online = False
@@ -120,7 +120,7 @@ def test_the_channel_sends_every_online_node_on_subscribe_then_each_changed_node
         assert [m["node"] for m in first[:2]] == ["arm", "base"]
         assert first[2]["op"] == "status" and "no channel 42" in first[2]["message"]
         server.on_event(event(EventKind.MODIFIED, "base", "gain", 3))
-        server._flush()
+        server._events.drain()
         (message,) = sent(conn)
         assert message["node"] == "base" and message["parameters"][0]["parameter"] == "gain"
 
