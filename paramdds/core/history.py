@@ -162,6 +162,9 @@ class _State:
     last: dict[str, LastChange] = field(default_factory=dict)
     next_seq: int = 1
     dropped: _Dropped = field(default_factory=_Dropped)
+    # the first seq of this server's life: the records before it were restored from an earlier
+    # life (``--persist``), whose revisions counted from 1 as this one's do
+    life_seq: int = 1
 
 
 class NodeHistory:
@@ -299,7 +302,7 @@ class NodeHistory:
             s.last = dict(last)
             s.dropped = _Dropped(dropped_seq, dropped_revision, dropped_time_ns)
             top = s.records[-1].seq if s.records else dropped_seq
-            s.next_seq = max(s.next_seq, top + 1)
+            s.next_seq = s.life_seq = max(s.next_seq, top + 1)
             self._trim(time.time_ns())
 
     # -- reading --------------------------------------------------------------------
@@ -320,13 +323,16 @@ class NodeHistory:
         return len(self._s.records)
 
     def query(self, q: HistoryQuery) -> HistoryPage:
-        """The records matching ``q``, oldest first, one page at most."""
+        """The records matching ``q``, oldest first, one page at most. A revision counts in
+        this server's life: ``since_revision`` skips the records of earlier lives."""
         limit = q.limit if q.limit > 0 else PAGE_SIZE
         with self._lock:
+            floor = 0 if q.since_revision is None else self._s.life_seq  # the first seq asked for
             found: list[HistoryRecord] = []
             more = False
-            for r in itertools.islice(self._s.records, self._first_after(q.after_seq), None):
-                if q.matches(r):
+            start = self._first_after(max(q.after_seq, floor - 1))
+            for r in itertools.islice(self._s.records, start, None):
+                if r.seq >= floor and q.matches(r):
                     if len(found) == limit:
                         more = True
                         break
@@ -350,8 +356,8 @@ class NodeHistory:
         d = self._s.dropped
         if d.seq == 0 or q.after_seq >= d.seq:
             return False
-        if q.since_revision is not None and q.since_revision >= d.revision:
-            return False
+        if q.since_revision is not None and (q.since_revision >= d.revision or d.seq < self._s.life_seq):
+            return False  # the revision asked for is older than the drop, or the drop in an earlier life
         return q.since_time_ns is None or q.since_time_ns <= d.time_ns
 
 

@@ -128,3 +128,24 @@ def test_paging_a_restored_history_with_gaps_returns_each_record_once(seqs: set[
 
 def history_record(seq: int, time_ns: int) -> HistoryRecord:
     return HistoryRecord(seq, "n", "x", seq, time_ns, "w", False, "api", None, _v(seq))
+
+
+def test_a_revision_counts_in_this_life_a_time_across_lives() -> None:
+    """After a restart with --persist the revisions count from 1 again: --since REV means this
+    life's revisions (the earlier life's records are all before them), --since TIME reaches both."""
+    earlier_table, earlier = _fed(Retention(max_records=4))
+    for i in range(6):  # revisions 1..6; retention keeps the newest 4 (3..6), dropped up to 2
+        earlier_table.set([_p("x", i)])
+    kept = earlier.query(HistoryQuery()).records
+    table, history = _fed(Retention(max_records=100))
+    history.restore(kept, earlier.last_changes(), dropped_seq=2, dropped_revision=2)
+    table.set([_p("x", 10)])
+    table.set([_p("x", 11)])  # this life's revisions 1 and 2
+    since_1 = history.query(HistoryQuery(since_revision=1))
+    assert [(r.revision, _py(r.new)) for r in since_1.records] == [(2, 11)]
+    assert not since_1.compacted  # the drop was in the earlier life: nothing of this one is missing
+    since_0 = history.query(HistoryQuery(since_revision=0, limit=1))  # paged, from this life on
+    assert [_py(r.new) for r in since_0.records] == [10] and since_0.more
+    everything = history.query(HistoryQuery(since_time_ns=0))
+    assert [_py(r.new) for r in everything.records] == [2, 3, 4, 5, 10, 11] and everything.compacted
+    assert rewind({"x": _v(11)}, since_1.records) == {"x": _v(10)}  # diff NODE@1 in this life
