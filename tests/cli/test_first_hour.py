@@ -16,11 +16,12 @@ from ._support import PARAMDDS, ROOT
 
 
 def test_the_web_extras_hint_is_the_command_docs_web_md_gives(monkeypatch: pytest.MonkeyPatch) -> None:
+    from paramdds.cli._extras import PACKAGES
     from paramdds.cli.verbs import web
 
     real = importlib.util.find_spec
     monkeypatch.setattr(
-        importlib.util, "find_spec", lambda name, *a: None if name in web.WEB_PACKAGES else real(name, *a)
+        importlib.util, "find_spec", lambda name, *a: None if name in PACKAGES["web"] else real(name, *a)
     )
     with pytest.raises(UsageError) as caught:
         web.run(argparse.Namespace(port=None, bind="127.0.0.1:8800"))
