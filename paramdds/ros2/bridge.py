@@ -168,6 +168,10 @@ class Bridge:
         """One look at both graphs (the loop's body)."""
         graph = self.ros.graph()
         writers = self.ros.event_publishers()
+        for fqn, gids in self.mirror.returning(graph, writers).items():
+            # back from a stall past the lease, unnamed in ROS 2's graph (see Mirror.returning);
+            # it was mirrored before, so it is not of the bridge enclave
+            graph[fqn], writers[fqn] = "", gids
         listed = self.client.nodes()
         # Ours: every node the mirror holds, hosted or not at this instant, taken after the
         # listing. A mirror being hosted, or hosted again after a restart, is online in the

@@ -29,6 +29,16 @@ failing it is shown on paramdds as ``status=unreachable`` (an :class:`Unreachabl
 no parameters, every request refused with UNAVAILABLE), until a read succeeds. After
 :data:`FAST_TRIES` failures the retries slow down (up to 30 s apart), so a node that
 really has no parameter services does not churn the graph's endpoints.
+
+A node that comes back after its process stalled past Fast DDS's participant lease may
+stay out of ROS 2's graph for good: its peers drop the participant, rediscover its
+endpoints when it resumes, but never receive its ``ros_discovery_info`` again (the
+stalled side never dropped them, and Fast DDS's reliable repair does not resend to a
+reader it still counts as up to date), so rmw names its endpoints' node
+``_NODE_NAME_UNKNOWN_``. A ``/parameter_events`` writer is one writer of one node of one
+process: the mirror remembers the writers of the nodes that left (:data:`REMEMBERED`),
+and one that reappears unnamed brings its node back (:meth:`Mirror.returning`), mirrored at
+once (the same process, never a tool's node).
 """
 
 from __future__ import annotations
@@ -37,6 +47,7 @@ import contextlib
 import logging
 import random
 import threading
+from collections import OrderedDict
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
@@ -55,7 +66,7 @@ from ..core.table import ParameterTable
 from ..core.values import Parameter, ParameterType, ParameterValue
 from ..errors import ErrorCode, InvalidValueError, OutcomeUnknownError, ParamddsError, TooLargeError
 from .messages import descriptor_from_ros, parameter_to_ros, result_from_ros, value_from_ros
-from .rosside import RosSide, Unanswered
+from .rosside import RosSide, Unanswered, fqn_of
 
 log = logging.getLogger(__name__)
 
@@ -72,6 +83,9 @@ RESYNC_SPREAD = 0.25  # a node's next resync is due after 75-100 % of the period
 # with a bare rclpy node against 4 host processes: a peer that misses the first
 # announcements answers at its next periodic one, every 3 s)
 START_WINDOW = 4.0
+# rmw's name for the node of an endpoint whose participant's node list it does not have
+UNKNOWN_NODE = fqn_of("_NODE_NAME_UNKNOWN_", "_NODE_NAMESPACE_UNKNOWN_")
+REMEMBERED = 4096  # /parameter_events writers of nodes that left, remembered (the newest)
 
 Entry = tuple[ParameterValue, ParameterDescriptor]
 READS = ("list_parameters", "get_parameters", "describe_parameters")  # clients made per read (see RosLink)
@@ -543,6 +557,7 @@ class Mirror:
         self._rescue_lock = threading.Lock()
         self._departed: dict[str, list[str]] = {}  # node id -> the names it had when it left
         self._first_seen: dict[str, float] = {}  # fqn -> when a node not mirrored yet was first seen
+        self._writers_of: OrderedDict[bytes, str] = OrderedDict()  # writer GID -> fqn, of nodes that left
         self._looking_since: float | None = None  # the first look at the graph
         self.timeout = timeout
         self.resync_period = resync
@@ -568,7 +583,7 @@ class Mirror:
         for fqn, writers in wanted.items():
             m = current.get(fqn)
             if m is None:
-                if not self._old_enough(fqn, now):
+                if not self._old_enough(fqn, writers, now):
                     continue
                 m = self._add(fqn, writers)
                 if m is None:
@@ -586,6 +601,18 @@ class Mirror:
                 if due or (m.hosted and self.resync_period > 0 and now >= m.resync_at):
                     self._submit(m)
 
+    def returning(
+        self, graph: Mapping[str, str], writers: Mapping[str, frozenset[bytes]]
+    ) -> dict[str, frozenset[bytes]]:
+        """Nodes back in the graph under no name (fqn -> their writers): the writers rmw shows
+        under :data:`UNKNOWN_NODE` that a node had when it left (see the module docstring)."""
+        out: dict[str, set[bytes]] = {}
+        for gid in writers.get(UNKNOWN_NODE, frozenset()):
+            fqn = self._writers_of.get(gid)
+            if fqn is not None and fqn not in graph:
+                out.setdefault(fqn, set()).add(gid)
+        return {fqn: frozenset(gids) for fqn, gids in out.items()}
+
     def knows_graph(self, now: float) -> bool:
         """Whether the ROS 2 graph seen now holds every node that was there when the bridge
         started: :data:`START_WINDOW` seconds have passed since its first look (Fast DDS finds
@@ -597,14 +624,16 @@ class Mirror:
         with self._lock:
             return {m.node_id for m in self.nodes.values()}
 
-    def _old_enough(self, fqn: str, now: float) -> bool:
+    def _old_enough(self, fqn: str, writers: frozenset[bytes], now: float) -> bool:
         """Whether a node not mirrored yet has been in the graph for :data:`MIN_AGE` seconds, so
         that a tool's node (``ros2 param`` lives well under a second) is never mirrored. The
         nodes of the bridge's first :data:`START_WINDOW` seconds of looking were there before
-        it: mirrored at once."""
+        it, and a node back with a writer it had when it left is the same process: both are
+        mirrored at once."""
         assert self._looking_since is not None
         seen = self._first_seen.setdefault(fqn, now)
-        if seen - self._looking_since < START_WINDOW or now - seen >= MIN_AGE:
+        back = any(self._writers_of.get(gid) == fqn for gid in writers)
+        if back or seen - self._looking_since < START_WINDOW or now - seen >= MIN_AGE:
             self._first_seen.pop(fqn, None)
             return True
         return False
@@ -626,6 +655,11 @@ class Mirror:
             m = self.nodes.pop(fqn, None)
         if m is None:
             return
+        for gid in m.writers:  # its process may come back (a stall past the lease): see returning
+            self._writers_of[gid] = fqn
+            self._writers_of.move_to_end(gid)
+        while len(self._writers_of) > REMEMBERED:
+            self._writers_of.popitem(last=False)
         with m.lock:
             hosted, m.hosted = m.hosted, False
             shown, m.unreachable = m.unreachable, False

@@ -1,0 +1,97 @@
+"""A ROS 2 process stopped (SIGSTOP) longer or shorter than Fast DDS's participant lease.
+
+Real rclpy nodes in a process of their own, given a 3 s lease (announced every 1 s, the
+profile docs/ros2.md shows) so that a 6 s stop passes it; real bridge, real monitor; the
+test's own domains.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from paramdds.core.values import ParameterValue
+
+from .conftest import RosHost
+from .test_mirror import paramdds_side, wait_for
+
+pytestmark = [pytest.mark.slow, pytest.mark.timeout(180)]
+
+__all__ = ["paramdds_side"]  # the fixture, used by name below
+
+SHORT_LEASE = """<?xml version="1.0" encoding="UTF-8" ?>
+<profiles xmlns="http://www.eprosima.com">
+  <participant profile_name="short_lease" is_default_profile="true">
+    <rtps>
+      <builtin>
+        <discovery_config>
+          <leaseDuration><sec>3</sec></leaseDuration>
+          <leaseAnnouncement><sec>1</sec></leaseAnnouncement>
+        </discovery_config>
+      </builtin>
+    </rtps>
+  </participant>
+</profiles>
+"""
+NODES = [f"/stall/node_{i:02d}" for i in range(10)]
+
+
+@pytest.fixture
+def short_lease_host(ros_env: dict[str, str], tmp_path: Path) -> Iterator[RosHost]:
+    """10 plain nodes and ``/stall/rich`` in one process with a 3 s participant lease."""
+    profile = tmp_path / "short_lease.xml"
+    profile.write_text(SHORT_LEASE)
+    env = {**ros_env, "FASTDDS_DEFAULT_PROFILES_FILE": str(profile)}
+    host = RosHost(env, *[a for n in NODES for a in ("--node", n)], "--rich", "/stall/rich", "--threads", "2")
+    yield host
+    if host.proc.poll() is None:
+        os.kill(host.proc.pid, signal.SIGCONT)
+    host.close()
+
+
+def _mirrored(monitor: Any, fqns: list[str]) -> dict[str, Any]:
+    """The monitor's state of each of ``fqns`` that is online, complete and has its parameters."""
+    snap = monitor.snapshot()
+    return {
+        f: st
+        for f in fqns
+        if (st := snap.get(f.lstrip("/"))) is not None and st.online and st.complete and st.parameters
+    }
+
+
+def test_a_process_stopped_past_the_lease_is_mirrored_again_within_5_s_of_resuming(
+    short_lease_host: RosHost, bridge: Any, paramdds_side: Any
+) -> None:
+    host = short_lease_host
+    client, monitor = paramdds_side
+    wait_for(lambda: len(_mirrored(monitor, host.nodes)) == len(host.nodes), 30, "every node mirrored")
+    assert host.command("set /stall/rich limits.speed 2.5") == "set ok"
+    wait_for(lambda: client.get_value("stall/rich", "limits.speed").value == 2.5, 10, "the change mirrored")
+    before = {f: st.incarnation for f, st in _mirrored(monitor, host.nodes).items()}
+    os.kill(host.proc.pid, signal.SIGSTOP)
+    try:
+        # past the 3 s lease the bridge's ROS 2 graph drops the process: its nodes go offline
+        wait_for(lambda: not _mirrored(monitor, host.nodes), 10, "the stopped nodes offline")
+        time.sleep(1.0)
+    finally:
+        os.kill(host.proc.pid, signal.SIGCONT)
+    resumed = time.monotonic()
+    wait_for(lambda: len(_mirrored(monitor, host.nodes)) == len(host.nodes), 5, "every node mirrored again")
+    took = time.monotonic() - resumed
+    back = _mirrored(monitor, host.nodes)
+    # hosted afresh: a new incarnation (they were shown offline, and their revisions start again)
+    assert all(back[f].incarnation not in (0, before[f]) for f in host.nodes), (before, back)
+    assert back["/stall/rich"].parameters["limits.speed"][0] == ParameterValue.from_python(2.5)
+    # reads and sets reach the node again (not just a listing)
+    reply = client.set("stall/rich", {"limits.speed": 3.5}, timeout=5.0)
+    assert all(r.successful for r in reply.results), reply
+    assert host.command("get /stall/rich limits.speed") == "value 3.5"
+    assert host.command("set /stall/node_03 use_sim_time true") == "set ok"
+    wait_for(lambda: client.get_value("stall/node_03", "use_sim_time").value is True, 5, "an event mirrored")
+    print(f"all {len(host.nodes)} nodes mirrored again {took:.2f} s after SIGCONT")
