@@ -65,6 +65,7 @@ from ..core.results import ChangeSet, GetResult, ListResult, SetOutcome, SetResu
 from ..core.table import ParameterTable
 from ..core.values import Parameter, ParameterType, ParameterValue
 from ..errors import ErrorCode, InvalidValueError, OutcomeUnknownError, ParamddsError, TooLargeError
+from .liveness import process_of
 from .messages import descriptor_from_ros, parameter_to_ros, result_from_ros, value_from_ros
 from .rosside import RosSide, Unanswered, fqn_of
 
@@ -310,6 +311,15 @@ class MirrorTable(_Held):
         # sets forwarded and not yet answered: (their origin, what they set); the node's event
         # for one may arrive first, and is then committed with the forwarded set's origin
         self._forwarding: list[tuple[Origin, dict[str, ParameterValue]]] = []
+        # "stale" while the node's process does not answer (set by the bridge, see .liveness):
+        # every presence sample of the node says so, whoever writes it
+        self.status: str | None = None
+
+    @property
+    def forwarding(self) -> bool:
+        """Whether a forwarded set waits on the node now."""
+        with self._commits:
+            return bool(self._forwarding)
 
     def set(self, params: Sequence[Parameter], *, expected_revision: int | None = None) -> SetOutcome:
         return self._forward(params, expected_revision, atomic=False)
@@ -612,6 +622,17 @@ class Mirror:
             if fqn is not None and fqn not in graph:
                 out.setdefault(fqn, set()).add(gid)
         return {fqn: frozenset(gids) for fqn, gids in out.items()}
+
+    def by_process(self) -> dict[bytes, list[Mirrored]]:
+        """The hosted mirrors by their ROS 2 process (participant; see :mod:`.liveness`)."""
+        out: dict[bytes, list[Mirrored]] = {}
+        with self._lock:
+            nodes = list(self.nodes.values())
+        for m in nodes:
+            prefix = process_of(m.writers)
+            if m.hosted and prefix is not None:
+                out.setdefault(prefix, []).append(m)
+        return out
 
     def knows_graph(self, now: float) -> bool:
         """Whether the ROS 2 graph seen now holds every node that was there when the bridge
