@@ -17,6 +17,12 @@ events, a read) with ``who`` = the node's name (``/talker``), ``via`` ros2, unve
 says which node changed, never who asked it to); a set forwarded from paramdds with its
 asker's origin, also when the node's event for it arrives before its answer.
 
+A node is read in full (list, get, describe) when it appears, restarts, or DDS reports
+lost ``/parameter_events`` samples. Periodically (``resync`` seconds) only its values are
+checked (:meth:`Mirror._check`: one ``get_parameters``), paced over the period
+(:meth:`Mirror._due_checks`): the events carry every change, the check repairs what they
+may have missed.
+
 Compare-and-set is refused: ROS 2 has no revision, so the check and the set could
 never be one step (another ROS 2 client may set in between).
 
@@ -47,7 +53,7 @@ import contextlib
 import logging
 import random
 import threading
-from collections import OrderedDict
+from collections import Counter, OrderedDict, deque
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
@@ -79,6 +85,7 @@ RESCUE_EVERY = 10.0  # seconds: a new rescue participant at most this often
 UNREACHABLE = "unreachable"
 MIN_AGE = 2.0  # seconds a node must have been in the graph before it is mirrored (not tool nodes)
 RESYNC_SPREAD = 0.25  # a node's next resync is due after 75-100 % of the period, drawn at each sync
+PACE_SLACK = 0.5  # seconds of checks that fell behind (one look of the bridge) made up at once
 # seconds from the bridge's first look during which the nodes found were there before it:
 # Fast DDS finds the participants of a running graph 0.2-3.3 s after its start (measured
 # with a bare rclpy node against 4 host processes: a peer that misses the first
@@ -106,6 +113,7 @@ class RosLink:
         self._clients: dict[str, Any] = {}
         self._lock = threading.Lock()
         self._reading = 0  # reads in progress (see _reads)
+        self.calls: Counter[str] = Counter()  # service calls made, by service (for tests and figures)
 
     @contextlib.contextmanager
     def _reads(self) -> Iterator[None]:
@@ -143,6 +151,7 @@ class RosLink:
         return client
 
     def _call(self, service: str, request: Any, timeout: float | None = None) -> Any:
+        self.calls[service] += 1
         return self.ros.call(self._client(service), request, self.timeout if timeout is None else timeout)
 
     def fetch(self) -> dict[str, Entry]:
@@ -175,6 +184,19 @@ class RosLink:
             name: (value_from_ros(v), descriptor_from_ros(d, name))
             for name, v, d in zip(names, got.values, described.descriptors, strict=True)
         }
+
+    def values(self, names: Sequence[str]) -> list[ParameterValue]:
+        """The node's values of ``names``, in order (NOT_SET for one it does not have): one call."""
+        from rcl_interfaces import srv
+
+        with self._reads():
+            got = self._call("get_parameters", srv.GetParameters.Request(names=list(names)))
+        if len(got.values) != len(names):
+            raise ParamddsError(
+                f"{self.fqn} answered {len(got.values)} values for {len(names)} names",
+                code=ErrorCode.CONFLICT,
+            )
+        return [value_from_ros(v) for v in got.values]
 
     def set(self, params: Sequence[Parameter], atomic: bool, deadline: int = 0) -> list[SetResult]:
         """Forward a set; one result per parameter, in order, with ROS 2's reasons and our codes.
@@ -471,6 +493,22 @@ class MirrorTable(_Held):
                     self.held.mirror(some)
         return fresh
 
+    def missed(self, values: Mapping[str, ParameterValue]) -> list[str]:
+        """Commit the ``values`` (a read of the node) that differ from what the table holds, as
+        the node's report; the names that differed."""
+        with self._commits, origins.acting(self.reported):
+            entries: dict[str, Entry | None] = {}
+            for name, value in values.items():
+                current = self._entry(name)
+                if current is None or current[0] == value:
+                    continue
+                desc = current[1]
+                if desc.dynamic_typing and desc.type is not value.type:
+                    desc = replace(desc, type=value.type)
+                entries[name] = (value, desc)
+            self.held.mirror(entries)
+        return sorted(entries)
+
     def resync(self, entries: Mapping[str, Entry]) -> None:
         """Make the table hold exactly ``entries`` (a fresh fetch of the node)."""
         with self._commits, origins.acting(self.reported):
@@ -528,6 +566,7 @@ class Mirrored:
     hosted: bool = False
     syncing: bool = False
     dirty: bool = False  # events came while a sync ran: sync again
+    full: bool = False  # the next sync reads everything (not only the values: see Mirror._check)
     restarted: bool = False  # the ROS 2 node restarted while hosted: host it again once synced
     resync_at: float = 0.0  # when the next periodic resync is due (see next_resync)
     failures: int = 0
@@ -569,6 +608,7 @@ class Mirror:
         self._first_seen: dict[str, float] = {}  # fqn -> when a node not mirrored yet was first seen
         self._writers_of: OrderedDict[bytes, str] = OrderedDict()  # writer GID -> fqn, of nodes that left
         self._looking_since: float | None = None  # the first look at the graph
+        self._next_check = 0.0  # when the next periodic check may start (see _due_checks)
         self.timeout = timeout
         self.resync_period = resync
         self.nodes: dict[str, Mirrored] = {}  # by fqn
@@ -576,6 +616,8 @@ class Mirror:
         self._pool = ThreadPoolExecutor(max_workers=sync_threads, thread_name_prefix="paramdds-ros2-sync")
         self._closed = False
         self.lost = 0  # /parameter_events samples DDS reported lost
+        self.missed = 0  # values a periodic check found different from what the events said
+        self.checks: deque[tuple[float, str]] = deque(maxlen=1000)  # (when, fqn): the last checks started
         self._subscription = ros.subscribe_events(self._on_event, self._on_lost)
 
     # -- the graph ----------------------------------------------------------------
@@ -607,9 +649,31 @@ class Mirror:
                 self._submit(m)
             else:
                 m.writers = writers
-                due = m.failures and now >= m.retry_at
-                if due or (m.hosted and self.resync_period > 0 and now >= m.resync_at):
+                if m.failures and now >= m.retry_at:
                     self._submit(m)
+        self._due_checks(now)
+
+    def _due_checks(self, now: float) -> None:
+        """Start the periodic checks that are due, paced: one every ``resync / nodes`` seconds,
+        so a round of every node spreads over the whole period (a bridge's start reads every
+        node at once; without pacing their checks came in the same seconds of every period)."""
+        if self.resync_period <= 0:
+            return
+        with self._lock:
+            nodes = list(self.nodes.values())
+        due = sorted(
+            (m for m in nodes if m.hosted and not m.failures and now >= m.resync_at),
+            key=lambda m: m.resync_at,
+        )
+        gap = self.resync_period / max(1, len(nodes))
+        for m in due:
+            if now < self._next_check:
+                return
+            self._next_check = max(self._next_check, now - PACE_SLACK) + gap
+            self.checks.append((now, m.fqn))
+            with m.lock:
+                m.resync_at = now + self.resync_period  # until the check itself says when
+            self._submit(m, full=False)
 
     def returning(
         self, graph: Mapping[str, str], writers: Mapping[str, frozenset[bytes]]
@@ -693,8 +757,10 @@ class Mirror:
         m.link.close()
         self._retire_rescues()
 
-    def _submit(self, m: Mirrored) -> None:
+    def _submit(self, m: Mirrored, *, full: bool = True) -> None:
+        """Read ``m`` on the sync pool: everything (``full``), or only check its values."""
         with m.lock:
+            m.full = m.full or full
             if m.syncing:
                 m.dirty = True
                 return
@@ -708,6 +774,11 @@ class Mirror:
         while True:
             with m.lock:
                 m.dirty = False
+                full, m.full = m.full or not m.hosted, False
+            if not full:
+                if self._check(m):
+                    return
+                continue
             try:
                 entries = m.link.fetch()
             except ParamddsError as exc:
@@ -748,6 +819,36 @@ class Mirror:
                 self._forget(m.node_id, self._departed.pop(m.node_id, []))
             if not again:
                 return
+
+    def _check(self, m: Mirrored) -> bool:
+        """The periodic check of a hosted node: one ``get_parameters`` of every name it holds
+        (``/parameter_events`` carries every change; what it may have missed is a value, such
+        as a ROS 2 set racing a forwarded one). What differs is committed; a name the node no
+        longer has means a full read. True when done; False to go round the sync loop again
+        (events came meanwhile, or a full read is needed)."""
+        import time
+
+        names = m.table.names()
+        try:
+            values = m.link.values(names) if names else []
+        except ParamddsError as exc:  # a stalled or busy node: checked again next period
+            log.debug("checking %s failed: %s", m.fqn, exc.message)
+            values = None
+        if values is not None and any(v.type is ParameterType.NOT_SET for v in values):
+            with m.lock:
+                m.full = True
+            return False
+        if values is not None:
+            missed = m.table.missed(dict(zip(names, values, strict=True)))
+            if missed:
+                self.missed += len(missed)
+                log.info("%s: %s differed from its events; mirrored now", m.fqn, ", ".join(missed))
+        with m.lock:
+            m.resync_at = next_resync(time.monotonic(), self.resync_period)
+            again = m.dirty or m.full
+            if not again:
+                m.syncing = False
+        return not again
 
     def _failed(self, m: Mirrored, exc: ParamddsError) -> None:
         """A read of ``m`` failed: when to try again, and with what (see the module doc)."""
