@@ -661,10 +661,10 @@ class Mirror:
             return
         with self._lock:
             nodes = list(self.nodes.values())
-        due = sorted(
-            (m for m in nodes if m.hosted and not m.failures and now >= m.resync_at),
-            key=lambda m: m.resync_at,
-        )
+        # not the nodes of a stalled process (.liveness): each check would hold a sync thread
+        # until its timeout; they are checked once it answers again
+        ready = [m for m in nodes if m.hosted and not m.failures and m.table.status is None]
+        due = sorted((m for m in ready if now >= m.resync_at), key=lambda m: m.resync_at)
         gap = self.resync_period / max(1, len(nodes))
         for m in due:
             if now < self._next_check:
