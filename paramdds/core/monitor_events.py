@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from enum import Enum
 
 from .descriptors import ParameterDescriptor
+from .names import shown_node
 from .results import LastChange
 from .values import ParameterValue
 
@@ -114,6 +115,13 @@ class NodeState:
     def complete(self) -> bool:
         """True when this monitor holds every parameter the node announced."""
         return self.announced == len(self.parameters)
+
+    @property
+    def shown_name(self) -> str:
+        """The node as the CLI and the web console write it (``"node"`` in ``paramdds nodes -o
+        json``): a mirrored ROS 2 node with its leading slash (``/synth/node_050``, its key
+        ``synth/node_050``), any other node as its key."""
+        return shown_node(self.node, self.origin)
 
 
 EventCallback = Callable[[MonitorEvent], None]

@@ -27,6 +27,7 @@ from typing import Any
 from ..core.hosted import HostedTable
 from ..core.results import ChangeKind, ChangeSet, LastChange
 from ._binding import assert_liveliness, flush_writes, unregister_serialized, write_serialized
+from .filters import status_tag
 from .wire import types as wire
 from .wire.convert import state_descriptor_to_wire, value_to_wire
 from .wire.state import encode_key, encode_state
@@ -161,6 +162,9 @@ class StatePublication:
         flush_writes(self.writer)
 
     def _presence(self, table: HostedTable, *tags: str) -> None:
+        status = getattr(table, "status", None)  # a table that knows its node is not all well
+        if status and status_tag(status) not in tags:
+            tags = (*tags, status_tag(status))
         value = self._tags
         if tags:
             value = wire.ParameterValue(

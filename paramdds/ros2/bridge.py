@@ -32,11 +32,12 @@ from cyclonedds.domain import DomainParticipant
 from ..core.hosted import HostedTable
 from ..core.names import canonical_node_id
 from ..dds.client import ParameterClient
-from ..dds.filters import origin_tag, status_tag
+from ..dds.filters import STALE, origin_tag, status_tag
 from ..dds.qos import QosProfiles
 from ..dds.server import ParameterServer
 from ..dds.transport import SecureTransport, transport_of
 from ..errors import NotPermittedError, ParamddsError
+from .liveness import STALE_AFTER, Liveness
 from .mirror import UNREACHABLE, Mirror, MirrorTable
 from .rosside import ENCLAVE, RosSide
 
@@ -98,6 +99,9 @@ class Bridge:
             show_unreachable=self._show_unreachable,
             hide_unreachable=self._hide_unreachable,
         )
+        self.liveness = Liveness(self.ros)
+        self._unsaid: dict[str, MirrorTable] = {}  # node id -> back to ok, presence not written yet
+        self._last_step: float | None = None
         self.exposer: Any = None
         if options.expose:
             from .expose import Exposer
@@ -168,6 +172,10 @@ class Bridge:
         """One look at both graphs (the loop's body)."""
         graph = self.ros.graph()
         writers = self.ros.event_publishers()
+        for fqn, gids in self.mirror.returning(graph, writers).items():
+            # back from a stall past the lease, unnamed in ROS 2's graph (see Mirror.returning);
+            # it was mirrored before, so it is not of the bridge enclave
+            graph[fqn], writers[fqn] = "", gids
         listed = self.client.nodes()
         # Ours: every node the mirror holds, hosted or not at this instant, taken after the
         # listing. A mirror being hosted, or hosted again after a restart, is online in the
@@ -198,6 +206,7 @@ class Bridge:
             )
         now = time.monotonic()
         self.mirror.update(wanted, now)
+        self._show_stalls(now)
         if self.exposer is not None and self.mirror.knows_graph(now):
             # a name taken in ROS 2 by anyone but this bridge's own exposed nodes (a ROS 2
             # node, or another bridge's exposure of the same paramdds node) is not exposed;
@@ -212,10 +221,38 @@ class Bridge:
             }
             self.exposer.update(exposed)
 
+    def _show_stalls(self, now: float) -> None:
+        """Show ``stale`` the mirrors of the ROS 2 processes that do not answer (see
+        :mod:`.liveness`), and ``ok`` again once they do: the table's ``status``, which every
+        presence sample of the node carries. Back to ok while a forwarded set is out, the
+        presence is written once the set has returned (the server shows a set out past its
+        lease stale, and writes the presence when it returns)."""
+        if self._last_step is not None and now - self._last_step > POLL + STALE_AFTER:
+            self.liveness.excuse(now)  # we did not run: the probes out are not late
+        self._last_step = now
+        groups = self.mirror.by_process()
+        stalled = self.liveness.update({p: [m.fqn for m in ms] for p, ms in groups.items()}, now)
+        hosted = self.server.nodes
+        for prefix, mirrors in groups.items():
+            status = STALE if prefix in stalled else None
+            for m in mirrors:
+                table = m.table
+                if hosted.get(m.node_id) is not table or table.status == status:
+                    continue
+                table.status = status
+                self._unsaid[m.node_id] = table
+        for node_id, table in list(self._unsaid.items()):
+            if hosted.get(node_id) is not table:  # gone, or hosted afresh: its presence is new
+                del self._unsaid[node_id]
+            elif table.status is not None or not table.forwarding:
+                self.server.publication.write_presence(table)
+                del self._unsaid[node_id]
+
     def close(self) -> None:
         self._stop.set()
         if self._thread is not None:
             self._thread.join(timeout=5.0)
+        self.liveness.close()
         if self.exposer is not None:
             self.exposer.close()
         self.mirror.close()

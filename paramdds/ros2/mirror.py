@@ -17,6 +17,12 @@ events, a read) with ``who`` = the node's name (``/talker``), ``via`` ros2, unve
 says which node changed, never who asked it to); a set forwarded from paramdds with its
 asker's origin, also when the node's event for it arrives before its answer.
 
+A node is read in full (list, get, describe) when it appears, restarts, or DDS reports
+lost ``/parameter_events`` samples. Periodically (``resync`` seconds) only its values are
+checked (:meth:`Mirror._check`: one ``get_parameters``), paced over the period
+(:meth:`Mirror._due_checks`): the events carry every change, the check repairs what they
+may have missed.
+
 Compare-and-set is refused: ROS 2 has no revision, so the check and the set could
 never be one step (another ROS 2 client may set in between).
 
@@ -29,6 +35,16 @@ failing it is shown on paramdds as ``status=unreachable`` (an :class:`Unreachabl
 no parameters, every request refused with UNAVAILABLE), until a read succeeds. After
 :data:`FAST_TRIES` failures the retries slow down (up to 30 s apart), so a node that
 really has no parameter services does not churn the graph's endpoints.
+
+A node that comes back after its process stalled past Fast DDS's participant lease may
+stay out of ROS 2's graph for good: its peers drop the participant, rediscover its
+endpoints when it resumes, but never receive its ``ros_discovery_info`` again (the
+stalled side never dropped them, and Fast DDS's reliable repair does not resend to a
+reader it still counts as up to date), so rmw names its endpoints' node
+``_NODE_NAME_UNKNOWN_``. A ``/parameter_events`` writer is one writer of one node of one
+process: the mirror remembers the writers of the nodes that left (:data:`REMEMBERED`),
+and one that reappears unnamed brings its node back (:meth:`Mirror.returning`), mirrored at
+once (the same process, never a tool's node).
 """
 
 from __future__ import annotations
@@ -37,6 +53,7 @@ import contextlib
 import logging
 import random
 import threading
+from collections import Counter, OrderedDict, deque
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
@@ -54,8 +71,9 @@ from ..core.results import ChangeSet, GetResult, ListResult, SetOutcome, SetResu
 from ..core.table import ParameterTable
 from ..core.values import Parameter, ParameterType, ParameterValue
 from ..errors import ErrorCode, InvalidValueError, OutcomeUnknownError, ParamddsError, TooLargeError
+from .liveness import process_of
 from .messages import descriptor_from_ros, parameter_to_ros, result_from_ros, value_from_ros
-from .rosside import RosSide, Unanswered
+from .rosside import RosSide, Unanswered, fqn_of
 
 log = logging.getLogger(__name__)
 
@@ -67,11 +85,15 @@ RESCUE_EVERY = 10.0  # seconds: a new rescue participant at most this often
 UNREACHABLE = "unreachable"
 MIN_AGE = 2.0  # seconds a node must have been in the graph before it is mirrored (not tool nodes)
 RESYNC_SPREAD = 0.25  # a node's next resync is due after 75-100 % of the period, drawn at each sync
+PACE_SLACK = 0.5  # seconds of checks that fell behind (one look of the bridge) made up at once
 # seconds from the bridge's first look during which the nodes found were there before it:
 # Fast DDS finds the participants of a running graph 0.2-3.3 s after its start (measured
 # with a bare rclpy node against 4 host processes: a peer that misses the first
 # announcements answers at its next periodic one, every 3 s)
 START_WINDOW = 4.0
+# rmw's name for the node of an endpoint whose participant's node list it does not have
+UNKNOWN_NODE = fqn_of("_NODE_NAME_UNKNOWN_", "_NODE_NAMESPACE_UNKNOWN_")
+REMEMBERED = 4096  # /parameter_events writers of nodes that left, remembered (the newest)
 
 Entry = tuple[ParameterValue, ParameterDescriptor]
 READS = ("list_parameters", "get_parameters", "describe_parameters")  # clients made per read (see RosLink)
@@ -91,6 +113,7 @@ class RosLink:
         self._clients: dict[str, Any] = {}
         self._lock = threading.Lock()
         self._reading = 0  # reads in progress (see _reads)
+        self.calls: Counter[str] = Counter()  # service calls made, by service (for tests and figures)
 
     @contextlib.contextmanager
     def _reads(self) -> Iterator[None]:
@@ -128,6 +151,7 @@ class RosLink:
         return client
 
     def _call(self, service: str, request: Any, timeout: float | None = None) -> Any:
+        self.calls[service] += 1
         return self.ros.call(self._client(service), request, self.timeout if timeout is None else timeout)
 
     def fetch(self) -> dict[str, Entry]:
@@ -160,6 +184,19 @@ class RosLink:
             name: (value_from_ros(v), descriptor_from_ros(d, name))
             for name, v, d in zip(names, got.values, described.descriptors, strict=True)
         }
+
+    def values(self, names: Sequence[str]) -> list[ParameterValue]:
+        """The node's values of ``names``, in order (NOT_SET for one it does not have): one call."""
+        from rcl_interfaces import srv
+
+        with self._reads():
+            got = self._call("get_parameters", srv.GetParameters.Request(names=list(names)))
+        if len(got.values) != len(names):
+            raise ParamddsError(
+                f"{self.fqn} answered {len(got.values)} values for {len(names)} names",
+                code=ErrorCode.CONFLICT,
+            )
+        return [value_from_ros(v) for v in got.values]
 
     def set(self, params: Sequence[Parameter], atomic: bool, deadline: int = 0) -> list[SetResult]:
         """Forward a set; one result per parameter, in order, with ROS 2's reasons and our codes.
@@ -296,6 +333,15 @@ class MirrorTable(_Held):
         # sets forwarded and not yet answered: (their origin, what they set); the node's event
         # for one may arrive first, and is then committed with the forwarded set's origin
         self._forwarding: list[tuple[Origin, dict[str, ParameterValue]]] = []
+        # "stale" while the node's process does not answer (set by the bridge, see .liveness):
+        # every presence sample of the node says so, whoever writes it
+        self.status: str | None = None
+
+    @property
+    def forwarding(self) -> bool:
+        """Whether a forwarded set waits on the node now."""
+        with self._commits:
+            return bool(self._forwarding)
 
     def set(self, params: Sequence[Parameter], *, expected_revision: int | None = None) -> SetOutcome:
         return self._forward(params, expected_revision, atomic=False)
@@ -447,6 +493,22 @@ class MirrorTable(_Held):
                     self.held.mirror(some)
         return fresh
 
+    def missed(self, values: Mapping[str, ParameterValue]) -> list[str]:
+        """Commit the ``values`` (a read of the node) that differ from what the table holds, as
+        the node's report; the names that differed."""
+        with self._commits, origins.acting(self.reported):
+            entries: dict[str, Entry | None] = {}
+            for name, value in values.items():
+                current = self._entry(name)
+                if current is None or current[0] == value:
+                    continue
+                desc = current[1]
+                if desc.dynamic_typing and desc.type is not value.type:
+                    desc = replace(desc, type=value.type)
+                entries[name] = (value, desc)
+            self.held.mirror(entries)
+        return sorted(entries)
+
     def resync(self, entries: Mapping[str, Entry]) -> None:
         """Make the table hold exactly ``entries`` (a fresh fetch of the node)."""
         with self._commits, origins.acting(self.reported):
@@ -504,6 +566,7 @@ class Mirrored:
     hosted: bool = False
     syncing: bool = False
     dirty: bool = False  # events came while a sync ran: sync again
+    full: bool = False  # the next sync reads everything (not only the values: see Mirror._check)
     restarted: bool = False  # the ROS 2 node restarted while hosted: host it again once synced
     resync_at: float = 0.0  # when the next periodic resync is due (see next_resync)
     failures: int = 0
@@ -543,7 +606,9 @@ class Mirror:
         self._rescue_lock = threading.Lock()
         self._departed: dict[str, list[str]] = {}  # node id -> the names it had when it left
         self._first_seen: dict[str, float] = {}  # fqn -> when a node not mirrored yet was first seen
+        self._writers_of: OrderedDict[bytes, str] = OrderedDict()  # writer GID -> fqn, of nodes that left
         self._looking_since: float | None = None  # the first look at the graph
+        self._next_check = 0.0  # when the next periodic check may start (see _due_checks)
         self.timeout = timeout
         self.resync_period = resync
         self.nodes: dict[str, Mirrored] = {}  # by fqn
@@ -551,6 +616,8 @@ class Mirror:
         self._pool = ThreadPoolExecutor(max_workers=sync_threads, thread_name_prefix="paramdds-ros2-sync")
         self._closed = False
         self.lost = 0  # /parameter_events samples DDS reported lost
+        self.missed = 0  # values a periodic check found different from what the events said
+        self.checks: deque[tuple[float, str]] = deque(maxlen=1000)  # (when, fqn): the last checks started
         self._subscription = ros.subscribe_events(self._on_event, self._on_lost)
 
     # -- the graph ----------------------------------------------------------------
@@ -568,7 +635,7 @@ class Mirror:
         for fqn, writers in wanted.items():
             m = current.get(fqn)
             if m is None:
-                if not self._old_enough(fqn, now):
+                if not self._old_enough(fqn, writers, now):
                     continue
                 m = self._add(fqn, writers)
                 if m is None:
@@ -582,9 +649,54 @@ class Mirror:
                 self._submit(m)
             else:
                 m.writers = writers
-                due = m.failures and now >= m.retry_at
-                if due or (m.hosted and self.resync_period > 0 and now >= m.resync_at):
+                if m.failures and now >= m.retry_at:
                     self._submit(m)
+        self._due_checks(now)
+
+    def _due_checks(self, now: float) -> None:
+        """Start the periodic checks that are due, paced: one every ``resync / nodes`` seconds,
+        so a round of every node spreads over the whole period (a bridge's start reads every
+        node at once; without pacing their checks came in the same seconds of every period)."""
+        if self.resync_period <= 0:
+            return
+        with self._lock:
+            nodes = list(self.nodes.values())
+        # not the nodes of a stalled process (.liveness): each check would hold a sync thread
+        # until its timeout; they are checked once it answers again
+        ready = [m for m in nodes if m.hosted and not m.failures and m.table.status is None]
+        due = sorted((m for m in ready if now >= m.resync_at), key=lambda m: m.resync_at)
+        gap = self.resync_period / max(1, len(nodes))
+        for m in due:
+            if now < self._next_check:
+                return
+            self._next_check = max(self._next_check, now - PACE_SLACK) + gap
+            self.checks.append((now, m.fqn))
+            with m.lock:
+                m.resync_at = now + self.resync_period  # until the check itself says when
+            self._submit(m, full=False)
+
+    def returning(
+        self, graph: Mapping[str, str], writers: Mapping[str, frozenset[bytes]]
+    ) -> dict[str, frozenset[bytes]]:
+        """Nodes back in the graph under no name (fqn -> their writers): the writers rmw shows
+        under :data:`UNKNOWN_NODE` that a node had when it left (see the module docstring)."""
+        out: dict[str, set[bytes]] = {}
+        for gid in writers.get(UNKNOWN_NODE, frozenset()):
+            fqn = self._writers_of.get(gid)
+            if fqn is not None and fqn not in graph:
+                out.setdefault(fqn, set()).add(gid)
+        return {fqn: frozenset(gids) for fqn, gids in out.items()}
+
+    def by_process(self) -> dict[bytes, list[Mirrored]]:
+        """The hosted mirrors by their ROS 2 process (participant; see :mod:`.liveness`)."""
+        out: dict[bytes, list[Mirrored]] = {}
+        with self._lock:
+            nodes = list(self.nodes.values())
+        for m in nodes:
+            prefix = process_of(m.writers)
+            if m.hosted and prefix is not None:
+                out.setdefault(prefix, []).append(m)
+        return out
 
     def knows_graph(self, now: float) -> bool:
         """Whether the ROS 2 graph seen now holds every node that was there when the bridge
@@ -597,14 +709,16 @@ class Mirror:
         with self._lock:
             return {m.node_id for m in self.nodes.values()}
 
-    def _old_enough(self, fqn: str, now: float) -> bool:
+    def _old_enough(self, fqn: str, writers: frozenset[bytes], now: float) -> bool:
         """Whether a node not mirrored yet has been in the graph for :data:`MIN_AGE` seconds, so
         that a tool's node (``ros2 param`` lives well under a second) is never mirrored. The
         nodes of the bridge's first :data:`START_WINDOW` seconds of looking were there before
-        it: mirrored at once."""
+        it, and a node back with a writer it had when it left is the same process: both are
+        mirrored at once."""
         assert self._looking_since is not None
         seen = self._first_seen.setdefault(fqn, now)
-        if seen - self._looking_since < START_WINDOW or now - seen >= MIN_AGE:
+        back = any(self._writers_of.get(gid) == fqn for gid in writers)
+        if back or seen - self._looking_since < START_WINDOW or now - seen >= MIN_AGE:
             self._first_seen.pop(fqn, None)
             return True
         return False
@@ -626,6 +740,11 @@ class Mirror:
             m = self.nodes.pop(fqn, None)
         if m is None:
             return
+        for gid in m.writers:  # its process may come back (a stall past the lease): see returning
+            self._writers_of[gid] = fqn
+            self._writers_of.move_to_end(gid)
+        while len(self._writers_of) > REMEMBERED:
+            self._writers_of.popitem(last=False)
         with m.lock:
             hosted, m.hosted = m.hosted, False
             shown, m.unreachable = m.unreachable, False
@@ -638,8 +757,10 @@ class Mirror:
         m.link.close()
         self._retire_rescues()
 
-    def _submit(self, m: Mirrored) -> None:
+    def _submit(self, m: Mirrored, *, full: bool = True) -> None:
+        """Read ``m`` on the sync pool: everything (``full``), or only check its values."""
         with m.lock:
+            m.full = m.full or full
             if m.syncing:
                 m.dirty = True
                 return
@@ -653,6 +774,11 @@ class Mirror:
         while True:
             with m.lock:
                 m.dirty = False
+                full, m.full = m.full or not m.hosted, False
+            if not full:
+                if self._check(m):
+                    return
+                continue
             try:
                 entries = m.link.fetch()
             except ParamddsError as exc:
@@ -693,6 +819,36 @@ class Mirror:
                 self._forget(m.node_id, self._departed.pop(m.node_id, []))
             if not again:
                 return
+
+    def _check(self, m: Mirrored) -> bool:
+        """The periodic check of a hosted node: one ``get_parameters`` of every name it holds
+        (``/parameter_events`` carries every change; what it may have missed is a value, such
+        as a ROS 2 set racing a forwarded one). What differs is committed; a name the node no
+        longer has means a full read. True when done; False to go round the sync loop again
+        (events came meanwhile, or a full read is needed)."""
+        import time
+
+        names = m.table.names()
+        try:
+            values = m.link.values(names) if names else []
+        except ParamddsError as exc:  # a stalled or busy node: checked again next period
+            log.debug("checking %s failed: %s", m.fqn, exc.message)
+            values = None
+        if values is not None and any(v.type is ParameterType.NOT_SET for v in values):
+            with m.lock:
+                m.full = True
+            return False
+        if values is not None:
+            missed = m.table.missed(dict(zip(names, values, strict=True)))
+            if missed:
+                self.missed += len(missed)
+                log.info("%s: %s differed from its events; mirrored now", m.fqn, ", ".join(missed))
+        with m.lock:
+            m.resync_at = next_resync(time.monotonic(), self.resync_period)
+            again = m.dirty or m.full
+            if not again:
+                m.syncing = False
+        return not again
 
     def _failed(self, m: Mirrored, exc: ParamddsError) -> None:
         """A read of ``m`` failed: when to try again, and with what (see the module doc)."""

@@ -108,7 +108,12 @@ def test_paramdds_set_changes_the_rclpy_node_with_refusals_per_parameter(
     client.wait_for_node("robot/rich", timeout=30)
 
     def clients() -> set[str]:  # the bridge's ROS 2 clients of this node's services
-        return {c.srv_name for c in bridge.ros.node.clients if c.srv_name.startswith("/robot/rich/")}
+        return {
+            c.srv_name
+            for c in bridge.ros.node.clients
+            if c.srv_name.startswith("/robot/rich/")
+            and c.srv_name != "/robot/rich/get_parameter_types"  # its process's probe (.liveness)
+        }
 
     # read clients live only while the bridge reads the node: every idle one costs each
     # wake-up of rclpy's executor (see RosLink._reads)

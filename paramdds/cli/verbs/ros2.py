@@ -48,7 +48,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         type=float,
         default=60.0,
         metavar="SECONDS",
-        help="re-read each mirrored node this often (each time after a random 75-100 %% of it), "
+        help="check each mirrored node's values this often (one node every SECONDS / nodes), "
         "0 never (default %(default)s)",
     )
 

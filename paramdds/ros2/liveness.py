@@ -1,0 +1,133 @@
+"""Which ROS 2 processes of mirrored nodes answer: one small service call per process.
+
+ROS 2 says nothing about a process that stopped running (SIGSTOP, a debugger, a swap
+storm) until Fast DDS's participant lease runs out (20 s by default). So the bridge asks:
+every :data:`PROBE_EVERY` seconds it calls ``get_parameter_types`` with no names on one
+mirrored node of each process (the cheapest parameter service: an empty answer), and a
+call unanswered for :data:`STALE_AFTER` seconds shows the process stalled, until it
+answers. A process is a DDS participant (the first 12 bytes of its writers' GIDs, the
+GUID prefix): an rclpy process stopped, or starved, answers for none of its nodes.
+
+One call per process, not per node, and one client per process in the bridge. What a
+call costs the process grows with its nodes all the same (rclpy's executor rebuilds its
+wait set from every node's entities on each wake-up): docs/ros2.md has the figures.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from .rosside import RosSide
+
+log = logging.getLogger(__name__)
+
+PROBE_EVERY = 1.0  # seconds between two probes of one process
+STALE_AFTER = 1.0  # seconds a probe may go unanswered before its process shows stalled
+RESEND_AFTER = 5.0  # seconds after which an unanswered probe is no longer waited for
+PREFIX = 12  # bytes of a GID that name its participant (the RTPS GUID prefix)
+
+
+def process_of(writers: frozenset[bytes]) -> bytes | None:
+    """The participant of a node, from its ``/parameter_events`` writers (None: none known)."""
+    return min(writers)[:PREFIX] if writers else None
+
+
+@dataclass
+class _Probe:
+    """The probe of one process: the node it asks, the client, the calls out (oldest first)."""
+
+    fqn: str
+    client: Any
+    out: list[tuple[float, Any]] = field(default_factory=list)  # (sent at, future)
+    next_at: float = 0.0
+    stalled: bool = False
+
+
+class Liveness:
+    """The probes of every process of mirrored nodes, run by :meth:`update` from the bridge's
+    loop (the only thread that touches them: a reply is seen by polling its future).
+
+    A probe is sent every :data:`PROBE_EVERY` seconds whether or not the one before was
+    answered: a request that reached a stopped process is not always answered when it
+    resumes (seen: not until the 5 s after which it is dropped), a new one is at once. Any
+    answer shows the process answering; it shows stalled once its oldest call out, sent
+    after the last one answered, is :data:`STALE_AFTER` old, until one is answered."""
+
+    def __init__(self, ros: RosSide) -> None:
+        self.ros = ros
+        self._probes: dict[bytes, _Probe] = {}
+        self.sent = 0  # probes sent (for the figures)
+
+    def update(self, processes: Mapping[bytes, Sequence[str]], now: float) -> set[bytes]:
+        """Probe each process (its nodes' fqns, any order) once due; the processes stalled now."""
+        for prefix in self._probes.keys() - processes.keys():
+            self._drop(prefix)
+        stalled: set[bytes] = set()
+        for prefix, fqns in processes.items():
+            probe = self._probes.get(prefix)
+            if probe is None or probe.fqn not in fqns:
+                if probe is not None:
+                    self._drop(prefix)
+                probe = self._probes[prefix] = _Probe(min(fqns), self._client(min(fqns)))
+            self._collect(probe, now)
+            if now >= probe.next_at:
+                self._send(probe, now)
+            if probe.stalled:
+                stalled.add(prefix)
+        return stalled
+
+    def _collect(self, probe: _Probe, now: float) -> None:
+        """Take the answers in; drop the calls they supersede or too old to wait for."""
+        answered = max((t for t, f in probe.out if f.done() and f.exception() is None), default=None)
+        if answered is not None:
+            if probe.stalled:
+                log.warning("the ROS 2 process of %s answers again", probe.fqn)
+            probe.stalled = False
+        keep: list[tuple[float, Any]] = []
+        for t, f in probe.out:
+            if f.done() or (answered is not None and t <= answered) or now - t >= RESEND_AFTER:
+                if not f.done():
+                    probe.client.remove_pending_request(f)
+            else:
+                keep.append((t, f))
+        probe.out = keep
+        late = now - keep[0][0] if keep else 0.0
+        if late >= STALE_AFTER and not probe.stalled:
+            probe.stalled = True
+            log.warning(
+                "the ROS 2 process of %s has not answered for %.1f s: its nodes show stale", probe.fqn, late
+            )
+
+    def excuse(self, now: float) -> None:
+        """The bridge itself did not run for a while (stopped, starved): the probes out were
+        not late, their answers may wait unread. Count them from now."""
+        for probe in self._probes.values():
+            probe.out = [(now, f) for _, f in probe.out]
+
+    def _client(self, fqn: str) -> Any:
+        from rcl_interfaces import srv
+
+        return self.ros.client(srv.GetParameterTypes, f"{fqn}/get_parameter_types")
+
+    def _send(self, probe: _Probe, now: float) -> None:
+        from rcl_interfaces import srv
+
+        probe.next_at = now + PROBE_EVERY
+        if not probe.client.service_is_ready():  # not matched (yet): a call would say nothing
+            return
+        probe.out.append((now, probe.client.call_async(srv.GetParameterTypes.Request(names=[]))))
+        self.sent += 1
+
+    def _drop(self, prefix: bytes) -> None:
+        probe = self._probes.pop(prefix)
+        try:
+            self.ros.node.destroy_client(probe.client)
+        except Exception:
+            log.debug("destroying the probe client of %s failed", probe.fqn, exc_info=True)
+
+    def close(self) -> None:
+        for prefix in list(self._probes):
+            self._drop(prefix)
