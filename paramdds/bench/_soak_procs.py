@@ -88,17 +88,18 @@ class Proc:
             self.proc.stdin.flush()
 
     def stop(self, *, kill: bool = False, grace: float = 15.0) -> None:
-        """SIGKILL, or a clean stop (stdin closed, SIGTERM); the group killed if it lingers."""
+        """SIGKILL, or a clean stop (``quit`` on stdin if it has one, then SIGTERM); the group
+        killed if it lingers."""
         if kill:
             _signal_group(self.proc.pid, signal.SIGKILL)
         elif self.proc.poll() is None:
-            if self.proc.stdin is not None:
+            if self.proc.stdin is not None:  # "quit" first: a SIGINT during rclpy's shutdown hung it
                 with contextlib.suppress(OSError, ValueError):
                     self.proc.stdin.write("quit\n")
                     self.proc.stdin.close()
-                self.proc.send_signal(signal.SIGINT)
-            else:
-                self.proc.terminate()
+                with contextlib.suppress(subprocess.TimeoutExpired):
+                    self.proc.wait(timeout=grace / 2)
+            self.proc.terminate()
         with contextlib.suppress(subprocess.TimeoutExpired):
             self.proc.wait(timeout=grace)
         _signal_group(self.proc.pid, signal.SIGKILL)

@@ -10,7 +10,8 @@ stdin closes):
             parameter the values acknowledged as applied, refused, and of unknown outcome;
 ``viewer``  a monitor holding every node (a DDS :class:`ParameterMonitor`, or with ``--zenoh``
             a remote one through that router); each ``look`` is answered with
-            ``RESULT {"nodes": {node: [online, {soak parameter: value}]}}``;
+            ``RESULT {"nodes": {node: [online, {soak parameter: value}]}}``; its presence
+            events go to stderr, one line each (the bench keeps them when a run fails);
 ``prober``  a get of one soak parameter of a random node every ``--interval`` seconds, from
             ``go`` until ``stop``; then ``RESULT`` with the latencies' percentiles and the
             failures by code.
@@ -148,6 +149,16 @@ def _look(monitor: Any, strip: str) -> dict[str, Any]:
     return {"nodes": nodes}
 
 
+def _log_presence(event: Any) -> None:
+    """A presence event on stderr (kept with the bench's logs when a run fails)."""
+    kind = event.event.value
+    if kind in ("online", "offline", "site_online", "site_offline", "status"):
+        where = event.site or event.node
+        extra = " by_site" if event.by_site else ""
+        sys.stderr.write(f"{time.time():.3f} {kind} {where}{extra} {event.status or ''}\n")
+        sys.stderr.flush()
+
+
 def role_viewer(args: argparse.Namespace) -> None:
     closers: list[Any] = []
     if args.zenoh:
@@ -155,13 +166,14 @@ def role_viewer(args: argparse.Namespace) -> None:
         from ..zenoh.monitor import RemoteParameterMonitor
 
         session = open_session(ZenohOptions(connect=[args.zenoh]))
-        monitor: Any = RemoteParameterMonitor(session, sites=[args.site])
+        monitor: Any = RemoteParameterMonitor(session, sites=[args.site], on_event=_log_presence)
         closers = [monitor, session]
         strip = f"{args.site}/"
     else:
         from ..dds.monitor import ParameterMonitor
 
-        monitor = ParameterMonitor(_participant(args.domain, args.localhost, "monitor"))
+        dp = _participant(args.domain, args.localhost, "monitor")
+        monitor = ParameterMonitor(dp, on_event=_log_presence)
         closers = [monitor]
         strip = ""
     _say("READY", pid=os.getpid())

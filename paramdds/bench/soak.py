@@ -28,6 +28,7 @@ import importlib.util
 import json
 import os
 import random
+import shutil
 import socket
 import subprocess
 import sys
@@ -141,7 +142,9 @@ class Soak:
         self.router: Any = None
         self.ros_env: dict[str, str] = {}
         self.checks: list[dict[str, Any]] = []
-        self.events = {"server_stops": 0, "server_kills": 0, "ros_host_restarts": 0}
+        self.events = dict.fromkeys(
+            ("server_stops", "server_kills", "ros_host_restarts", "ros_host_unclean_stops"), 0
+        )
 
     # -- starting --------------------------------------------------------------------------
 
@@ -251,6 +254,8 @@ class Soak:
     def stop_ros_host(self) -> None:
         if self.ros_host is not None:
             self.ros_host.stop()
+            if self.ros_host.proc.returncode != 0:  # it needed SIGTERM: its nodes linger in Fast DDS
+                self.events["ros_host_unclean_stops"] += 1
         self.ros_up, self.ros_changed = False, time.monotonic()
         self.events["ros_host_restarts"] += 1
 
@@ -298,8 +303,10 @@ class Soak:
                 if bad["online_but_gone"] or bad["offline_but_there"]:
                     wrong[viewer] = bad
                     for node in bad["online_but_gone"] + bad["offline_but_there"]:
+                        # a node that did not change, shown wrong, had its time since the last change
                         _, changed, wait = expected[node]
-                        late = late and now > changed + (settle if settle is not None else wait)
+                        wait = settle if settle is not None else wait
+                        late = late and now > max(changed + wait, since + SETTLE)
             if not wrong or late:
                 self.checks.append({"what": what, "took_s": round(now - since, 2), "wrong": wrong})
                 if wrong:
@@ -456,26 +463,24 @@ def run(args: argparse.Namespace) -> int:
     skipped = _skipped()
     for what, why in skipped.items():
         note(f"{what} skipped: {why}")
-    with tempfile.TemporaryDirectory(prefix="paramdds-soak-") as tmpdir:
-        soak = Soak(args, Path(tmpdir), skipped)
-        try:
-            soak.start()
-            note(f"churn for {minutes:g} min")
-            run_data = soak.churn(minutes * 60.0)
-            note("churn over: judging the writes and the viewers")
-            judged = soak.finish()
-        except Exception as exc:
-            logs = {
-                p.name: p.read_text(errors="replace")[-600:]
-                for p in Path(tmpdir).glob("*.err")
-                if p.stat().st_size
-            }
-            for name, text in logs.items():
-                note(f"{name}: {text}")
-            raise RuntimeError(f"bench soak: {exc}") from exc
-        finally:
-            soak.close()
+    tmp = Path(tempfile.mkdtemp(prefix="paramdds-soak-"))  # kept when the run fails: its logs
+    soak = Soak(args, tmp, skipped)
+    try:
+        soak.start()
+        note(f"churn for {minutes:g} min")
+        run_data = soak.churn(minutes * 60.0)
+        note("churn over: judging the writes and the viewers")
+        judged = soak.finish()
+    except Exception as exc:
+        raise RuntimeError(f"bench soak: {exc} (every process's output is in {tmp})") from exc
+    finally:
+        soak.close()
     data = _data(minutes, skipped, soak, run_data, judged)
+    if data["passed"]:
+        shutil.rmtree(tmp, ignore_errors=True)
+    else:
+        data["logs"] = str(tmp)
+        note(f"every process's output (the viewers' presence events in their .err) is kept in {tmp}")
     emit(args, data, table(data))
     return 0 if data["passed"] else 1
 

@@ -90,10 +90,11 @@ def test_one_minute_soak_passes_its_checks(domain_id: int) -> None:
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=540, env=env)
     assert done.stdout, done.stderr
     data = json.loads(done.stdout)
-    assert done.returncode == 0 and data["passed"], json.dumps(
-        {k: data[k] for k in ("writes", "presence", "stale_values", "died", "streams")}
-    )
+    shown = {k: data[k] for k in ("writes", "presence", "stale_values", "died", "streams", "churn")}
+    assert done.returncode == 0 and data["passed"], json.dumps(shown) + done.stderr[-3000:]
     assert data["skipped"] == _skipped()  # a component left out is said, never silently
+    if os.environ.get("CI", "").strip().lower() in {"1", "true", "yes"}:
+        assert data["skipped"] == {}  # CI installs every extra: the whole site runs there
     churn = data["churn"]
     assert churn["turns"] >= 5 and churn["server_kills"] >= 1 and churn["server_stops"] >= 1
     if "ros2" not in data["skipped"]:
