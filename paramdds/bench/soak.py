@@ -37,6 +37,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from ..exits import Terminated
 from ._common import RESULT, Worker, emit, median, note, render, worker_env
 from ._soak_checks import growth, stale_values, verify_writes, wrong_presence
 from ._soak_procs import LiveStream, Proc, proc_stats
@@ -471,6 +472,8 @@ def run(args: argparse.Namespace) -> int:
         run_data = soak.churn(minutes * 60.0)
         note("churn over: judging the writes and the viewers")
         judged = soak.finish()
+    except Terminated:  # SIGTERM: a graceful stop (every process is stopped below)
+        raise
     except Exception as exc:
         raise RuntimeError(f"bench soak: {exc} (every process's output is in {tmp})") from exc
     finally:
