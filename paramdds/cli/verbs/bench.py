@@ -35,6 +35,8 @@ SCENARIOS = {
     "latency (paramdds foxglove) vs foxglove_bridge's way over rclpy nodes (foxglove extra)",
     "record": "paramdds record: its CPU and bytes per change at 10, 100, 1,000 changes/s, "
     "vs paramdds watch following the same changes (foxglove extra)",
+    "soak": "one site under churn for --minutes (50 nodes in 5 restarted servers, clients, monitors, web, "
+    "Zenoh, ROS 2 bridge): RSS, threads, fds of each long-lived process; lost writes; wrong presence",
 }
 
 
@@ -118,6 +120,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         type=positive_float,
         metavar="S",
         help="throughput, persist: measured seconds per round; record: seconds per rate (default 5)",
+    )
+    p.add_argument(
+        "--minutes", type=positive_float, metavar="M", help="soak: minutes of churn (default 60; --quick 1)"
     )
 
 

@@ -1,0 +1,203 @@
+"""The soak bench's processes: programs started with their output in files, what /proc says
+of a process (RSS, threads, open descriptors), and a reader of the web console's live stream.
+
+Every program runs in a process group of its own and dies with the bench (``PR_SET_PDEATHSIG``),
+so a bench killed with SIGKILL leaves nothing answering on its domain.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import http.client
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+import urllib.parse
+from pathlib import Path
+from typing import Any
+
+from ._common import WorkerError
+
+# ``python -c _DYING MODULE ARGS…``: run MODULE as ``python -m`` would, ended by SIGTERM when the
+# bench (its parent) dies
+_DYING = (
+    "import ctypes, runpy, signal, sys\n"
+    "try:\n"
+    "    ctypes.CDLL(None).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG\n"
+    "except (OSError, AttributeError):\n"
+    "    pass\n"
+    "module = sys.argv[1]\n"
+    "sys.argv = [module, *sys.argv[2:]]\n"
+    "runpy.run_module(module, run_name='__main__', alter_sys=True)\n"
+)
+
+
+class Proc:
+    """A program (``python -m MODULE ARGV``) whose stdout and stderr go to files in ``logs``."""
+
+    def __init__(
+        self, name: str, module: str, argv: list[str], env: dict[str, str], logs: Path, *, stdin: bool = False
+    ) -> None:
+        self.name = name
+        self.out = logs / f"{name}.out"
+        self.err = logs / f"{name}.err"
+        self._seen = self.out.stat().st_size if self.out.exists() else 0  # a restart appends
+        with open(self.out, "a") as out, open(self.err, "a") as err:
+            self.proc = subprocess.Popen(
+                [sys.executable, "-c", _DYING, module, *argv],
+                stdin=subprocess.PIPE if stdin else subprocess.DEVNULL,
+                stdout=out,
+                stderr=err,
+                text=True,
+                env=env,
+                start_new_session=True,
+            )
+
+    @property
+    def pid(self) -> int:
+        return self.proc.pid
+
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def wait_for(self, text: str, count: int = 1, timeout: float = 90.0) -> str:
+        """Wait until this start's output holds ``text`` ``count`` times; the line of the last."""
+        deadline = time.monotonic() + timeout
+        while True:
+            with open(self.out, errors="replace") as f:
+                f.seek(self._seen)
+                lines = [line for line in f.read().splitlines() if text in line]
+            if len(lines) >= count:
+                return lines[count - 1]
+            if self.proc.poll() is not None or time.monotonic() > deadline:
+                why = "exited" if self.proc.poll() is not None else f"no {text!r} within {timeout:g} s"
+                raise WorkerError(f"{self.name}: {why}; stderr: {self.tail()}")
+            time.sleep(0.05)
+
+    def tail(self, chars: int = 800) -> str:
+        with contextlib.suppress(OSError):
+            return self.err.read_text(errors="replace")[-chars:].strip()
+        return ""
+
+    def send(self, line: str) -> None:
+        if self.proc.stdin is not None:
+            self.proc.stdin.write(line + "\n")
+            self.proc.stdin.flush()
+
+    def stop(self, *, kill: bool = False, grace: float = 15.0) -> None:
+        """SIGKILL, or a clean stop (``quit`` on stdin if it has one, then SIGTERM); the group
+        killed if it lingers."""
+        if kill:
+            _signal_group(self.proc.pid, signal.SIGKILL)
+        elif self.proc.poll() is None:
+            if self.proc.stdin is not None:  # "quit" first: a SIGINT during rclpy's shutdown hung it
+                with contextlib.suppress(OSError, ValueError):
+                    self.proc.stdin.write("quit\n")
+                    self.proc.stdin.close()
+                with contextlib.suppress(subprocess.TimeoutExpired):
+                    self.proc.wait(timeout=grace / 2)
+            self.proc.terminate()
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            self.proc.wait(timeout=grace)
+        _signal_group(self.proc.pid, signal.SIGKILL)
+        self.proc.wait()
+        if self.proc.stdin is not None:
+            with contextlib.suppress(OSError, ValueError):
+                self.proc.stdin.close()
+
+
+def _signal_group(pid: int, sig: int) -> None:
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(pid, sig)
+
+
+def proc_stats(pid: int) -> dict[str, float] | None:
+    """RSS (MiB), threads and open file descriptors of ``pid``; None when it is gone."""
+    try:
+        rss = threads = 0.0
+        with open(f"/proc/{pid}/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("VmRSS:"):
+                    rss = int(line.split()[1]) / 1024.0
+                elif line.startswith("Threads:"):
+                    threads = float(line.split()[1])
+        fds = float(len(os.listdir(f"/proc/{pid}/fd")))
+    except (FileNotFoundError, ProcessLookupError):
+        return None
+    return {"rss_mb": round(rss, 1), "threads": threads, "fds": fds}
+
+
+class LiveStream:
+    """One client of the console's live stream (``GET /api/events``, the page's EventSource):
+    it counts the events by kind, and reconnects after a second (as a browser does) when the
+    stream ends."""
+
+    def __init__(self, url: str, node: str = "") -> None:
+        parts = urllib.parse.urlsplit(url)
+        self._host = parts.hostname or "127.0.0.1"
+        self._port = parts.port or 80
+        self._path = "/api/events" + (f"?{urllib.parse.urlencode({'node': node})}" if node else "")
+        self.events: dict[str, int] = {}
+        self.bytes = 0
+        self.reconnects = 0
+        self.last_error = ""
+        self.last_at = time.monotonic()
+        self._conn: http.client.HTTPConnection | None = None
+        self._closed = False
+        self._thread = threading.Thread(target=self._run, name="soak-stream", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        first = True
+        while not self._closed:
+            if not first:
+                self.reconnects += 1
+                time.sleep(1.0)
+            first = False
+            try:
+                self._read()
+            except (OSError, http.client.HTTPException) as exc:
+                self.last_error = f"{type(exc).__name__}: {exc}"
+
+    def _read(self) -> None:
+        conn = http.client.HTTPConnection(self._host, self._port, timeout=60)
+        self._conn = conn
+        try:
+            conn.request("GET", self._path, headers={"Accept": "text/event-stream"})
+            response = conn.getresponse()
+            if response.status != 200:
+                self.last_error = f"HTTP {response.status}"
+                return
+            while not self._closed:
+                raw = response.readline()
+                if not raw:
+                    self.last_error = "the stream ended"
+                    return
+                self.bytes += len(raw)
+                self.last_at = time.monotonic()
+                line = raw.decode("utf-8", "replace")
+                if line.startswith("event: "):
+                    kind = line[7:].strip()
+                    self.events[kind] = self.events.get(kind, 0) + 1
+        finally:
+            conn.close()
+
+    def summary(self) -> dict[str, Any]:
+        return {
+            "events": dict(sorted(self.events.items())),
+            "bytes": self.bytes,
+            "reconnects": self.reconnects,
+            "last_error": self.last_error,
+            "quiet_s": round(time.monotonic() - self.last_at, 1),
+        }
+
+    def close(self) -> None:
+        self._closed = True
+        conn = self._conn
+        if conn is not None and conn.sock is not None:
+            with contextlib.suppress(OSError):
+                conn.sock.shutdown(2)
+        self._thread.join(timeout=5)
