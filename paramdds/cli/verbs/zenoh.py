@@ -164,6 +164,8 @@ def run(args: argparse.Namespace) -> int:
         check_site(args.site)
     except ParamddsError as exc:
         raise UsageError(exc.message) from None
+    from functools import partial
+
     from ...zenoh.gateway import Gateway
 
     build_config(options)  # a bad configuration file: exit 2 at once, never after a wait
@@ -177,7 +179,8 @@ def run(args: argparse.Namespace) -> int:
             sys.stdout.flush()
 
         try:
-            gateway = Gateway(session.participant, zsession, args.site, qos=session.qos)
+            probe = partial(open_session, options)  # a second session asks the router for the gateway token
+            gateway = Gateway(session.participant, zsession, args.site, qos=session.qos, open_probe=probe)
             gateway.on_role = on_role  # changes from now on (the line below says the first role)
             try:
                 sys.stdout.write(
