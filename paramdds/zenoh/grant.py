@@ -7,9 +7,11 @@ would log itself active and be heard by nobody.
 
 The denial is observed from a second session of the same gateway (same certificate, same
 router), the *probe*: it asks the router, with a liveliness query, for the gateway's own
-token. Every named certificate may ask for the gateways' tokens (:mod:`.acl`), so the
-router answers the probe, and answers from what it holds: the token when it accepted it,
-nothing when its access control dropped it. A query the router answered in full ends
+token. A certificate granted the site may ask for the site's tokens, so the router
+answers the probe from what it holds: the token when it accepted it, nothing when its
+access control dropped it (a certificate not granted the site gets nothing either: every
+named one may ask for the gateways' tokens, :mod:`.acl`, and a query the router refuses
+ends at once, without replies). A query the router answered in full ends
 before its timeout (its final reply came); one that reached no router ends at its
 timeout, or finds the probe without a router. So:
 
@@ -19,14 +21,13 @@ timeout, or finds the probe without a router. So:
   longer than the Zenoh lease: a declaration held up on a lossy uplink longer than that
   means the router dropped the gateway's session, which then reconnects and declares
   the token again (the window starts over whenever either session has no router);
-* anything else (no answer, no router, a router that lets no one ask) until
+* anything else (no answer in time, no router, no probe session) until
   :data:`GIVE_UP_AFTER`: **unknown**, and the gateway goes on serving (it never stops
   unless the router said so).
 
 Asking with the gateway's own session does not work: Zenoh 1.10 answers a session's
-liveliness query for its own token from that session, and the router's copy only some
-of the time (a check counting two answers stopped a healthy gateway in about one start
-in ten).
+liveliness query for its own token from that session, and adds the router's copy only
+some of the time (docs/decisions.md, "Across sites").
 """
 
 from __future__ import annotations

@@ -8,6 +8,7 @@ router from a second session, as a gateway does.
 
 from __future__ import annotations
 
+import os
 import signal
 import subprocess
 import time
@@ -143,3 +144,41 @@ def test_a_gateway_not_granted_its_site_stops_at_start_and_a_granted_one_serves(
     procs.append(granted)
     granted.wait_for("[ZENOH] Gateway for site a", 20)
     assert "not granted" not in granted.stderr_text()
+
+
+STARTS = os.environ.get("PARAMDDS_MEASURE_GRANT", "")  # "30,10": healthy starts, refused starts
+
+
+@pytest.mark.skipif(not STARTS, reason="a measurement, not a check: PARAMDDS_MEASURE_GRANT=30,10")
+@pytest.mark.timeout(3600)
+def test_measure_gateway_starts_granted_and_refused(router: Router, procs: list[Proc]) -> None:
+    """Gateways started again and again with ``gw_a``'s certificate: for site ``a`` (granted)
+    each must serve, for site ``b`` (not granted) each must stop, exit 1; the times printed."""
+    healthy, refused = (int(n) for n in STARTS.split(","))
+    env = make_dds_env(next_domain_id())
+    server = Proc([PARAMDDS, "server", "-p", PARAMS, "-n", "robot1"], env)
+    procs.append(server)
+    server.wait_for("[SERVER] Serving node", 20)
+    certs = _tls_args(router.tmp / "gw_a")
+    served, stopped, wrong = [], [], []
+    for k in range(healthy + refused):
+        site = "a" if k < healthy else "b"
+        started = time.monotonic()
+        gw = Proc([PARAMDDS, "zenoh", "--site", site, "--connect", router.endpoint, *certs], env)
+        if site == "a":
+            gw.wait_for("[ZENOH] Gateway for site a", 60)
+            served.append(time.monotonic() - started)
+            gw.stop()
+            if "not granted" in gw.stderr_text() or "could not ask" in gw.stderr_text():
+                wrong.append(f"start {k}: {gw.stderr_text()}")
+        else:
+            code = gw.popen.wait(60)
+            stopped.append(time.monotonic() - started)
+            gw.stop()
+            if code != 1 or "certificate is not granted site 'b'" not in gw.stderr_text():
+                wrong.append(f"start {k}: exit {code}: {gw.stderr_text()}")
+    print(
+        f"{len(served)} granted starts served in {min(served):.2f}-{max(served):.2f} s; "
+        f"{len(stopped)} refused starts stopped in {min(stopped):.2f}-{max(stopped):.2f} s; wrong: {wrong}"
+    )
+    assert not wrong, wrong
