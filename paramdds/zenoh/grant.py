@@ -37,9 +37,11 @@ import enum
 import logging
 import time
 from collections.abc import Callable
+from dataclasses import replace
+from functools import partial
 from typing import Any
 
-from .config import LEASE_MS
+from .config import LEASE_MS, TRY_TIMEOUT, ZenohOptions, open_session
 from .states import ENDED_EARLY
 
 log = logging.getLogger(__name__)
@@ -54,6 +56,16 @@ class Grant(enum.Enum):
     GRANTED = "granted"
     REFUSED = "refused"
     UNKNOWN = "unknown"
+
+
+def probe_opener(options: ZenohOptions) -> Callable[[], Any] | None:
+    """What opens a gateway's probe session: one more client of the gateway's router, with
+    its certificate, each try bounded by :data:`~.config.TRY_TIMEOUT`. None (no check) for
+    a gateway that does not dial a router as a client (``--mode peer``, ``--listen``):
+    nothing says a router's access control stands between it and its viewers."""
+    if options.mode != "client" or not options.connect:
+        return None
+    return partial(open_session, replace(options, open_timeout=min(options.open_timeout, TRY_TIMEOUT)))
 
 
 def _has_router(session: Any) -> bool:

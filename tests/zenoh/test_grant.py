@@ -22,7 +22,7 @@ pytest.importorskip("cryptography", reason="the secure extra (cryptography) is n
 
 from paramdds.errors import UnavailableError
 from paramdds.zenoh import grant, keys
-from paramdds.zenoh.config import TlsFiles, ZenohOptions, open_session
+from paramdds.zenoh.config import TRY_TIMEOUT, TlsFiles, ZenohOptions, open_session
 
 from ..conftest import next_domain_id
 from ..reliability.conftest import PARAMDDS, Proc, make_dds_env
@@ -124,6 +124,17 @@ def test_a_probe_that_reaches_no_router_never_concludes_refused(router: Router) 
         token.undeclare()
     finally:
         session.close()
+
+
+def test_only_a_gateway_dialling_a_router_as_a_client_is_checked() -> None:
+    assert grant.probe_opener(ZenohOptions(mode="peer", listen=["tcp/127.0.0.1:7447"])) is None
+    assert grant.probe_opener(ZenohOptions(mode="peer", connect=["tcp/127.0.0.1:7447"])) is None
+    opener = grant.probe_opener(ZenohOptions(connect=["tcp/127.0.0.1:1"], open_timeout=60.0))
+    assert opener is not None
+    started = time.monotonic()
+    with pytest.raises(UnavailableError):
+        opener()  # nobody there: each try of the probe is bounded, not the gateway's whole wait
+    assert time.monotonic() - started < TRY_TIMEOUT + 1.0
 
 
 @pytest.mark.slow
