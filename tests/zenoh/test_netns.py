@@ -389,12 +389,17 @@ def test_measure_false_offline_fresh_client_and_cut_detection_under_loss() -> No
             monitor.close()
             per_hour = false_sites * 3600 / observe / len(SITES)
             row = (
-                f"| {percent} % | {LEASE_MS / 1000:g} s | {false_sites} in {observe / 60:g} min "
+                f"| {percent} % | {LEASE_MS / 1000:g} s | {false_sites} in {_window(observe)} "
                 f"| {per_hour:.0f} | {false_nodes} | {_span(fresh)} | {_span(cuts)} | {load:.1f} |"
             )
             rows.append(row)
             print(row, flush=True)
     print("\n".join([TABLE, "|---" * TABLE.count(" | ") + "|---|", *rows]))
+
+
+def _window(seconds: float) -> str:
+    """``10 min``, or ``90 s`` for a window that is not whole minutes."""
+    return f"{seconds / 60:g} min" if seconds % 60 == 0 else f"{seconds:g} s"
 
 
 def _span(times: list[float | None]) -> str:
