@@ -54,8 +54,8 @@ from ..core.origin import Via
 from ..core.results import LastChange
 from ..dds.client import ParameterClient
 from ..dds.monitor import MonitorEvent, NodeState, ParameterMonitor
-from ..errors import InternalError, InvalidNameError, ParamddsError
-from . import codec, history, keys
+from ..errors import InternalError, InvalidNameError, NotPermittedError, ParamddsError
+from . import codec, grant, history, keys
 
 log = logging.getLogger(__name__)
 
@@ -79,6 +79,7 @@ class Gateway:
         *,
         qos: Any = None,
         on_role: Callable[[bool], None] | None = None,
+        open_probe: Callable[[], Any] | None = None,
     ) -> None:
         self.site = keys.check_site(site)
         self._session = session
@@ -110,6 +111,9 @@ class Gateway:
         self.monitor.wait_synced(SYNC_WAIT)
         live = session.liveliness()
         self._gateway_token = live.declare_token(keys.gateway_key(self.site, self.token_id))
+        self._gateway_sub: Any = None
+        if open_probe is not None:  # the router may refuse this certificate the site: stop, saying so
+            self._check_grant(open_probe)
         pattern = keys.gateway_key(self.site, "**")  # the gateways' tokens and the active one's
         # who else serves this site: asked once (bounded), then followed
         for reply in live.get(pattern, timeout=ELECTION_WAIT):
@@ -119,6 +123,27 @@ class Gateway:
         with self._lock:
             self._gateways.add(self.token_id)
         self._elect()
+
+    def _check_grant(self, open_probe: Callable[[], Any]) -> None:
+        """Stop (NotPermittedError) when the router says it holds no token of this gateway
+        (:mod:`.grant`): its certificate is not granted the site, so nothing it declared or
+        would publish reaches anyone. When the router cannot be asked, go on and say so."""
+        token = keys.gateway_key(self.site, self.token_id)
+        verdict = grant.check_token(self._session, open_probe, token)
+        if verdict is grant.Grant.REFUSED:
+            self.close()
+            raise NotPermittedError(
+                f"this gateway's certificate is not granted site {self.site!r}: the router holds no "
+                f"token of it {grant.REFUSED_AFTER:g} s after its declaration, so nothing of the site "
+                "would reach anyone (grant it the site: the router's --grant); stopping"
+            )
+        if verdict is grant.Grant.UNKNOWN:
+            log.warning(
+                "could not ask the router whether it holds this gateway's token within %g s: "
+                "serving site %s without knowing that its certificate is granted the site",
+                grant.GIVE_UP_AFTER,
+                self.site,
+            )
 
     # -- the election -------------------------------------------------------------------------
 

@@ -1,4 +1,4 @@
-"""docs/zenoh.md as a site runs it: the ``nodes`` table, the extras TLS needs, the site's DDS file.
+"""docs/zenoh.md as a site runs it: the ``nodes`` table, TLS's extras, the site's DDS file, the loss table.
 
 The page's fleet examples need routers and several machines, so they are marked skip
 there; these tests run the same commands on loopback and hold the page to what they print.
@@ -12,9 +12,12 @@ from pathlib import Path
 
 import pytest
 
+from paramdds.zenoh.config import LEASE_MS
+
 from ..conftest import TEST_URI, next_domain_id
 from ..reliability.conftest import PARAMDDS, Proc, make_dds_env
 from .conftest import PARAMS, Fleet
+from .test_netns import TABLE
 
 pytestmark = pytest.mark.timeout(90)
 
@@ -70,3 +73,24 @@ def test_the_pages_site_dds_file_keeps_a_site_on_its_interface(tmp_path: Path) -
         assert r.returncode == 0 and "robot1" in r.stdout, r
     finally:
         server.stop()
+
+
+def _minutes(window: str) -> float:
+    """``10 min`` -> 10, ``90 s`` -> 1.5."""
+    number, unit = window.split()
+    return float(number) / (60 if unit == "s" else 1)
+
+
+def test_the_pages_loss_table_is_the_measurement_at_the_lease_paramdds_sets() -> None:
+    """The table under "Presence under loss" has the columns the measurement prints, and rows
+    of at least 10 minutes at 10, 30 and 50 % loss for the lease paramdds sets."""
+    lines = PAGE.read_text(encoding="utf-8").splitlines()
+    assert TABLE in lines, "the page's loss table lacks the measurement's columns"
+    rows = []
+    for line in lines[lines.index(TABLE) + 2 :]:
+        if not line.startswith("|"):
+            break
+        rows.append([cell.strip() for cell in line.strip("|").split("|")])
+    lease = f"{LEASE_MS / 1000:g} s"
+    long_enough = {row[0] for row in rows if row[1] == lease and _minutes(row[2].split(" in ")[1]) >= 10}
+    assert long_enough >= {"10 %", "30 %", "50 %"}, rows

@@ -1,7 +1,7 @@
 """Mutual TLS with certificates from a ``paramdds keystore`` CA, and access control by certificate name.
 
 A router (a ``paramdds zenoh --router`` process) on loopback TLS grants ``gw_a`` site
-``a``, ``gw_b`` site ``a`` too (so gateway b, which serves site ``b``, publishes nothing),
+``a``, ``gw_b`` site ``a`` too (so gateway b, which serves site ``b``, stops at start),
 ``gw_c`` site ``c`` and ``operator`` site ``a`` (site ``c`` is up, but not granted to
 it); a client without a certificate does not connect.
 """
@@ -68,7 +68,12 @@ def test_mutual_tls_and_access_by_certificate_name(tmp_path: Path, procs: list[P
             domain_env,
         )
         procs.append(gw)
-        gw.wait_for("[ZENOH] Gateway for site", 20)
+        if site != "b":
+            gw.wait_for("[ZENOH] Gateway for site", 20)
+        else:  # gw_b is not granted site b: it stops at start, saying why (a refusal: exit 1)
+            assert gw.popen.wait(30) == 1, gw.stderr_text()
+            assert "certificate is not granted site 'b'" in gw.stderr_text()
+            assert not any("[ZENOH] Gateway for site" in line for _, line in gw.lines)
 
     op = tmp_path / "operator"
     session = open_session(
@@ -81,7 +86,7 @@ def test_mutual_tls_and_access_by_certificate_name(tmp_path: Path, procs: list[P
         assert holds_online(monitor, ["a/robot1"], 5.0)
         client = RemoteParameterClient(session, timeout=3.0)
         assert client.set("a/robot1", {"robot.max_velocity": 2.0}).successful
-        # site b's gateway is not granted its own keys: nothing of b reaches anyone
+        # site b's gateway stopped (not granted its own keys): nothing of b reaches anyone
         assert not wait_for(lambda: "b/robot1" in monitor.snapshot(), 1.5)
         with pytest.raises(UnavailableError):
             client.get("b/robot1", ["robot.max_velocity"], timeout=2.0)

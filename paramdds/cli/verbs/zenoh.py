@@ -165,6 +165,7 @@ def run(args: argparse.Namespace) -> int:
     except ParamddsError as exc:
         raise UsageError(exc.message) from None
     from ...zenoh.gateway import Gateway
+    from ...zenoh.grant import probe_opener
 
     build_config(options)  # a bad configuration file: exit 2 at once, never after a wait
     with Session(args, app_name="paramdds-zenoh") as session:  # the DDS side first, at once
@@ -177,7 +178,8 @@ def run(args: argparse.Namespace) -> int:
             sys.stdout.flush()
 
         try:
-            gateway = Gateway(session.participant, zsession, args.site, qos=session.qos)
+            probe = probe_opener(options)  # a second session asks the router for the gateway's token
+            gateway = Gateway(session.participant, zsession, args.site, qos=session.qos, open_probe=probe)
             gateway.on_role = on_role  # changes from now on (the line below says the first role)
             try:
                 sys.stdout.write(
