@@ -227,7 +227,7 @@ def import_zenoh() -> Any:
         import zenoh
     except ImportError as exc:
         raise ParamddsError(
-            f"Zenoh support needs the zenoh extra: pip install 'paramdds[zenoh]' ({exc})"
+            f"Zenoh support needs the zenoh extra: pip install -e '.[zenoh]' in the paramdds checkout ({exc})"
         ) from None
     return zenoh
 

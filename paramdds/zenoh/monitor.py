@@ -44,6 +44,8 @@ log = logging.getLogger(__name__)
 
 REFRESH_BATCH = 0.05  # seconds: nodes to ask for again are gathered this long, then asked per site
 CONFIRM_WAIT = 2.0  # seconds the router is given to say which tokens of a site are alive
+CONFIRM_ASKS = 3  # liveliness gets per confirmation: a token is gone only if none of them holds it
+CONFIRM_PAUSE = 0.1  # seconds between them
 ASK_AGAIN = 3  # times a node whose state did not come, or did not decode, is asked for again
 
 
@@ -378,9 +380,7 @@ class ZenohStateFeed:
             with book.update():
                 mark = self._states.mark()
             try:
-                gateways = gateways_of(self._session, CONFIRM_WAIT, site).get(site, set())
-                pattern = keys.site_pattern(site, keys.ALIVE)
-                alive = {n for n in _alive_of(self._session, pattern, CONFIRM_WAIT) if self._wanted(n)}
+                gateways, alive = self._held(site)
             except Exception as exc:  # the session closed under us
                 log.debug("confirming the tokens of site %s failed: %s", site, exc)
                 return
@@ -390,6 +390,21 @@ class ZenohStateFeed:
                 self._site_back(site)
             for name in back:
                 self._refresh(*keys.split_remote(name))
+
+    def _held(self, site: str) -> tuple[set[str], set[str]]:
+        """The gateways and the nodes of ``site`` whose tokens the router holds: those in any of
+        :data:`CONFIRM_ASKS` liveliness gets. One get is not enough: under churn a get now and
+        then ends at once with no reply while the router holds every token (5 of 86 in a soak,
+        a get a millisecond earlier answering all 60), and all of a healthy site would go."""
+        gateways: set[str] = set()
+        alive: set[str] = set()
+        pattern = keys.site_pattern(site, keys.ALIVE)
+        for ask in range(CONFIRM_ASKS):
+            if ask:
+                time.sleep(CONFIRM_PAUSE)
+            gateways |= gateways_of(self._session, CONFIRM_WAIT, site).get(site, set())
+            alive |= {n for n in _alive_of(self._session, pattern, CONFIRM_WAIT) if self._wanted(n)}
+        return gateways, alive
 
     def _refresh(self, site: str, node: str) -> None:
         """Ask for ``node``'s whole state again (``""``: every node of ``site``), soon (one
