@@ -59,7 +59,10 @@ def _result(**over: object) -> dict[str, object]:
         "dead": [],
         "unmirrored": [],
         "start": spread([2.5, 4.0]),
-        "stalls": {"5": spread([0.4, 0.6]), "25": spread([1.2, None])},
+        "stalls": {
+            "5": {**spread([0.4, 0.6]), "noticed": [0, 25]},
+            "25": {**spread([1.2, None]), "noticed": [25, 25]},
+        },
         "tools": [],
     }
     result.update(over)
@@ -80,7 +83,7 @@ def test_the_table_says_dead_bridges_and_each_stalls_recovery() -> None:
     assert lines[1] == "bridges dead: 1 of 2" and lines[2] == "  start 2 (stall 5 s): exit -11"
     assert "start to all mirrored: min 2.5 s, median 3.25 s, max 4.0 s" in lines[3]
     assert lines[4] == (
-        "stall 5 s: every node mirrored again after 2 of 2 stalls; "
-        "SIGCONT to all mirrored: min 0.4 s, median 0.5 s, max 0.6 s"
+        "stall 5 s: every node mirrored again after 2 of 2 stalls; nodes shown not mirrored during each: "
+        "[0, 25]; SIGCONT to all mirrored: min 0.4 s, median 0.5 s, max 0.6 s"
     )
     assert lines[5].startswith("stall 25 s: every node mirrored again after 1 of 2 stalls;")

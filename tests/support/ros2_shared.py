@@ -269,8 +269,8 @@ class Starver:
         self._thread.join()
 
 
-def diagnosis(monitor: Any, nodes: Sequence[str], bridge: _Proc) -> str:
-    """Why a start is incomplete: what the monitor holds of ``nodes`` and the bridge's state."""
+def holding(monitor: Any, nodes: Sequence[str]) -> dict[str, int]:
+    """What the monitor holds of ``nodes``: how many in each state."""
     snap = monitor.snapshot()
     held: dict[str, int] = {}
     for n in nodes:
@@ -281,6 +281,13 @@ def diagnosis(monitor: Any, nodes: Sequence[str], bridge: _Proc) -> str:
             else f"online={st.online} complete={st.complete} origin={st.origin} status={st.status}"
         )
         held[key] = held.get(key, 0) + 1
+    return held
+
+
+def diagnosis(monitor: Any, nodes: Sequence[str], bridge: _Proc) -> str:
+    """Why a start is incomplete: what the monitor holds of ``nodes`` and the bridge's state."""
+    snap = monitor.snapshot()
+    held = holding(monitor, nodes)
     others = sorted(k for k in snap if "/" + k not in nodes and k not in nodes)[:10]
     code = bridge.proc.poll()
     return (
@@ -420,21 +427,34 @@ def _dead(bridge: _Proc, start: int, when: str, dead: list[dict[str, Any]]) -> N
         )
 
 
-def _stall(
-    graph: Graph, index: int, seconds: float, monitor: Any, timeout: float
-) -> tuple[float | None, int]:
-    """Stop host ``index`` for ``seconds``, then SIGCONT: seconds from SIGCONT until every node
-    is mirrored again (None: not within ``timeout``), and how many were not then."""
+@dataclass
+class Stall:
+    """One stall of a host process: seconds from its SIGCONT until every node was mirrored again
+    (None: not within the timeout), the nodes not mirrored then, and the most nodes shown not
+    mirrored while it was stopped (0: the bridge did not notice the stall)."""
+
+    recovered: float | None
+    missing: int
+    noticed: int
+
+
+def _stall(graph: Graph, index: int, seconds: float, monitor: Any, timeout: float) -> Stall:
+    """Stop host ``index`` (SIGSTOP) for ``seconds``, then SIGCONT; what the monitor showed."""
     pid = graph.hosts[index].proc.pid
+    nodes = graph.nodes
+    noticed = 0
     os.kill(pid, signal.SIGSTOP)
     try:
-        time.sleep(seconds)
+        until = time.monotonic() + seconds
+        while time.monotonic() < until:
+            noticed = max(noticed, len(nodes) - mirrored(monitor, nodes))
+            time.sleep(min(0.1, max(0.0, until - time.monotonic())))
     finally:
         os.kill(pid, signal.SIGCONT)
     t0 = time.monotonic()
-    nodes = graph.nodes
     done = _wait(lambda: mirrored(monitor, nodes) == len(nodes), timeout)
-    return (round(time.monotonic() - t0, 2) if done else None), len(nodes) - mirrored(monitor, nodes)
+    took = round(time.monotonic() - t0, 2) if done else None
+    return Stall(took, len(nodes) - mirrored(monitor, nodes), noticed)
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
@@ -459,6 +479,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             monitor = ParameterMonitor(dp)
             times: list[float | None] = []
             recovered: dict[float, list[float | None]] = {s: [] for s in stalls}
+            noticed: dict[float, list[int]] = {s: [] for s in stalls}
             unmirrored: list[dict[str, Any]] = []
             dead: list[dict[str, Any]] = []
             tools: list[dict[str, Any]] = []
@@ -485,21 +506,30 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                     times.append(took)
                     if not complete:
                         missing = len(nodes) - mirrored(monitor, nodes)
-                        unmirrored.append({"start": i, "when": "start", "missing": missing})
+                        unmirrored.append(
+                            {"start": i, "when": "start", "missing": missing, "held": holding(monitor, nodes)}
+                        )
                     print(f"start {i}: {took if took is not None else 'INCOMPLETE'} s", file=sys.stderr)
                     phase = "start"
                     for seconds in stalls if bridge.proc.poll() is None else []:
                         phase = f"stall {seconds:g} s"
-                        took, missing = _stall(
-                            graph, turn % len(graph.hosts), seconds, monitor, args.recover_timeout
-                        )
+                        stall = _stall(graph, turn % len(graph.hosts), seconds, monitor, args.recover_timeout)
                         turn += 1
-                        recovered[seconds].append(took)
-                        if missing:
-                            unmirrored.append({"start": i, "when": phase, "missing": missing})
+                        recovered[seconds].append(stall.recovered)
+                        noticed[seconds].append(stall.noticed)
+                        if stall.missing:
+                            unmirrored.append(
+                                {
+                                    "start": i,
+                                    "when": phase,
+                                    "missing": stall.missing,
+                                    "held": holding(monitor, nodes),
+                                }
+                            )
+                        again = f"{stall.recovered} s" if stall.recovered is not None else "NOT"
                         print(
-                            f"start {i}: {phase}, all mirrored again "
-                            f"{f'{took} s' if took is not None else 'NOT'} after SIGCONT ({missing} missing)",
+                            f"start {i}: {phase}, {stall.noticed} nodes shown not mirrored during it, "
+                            f"all mirrored again {again} after SIGCONT ({stall.missing} missing)",
                             file=sys.stderr,
                         )
                         if bridge.proc.poll() is not None:
@@ -529,7 +559,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         "dead": dead,
         "unmirrored": unmirrored,
         "start": spread(times),
-        "stalls": {f"{s:g}": spread(v) for s, v in recovered.items()},
+        "stalls": {f"{s:g}": {**spread(v), "noticed": noticed[s]} for s, v in recovered.items()},
         "tools": tools,
     }
 
@@ -615,6 +645,7 @@ def table(result: dict[str, Any]) -> str:
         lines.append(
             f"stall {seconds} s: every node mirrored again after {stats['complete']} of "
             f"{len(stats['seconds'])} stalls; "
+            f"nodes shown not mirrored during each: {stats.get('noticed', [])}; "
             f"SIGCONT to all mirrored: {_span(stats)}"
         )
     if result["unmirrored"]:
