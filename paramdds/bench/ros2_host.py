@@ -6,7 +6,8 @@ it holds exactly the file's parameters; ``--node NAME`` adds nodes with no file 
 ``--rich NAME`` gives a node parameters with full descriptors (ranges, read-only,
 description, dynamic typing, a constraint its callback enforces); ``--hang NAME`` makes
 a node's set callback sleep 60 s when a parameter named ``hang`` is set; ``--mute NAME``
-makes a node without parameter services (until ``serve``).
+makes a node without parameter services (until ``serve``); ``--unknown K`` gives every node K
+publishers of message types a bridge has no endpoint of (:data:`UNKNOWN_TYPES`, in turn).
 
 Prints ``ready /ns/a /ns/b ...`` once its nodes exist, then reads commands on stdin:
 ``set FQN NAME YAML`` sets a parameter from inside the node (as its own code would),
@@ -26,6 +27,12 @@ from typing import Any
 import yaml
 
 HANG_SECONDS = 60.0
+# message types of the ros2 extra that a bridge's ROS 2 side has no endpoint of (module, class)
+UNKNOWN_TYPES = (
+    ("lifecycle_msgs.msg", "TransitionEvent"),
+    ("action_msgs.msg", "GoalStatusArray"),
+    ("unique_identifier_msgs.msg", "UUID"),
+)
 _stopping = threading.Event()  # set on quit: a hanging callback returns at once
 
 
@@ -108,6 +115,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--hang", action="append", default=[], help="a node whose callback hangs on 'hang'")
     ap.add_argument("--mute", action="append", default=[], help="a node without parameter services")
     ap.add_argument("--threads", type=int, default=4, help="executor threads (1: single-threaded)")
+    ap.add_argument("--unknown", type=int, default=0, help="publishers per node of unknown types")
     args = ap.parse_args(argv)
 
     import rclpy
@@ -133,6 +141,13 @@ def main(argv: list[str] | None = None) -> int:
             start_parameter_services=((ns if ns != "/" else ""), name) not in muted,
         )
         nodes[node.get_fully_qualified_name()] = node
+    if args.unknown:
+        import importlib
+
+        kinds = [getattr(importlib.import_module(m), c) for m, c in UNKNOWN_TYPES]
+        for node in nodes.values():
+            for i in range(args.unknown):
+                node.create_publisher(kinds[i % len(kinds)], f"~/unknown_{i}", 1)
     for fqn in args.rich:
         _rich(nodes[fqn])
     for fqn in args.hang:

@@ -6,20 +6,25 @@ when None), which may differ from the paramdds domain. Its nodes carry the encla
 :data:`ENCLAVE`: a bridge never mirrors a node of that enclave (itself, the nodes it
 exposes, another bridge's), which is what keeps two bridges from looping a node.
 
-Right after its node exists, the side makes a client of each parameter service type and a
-publisher of each message type every ROS 2 node has an endpoint of (``/rosout``'s ``Log``,
-``/clock``'s ``Clock``), on hidden names: Fast DDS then knows those types before it
-discovers any remote endpoint of them, and matches those endpoints without asking other
-participants for the types (XTypes type lookup). Type lookup is to be avoided twice over:
+The side's participant runs without XTypes type lookup (Fast DDS's participant property
+``fastdds.type_propagation`` = ``disabled``, :mod:`.fastdds_profile`): it matches every
+remote endpoint by type name, asks no peer for a type, and announces no type information of
+its own. Type lookup is to be avoided twice over:
 
 * a peer answering requests meant for another can derail it;
-* Fast DDS 3.2 crashes in it (SIGSEGV): while the reply for a type is handled
-  (``TypeLookupManager::notify_callbacks``, on its reply thread, without a lock), discovery
-  of more endpoints of that type appends to the same list of callbacks (under a lock the
-  reply thread does not take), and a reallocation leaves the reply thread calling freed
-  memory. A graph of N nodes makes N ``/rosout`` writers discovered in one burst: with
-  ``Log`` unknown, bridge starts beside 100 nodes crashed there now and then (seen under
-  CPU starvation; the core's pending type was ``rcl_interfaces::msg::dds_::Log_``).
+* Fast DDS 3.2 crashes in it (SIGSEGV) when many endpoints of a type it does not know are
+  discovered at once (:mod:`.fastdds_profile` says how). A graph of N nodes makes N
+  ``/rosout`` writers discovered in one burst: with ``Log`` unknown, bridge starts beside
+  100 nodes crashed there now and then (seen under CPU starvation; the core's pending type
+  was ``rcl_interfaces::msg::dds_::Log_``), and any type the bridge does not have (your
+  nodes' message types) can do the same.
+
+Fast DDS reads that property once per process, with its first ROS 2 participant. Where the
+side is not that participant (ROS 2 was used in this process before), it falls back on
+knowing the common types beforehand: right after its node exists it makes a client of each
+parameter service type and a publisher of each message type every ROS 2 node has an
+endpoint of (``/rosout``'s ``Log``, ``/clock``'s ``Clock``), on hidden names, so Fast DDS
+knows those types before it discovers any remote endpoint of them.
 
 Service calls are made from any thread (a mirrored node's worker, the sync pool) and
 wait on their future with a bounded timeout. The bridge's own node (its service clients
@@ -41,6 +46,7 @@ from collections.abc import Callable
 from typing import Any
 
 from ..errors import ErrorCode, ParamddsError
+from .fastdds_profile import type_lookup_off
 
 log = logging.getLogger(__name__)
 
@@ -91,14 +97,15 @@ class RosSide:
 
         self._rclpy = rclpy
         self.context = Context()
-        rclpy.init(args=["--ros-args", "--enclave", ENCLAVE], context=self.context, domain_id=domain)
+        with type_lookup_off() as self.no_type_lookup:  # the participant is made with the first node
+            rclpy.init(args=["--ros-args", "--enclave", ENCLAVE], context=self.context, domain_id=domain)
+            self.node = rclpy.create_node(
+                name,
+                context=self.context,
+                start_parameter_services=False,
+                enable_rosout=False,
+            )
         self.domain = self.context.get_domain_id()
-        self.node = rclpy.create_node(
-            name,
-            context=self.context,
-            start_parameter_services=False,
-            enable_rosout=False,
-        )
         self.clients_group = ReentrantCallbackGroup()  # responses are handled concurrently
         self._type_clients = [self.client(k, f"{TYPES_SERVICE}/{k.__name__.lower()}") for k in _kinds()]
         self._type_publishers = [

@@ -1,4 +1,5 @@
-"""What a failed shared-domain start says about a bridge that crashed (faulthandler's report).
+"""What the shared-domain harness reports: a crashed bridge's stack (faulthandler's report),
+its verdict and its table.
 
 The report is made by the shared-domain harness (tests/support/ros2_shared.py) that
 test_shared_domain.py uses; it needs no ROS 2.
@@ -6,7 +7,7 @@ test_shared_domain.py uses; it needs no ROS 2.
 
 from __future__ import annotations
 
-from tests.support.ros2_shared import CRASH_CHARS, crash_report
+from tests.support.ros2_shared import CRASH_CHARS, crash_report, ok, spread, table
 
 DUMP = """paramdds: INFO: paramdds.ros2.bridge: the ROS 2 graph has 101 nodes
 Fatal Python error: Segmentation fault
@@ -45,3 +46,44 @@ def test_no_crash_no_report_and_a_long_dump_is_cut() -> None:
     assert crash_report("paramdds: INFO: all well\n") == ""
     long = "Fatal Python error: Segmentation fault\n\n" + "  File 'x.py', line 1 in f\n" * 5000
     assert len(crash_report(long)) == CRASH_CHARS
+
+
+def _result(**over: object) -> dict[str, object]:
+    result: dict[str, object] = {
+        "nodes": 100,
+        "hosts": 4,
+        "unknown_per_node": 3,
+        "type_lookup": "off",
+        "starved": {"stops": 12, "seconds": 17.5},
+        "starts": 2,
+        "dead": [],
+        "unmirrored": [],
+        "start": spread([2.5, 4.0]),
+        "stalls": {
+            "5": {**spread([0.4, 0.6]), "noticed": [0, 25]},
+            "25": {**spread([1.2, None]), "noticed": [25, 25]},
+        },
+        "tools": [],
+    }
+    result.update(over)
+    return result
+
+
+def test_a_run_passes_only_with_no_dead_bridge_and_every_node_mirrored_after_each_start_and_stall() -> None:
+    assert ok(_result())
+    assert not ok(_result(dead=[{"start": 2, "when": "start", "exit": -11, "report": ""}]))
+    assert not ok(_result(unmirrored=[{"start": 1, "when": "stall 25 s", "missing": 20}]))
+    assert not ok(_result(start=spread([2.5, None])))
+
+
+def test_the_table_says_dead_bridges_and_each_stalls_recovery() -> None:
+    lines = table(_result(dead=[{"start": 2, "when": "stall 5 s", "exit": -11, "report": ""}])).splitlines()
+    assert lines[0].startswith("100 nodes in 4 host processes, 3 publishers of unknown types each")
+    assert "starved: 12 stops, 17.5 s" in lines[0]
+    assert lines[1] == "bridges dead: 1 of 2" and lines[2] == "  start 2 (stall 5 s): exit -11"
+    assert "start to all mirrored: min 2.5 s, median 3.25 s, max 4.0 s" in lines[3]
+    assert lines[4] == (
+        "stall 5 s: every node mirrored again after 2 of 2 stalls; nodes shown not mirrored during each: "
+        "[0, 25]; SIGCONT to all mirrored: min 0.4 s, median 0.5 s, max 0.6 s"
+    )
+    assert lines[5].startswith("stall 25 s: every node mirrored again after 1 of 2 stalls;")

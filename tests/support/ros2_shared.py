@@ -1,20 +1,31 @@
 """ROS 2 and paramdds on one domain id: ``python -m tests.support.ros2_shared`` (from the checkout).
 
 Real processes on one domain id (ROS 2's ``ROS_DOMAIN_ID`` and paramdds's the same number),
-loopback only: one rclpy host process (the nodes of ``--params-file``, default the nav2
-file of ``realworld/``, or ``--nodes N`` synthetic nodes), a ``paramdds server``, a
-``paramdds watch`` (a monitor), and a monitor in this process. Then:
+loopback only: rclpy host processes (the nodes of ``--params-file``, default the nav2
+file of ``realworld/``, or ``--nodes N`` synthetic nodes spread over ``--hosts H``
+processes, each node with ``--unknown K`` publishers of message types the bridge does not
+know), a ``paramdds server``, a ``paramdds watch`` (a monitor), and a monitor in this
+process. Then:
 
-* ``--starts`` bridge starts: ``paramdds ros2`` mirroring the host's nodes, timed from its
+* ``--starts K`` bridge starts: ``paramdds ros2`` mirroring the hosts' nodes, timed from its
   start until this process's monitor holds every node mirrored (online, complete, origin
-  ``ros2``), then stopped (SIGTERM), and the next start waits until every mirror is offline;
+  ``ros2``, no status), then stopped (SIGTERM), and the next start waits until every mirror
+  is offline. With ``--starve`` the bridge is starved of CPU all its life (SIGSTOP, then
+  SIGCONT 0.3-2.5 s later, at random moments), as on a loaded machine;
+* ``--stalls 5,25,60`` after each start: one host process (each in turn) stopped for each
+  of those seconds (SIGSTOP, as a debugger breakpoint or a swap storm does), timed from its
+  SIGCONT until every node is mirrored again;
 * ``--tools`` fresh rclpy processes (what ``ros2 param list`` does: learn the graph, then
   a parameter client per node) that list the parameters of every node, with the bridge
   of the last start still up.
 
-Prints the time from each start to all nodes mirrored (min / median / max) and how many
-nodes each tool reached. No Cyclone discovery tag may be set (``CYCLONEDDS_URI`` is
-dropped): Fast DDS knows no tags, and with one Cyclone would not meet ROS 2 at all.
+Prints the time from each start to all nodes mirrored and from each SIGCONT to all nodes
+mirrored again (min / median / max), the bridges that died (exit code, and the crashing
+thread's stack from faulthandler), the nodes left unmirrored, and how many nodes each tool
+reached. ``--type-lookup on`` gives the bridge a Fast DDS profile of its own, so its ROS 2
+participant keeps XTypes type lookup (as before it turned it off), to compare. No Cyclone
+discovery tag may be set (``CYCLONEDDS_URI`` is dropped): Fast DDS knows no tags, and with
+one Cyclone would not meet ROS 2 at all.
 ``tests/ros2/test_shared_domain.py`` runs the same steps; this measures them (docs/ros2.md,
 "One domain id"). A harness of the tests, not a benchmark of ``paramdds bench``: it needs the
 ``ros2`` extra and a checkout (it runs ``python -m paramdds.bench.ros2_host``, the rclpy host
@@ -27,13 +38,16 @@ import argparse
 import contextlib
 import json
 import os
+import random
 import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
+from dataclasses import dataclass, field
 from pathlib import Path
 from statistics import median
 from typing import Any
@@ -42,6 +56,18 @@ from tests.support.realworld import ROOT, find_realworld
 
 START_TIMEOUT = 60.0  # seconds a bridge start may take to mirror every node before it counts as failed
 TOOL_TIMEOUT = 30.0
+RECOVER_TIMEOUT = 60.0  # seconds after a stall's SIGCONT for every node to be mirrored again
+STARVE_STOP = (0.3, 2.5)  # seconds the starved bridge stays stopped each time (uniform)
+STARVE_RUN = (0.2, 2.0)  # seconds it runs between two stops (uniform)
+# a Fast DDS profiles file of the user's own that keeps type lookup on in its default participant
+# profile (paramdds.ros2.fastdds_profile: a value the user sets holds)
+TYPE_LOOKUP_ON_XML = """<?xml version="1.0" encoding="UTF-8"?>
+<dds xmlns="http://www.eprosima.com"><profiles>
+  <participant profile_name="type_lookup_on" is_default_profile="true"><rtps><propertiesPolicy><properties>
+    <property><name>fastdds.type_propagation</name><value>enabled</value></property>
+  </properties></propertiesPolicy></rtps></participant>
+</profiles></dds>
+"""
 
 
 def shared_env(domain: int, tmp: Path, base: dict[str, str] | None = None) -> dict[str, str]:
@@ -150,35 +176,101 @@ def crash_report(text: str) -> str:
     return report[:CRASH_CHARS]
 
 
+@dataclass
+class Graph:
+    """The ROS 2 side of a shared domain: the host processes and the nodes of each."""
+
+    hosts: list[_Proc] = field(default_factory=list)
+    nodes_of: list[list[str]] = field(default_factory=list)
+
+    @property
+    def nodes(self) -> list[str]:
+        return [n for ns in self.nodes_of for n in ns]
+
+
 @contextmanager
-def shared_domain(env: dict[str, str], host_args: Sequence[str]) -> Iterator[list[str]]:
-    """The rclpy host (``paramdds.bench.ros2_host`` with ``host_args``), a paramdds server and a
-    ``paramdds watch`` on the domain of ``env``; yields the host's nodes (``/ns/name``)."""
+def shared_graph(env: dict[str, str], *host_args: Sequence[str]) -> Iterator[Graph]:
+    """An rclpy host process per ``host_args`` (``paramdds.bench.ros2_host`` with those
+    arguments), a paramdds server and a ``paramdds watch`` on the domain of ``env``."""
     procs: list[_Proc] = []
+    graph = Graph()
     try:
-        host = _Proc(_python("-m", "paramdds.bench.ros2_host", *host_args), env, ready="ready")
-        procs.append(host)
+        for args in host_args:
+            host = _Proc(_python("-m", "paramdds.bench.ros2_host", *args), env, ready="ready")
+            procs.append(host)
+            graph.hosts.append(host)
+            graph.nodes_of.append(host.first.split()[1:])
         server_args = ("-m", "paramdds.cli", "server", "-n", "shared_domain_probe", "--use-sim-time")
         procs.append(_Proc(_python(*server_args), env, ready="[SERVER] Serving"))
         procs.append(_Proc(_python("-m", "paramdds.cli", "watch"), env))
-        yield host.first.split()[1:]
+        yield graph
     finally:
+        for host in graph.hosts:  # a stopped host cannot quit
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(host.proc.pid, signal.SIGCONT)
         for p in reversed(procs):
             p.stop()
 
 
+@contextmanager
+def shared_domain(env: dict[str, str], host_args: Sequence[str]) -> Iterator[list[str]]:
+    """The rclpy host (``paramdds.bench.ros2_host`` with ``host_args``), a paramdds server and a
+    ``paramdds watch`` on the domain of ``env``; yields the host's nodes (``/ns/name``)."""
+    with shared_graph(env, host_args) as graph:
+        yield graph.nodes
+
+
 def mirrored(monitor: Any, nodes: Sequence[str]) -> int:
-    """How many of ``nodes`` the monitor holds mirrored: online, complete, origin ``ros2``."""
+    """How many of ``nodes`` the monitor holds mirrored: online, complete, origin ``ros2``, and no
+    status (not ``unreachable``, not ``stale``)."""
     snap = monitor.snapshot()
     return sum(
         1
         for n in nodes
-        if (st := snap.get(n.lstrip("/"))) is not None and st.online and st.complete and st.origin == "ros2"
+        if (st := snap.get(n.lstrip("/"))) is not None
+        and st.online
+        and st.complete
+        and st.origin == "ros2"
+        and st.status is None
     )
 
 
-def diagnosis(monitor: Any, nodes: Sequence[str], bridge: _Proc) -> str:
-    """Why a start is incomplete: what the monitor holds of ``nodes`` and the bridge's state."""
+class Starver:
+    """Starves a process of CPU until :meth:`stop`: SIGSTOP, SIGCONT ``STARVE_STOP`` seconds
+    later, again ``STARVE_RUN`` seconds after that (a thread of this process)."""
+
+    def __init__(self, pid: int, seed: int | None = None) -> None:
+        self.pid = pid
+        self.stops = 0
+        self.stopped = 0.0  # seconds in all
+        self._random = random.Random(seed)
+        self._done = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="starver", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._done.wait(self._random.uniform(*STARVE_RUN)):
+            pause = self._random.uniform(*STARVE_STOP)
+            try:
+                os.kill(self.pid, signal.SIGSTOP)
+                self.stops += 1
+                t0 = time.monotonic()
+                self._done.wait(pause)
+                self.stopped += time.monotonic() - t0
+            except ProcessLookupError:
+                return
+            finally:
+                with contextlib.suppress(ProcessLookupError):
+                    os.kill(self.pid, signal.SIGCONT)
+
+    def stop(self) -> None:
+        """Stop starving it (it runs on when this returns)."""
+        self._done.set()
+        self._thread.join()
+
+
+def holding(monitor: Any, nodes: Sequence[str]) -> dict[str, int]:
+    """What the monitor holds of ``nodes``: how many in each state."""
     snap = monitor.snapshot()
     held: dict[str, int] = {}
     for n in nodes:
@@ -189,6 +281,13 @@ def diagnosis(monitor: Any, nodes: Sequence[str], bridge: _Proc) -> str:
             else f"online={st.online} complete={st.complete} origin={st.origin} status={st.status}"
         )
         held[key] = held.get(key, 0) + 1
+    return held
+
+
+def diagnosis(monitor: Any, nodes: Sequence[str], bridge: _Proc) -> str:
+    """Why a start is incomplete: what the monitor holds of ``nodes`` and the bridge's state."""
+    snap = monitor.snapshot()
+    held = holding(monitor, nodes)
     others = sorted(k for k in snap if "/" + k not in nodes and k not in nodes)[:10]
     code = bridge.proc.poll()
     return (
@@ -288,57 +387,186 @@ def _tool_main(nodes: Sequence[str], timeout: float) -> dict[str, Any]:
     return result
 
 
+def _host_args(args: argparse.Namespace) -> tuple[list[list[str]], str]:
+    """Each host process's arguments, and the bridge's mirror glob."""
+    extra = ["--unknown", str(args.unknown)] if args.unknown else []
+    if args.nodes:
+        hosts = max(1, min(args.hosts, args.nodes))
+        names = [f"/shared/n{i:03d}" for i in range(args.nodes)]
+        return [
+            [*extra, *(a for n in names[h::hosts] for a in ("--node", n))] for h in range(hosts)
+        ], "/shared/*"
+    where = find_realworld()
+    path = Path(args.params_file) if args.params_file else (where / "nav2_params.yaml" if where else None)
+    if path is None or not path.is_file():
+        raise SystemExit("no parameter file: give --params-file, or --nodes N")
+    return [[*extra, "--params-file", str(path)]], "*"
+
+
+def spread(values: Sequence[float | None]) -> dict[str, Any]:
+    """Seconds (None: not done in time): how many were done, min / median / max of those."""
+    done = [v for v in values if v is not None]
+    return {
+        "seconds": list(values),
+        "complete": len(done),
+        "min": min(done) if done else None,
+        "median": round(median(done), 2) if done else None,
+        "max": max(done) if done else None,
+    }
+
+
+def _dead(bridge: _Proc, start: int, when: str, dead: list[dict[str, Any]]) -> None:
+    """Record in ``dead`` a bridge that has exited by itself (its exit code and the end of its
+    log, faulthandler's report first when it crashed)."""
+    code = bridge.proc.poll()
+    if code is not None:
+        report = bridge.tail()[:4000]
+        dead.append({"start": start, "when": when, "exit": code, "report": report})
+        print(
+            f"start {start}: the bridge DIED (during the {when}) with exit {code}:\n{report}", file=sys.stderr
+        )
+
+
+@dataclass
+class Stall:
+    """One stall of a host process: seconds from its SIGCONT until every node was mirrored again
+    (None: not within the timeout), the nodes not mirrored then, and the most nodes shown not
+    mirrored while it was stopped (0: the bridge did not notice the stall)."""
+
+    recovered: float | None
+    missing: int
+    noticed: int
+
+
+def _stall(graph: Graph, index: int, seconds: float, monitor: Any, timeout: float) -> Stall:
+    """Stop host ``index`` (SIGSTOP) for ``seconds``, then SIGCONT; what the monitor showed."""
+    pid = graph.hosts[index].proc.pid
+    nodes = graph.nodes
+    noticed = 0
+    os.kill(pid, signal.SIGSTOP)
+    try:
+        until = time.monotonic() + seconds
+        while time.monotonic() < until:
+            noticed = max(noticed, len(nodes) - mirrored(monitor, nodes))
+            time.sleep(min(0.1, max(0.0, until - time.monotonic())))
+    finally:
+        os.kill(pid, signal.SIGCONT)
+    t0 = time.monotonic()
+    done = _wait(lambda: mirrored(monitor, nodes) == len(nodes), timeout)
+    took = round(time.monotonic() - t0, 2) if done else None
+    return Stall(took, len(nodes) - mirrored(monitor, nodes), noticed)
+
+
 def run(args: argparse.Namespace) -> dict[str, Any]:
     from paramdds.dds.monitor import ParameterMonitor
     from paramdds.dds.participant import close_participant, make_participant
 
-    host_args: list[str] = []
-    if args.nodes:
-        host_args = [a for i in range(args.nodes) for a in ("--node", f"/shared/n{i:03d}")]
-        glob = "/shared/*"
-    else:
-        where = find_realworld()
-        path = Path(args.params_file) if args.params_file else (where / "nav2_params.yaml" if where else None)
-        if path is None or not path.is_file():
-            raise SystemExit("no parameter file: give --params-file, or --nodes N")
-        host_args = ["--params-file", str(path)]
-        glob = "*"
+    host_args, glob = _host_args(args)
+    stalls = [float(x) for x in args.stalls.split(",") if x.strip()] if args.stalls else []
     with tempfile.TemporaryDirectory(prefix="paramdds-ros2-shared-") as tmp:
         env = shared_env(args.domain, Path(tmp))
         os.environ.pop("CYCLONEDDS_URI", None)
         if args.cyclone_uri:
             env["CYCLONEDDS_URI"] = os.environ["CYCLONEDDS_URI"] = args.cyclone_uri
-        with shared_domain(env, host_args) as nodes:
+        bridge_env = dict(env)
+        if args.type_lookup == "on":
+            profiles = Path(tmp) / "profiles.xml"
+            profiles.write_text(TYPE_LOOKUP_ON_XML)
+            bridge_env["FASTDDS_DEFAULT_PROFILES_FILE"] = str(profiles)
+        with shared_graph(env, *host_args) as graph:
+            nodes = graph.nodes
             dp = make_participant(args.domain, localhost=True)
             monitor = ParameterMonitor(dp)
             times: list[float | None] = []
+            recovered: dict[float, list[float | None]] = {s: [] for s in stalls}
+            noticed: dict[float, list[int]] = {s: [] for s in stalls}
+            unmirrored: list[dict[str, Any]] = []
+            dead: list[dict[str, Any]] = []
             tools: list[dict[str, Any]] = []
-            bridge = None
+            starved: dict[str, float] = {"stops": 0, "seconds": 0.0}
+            bridge: _Proc | None = None
+            starver: Starver | None = None
+            turn = 0
             try:
-                for i in range(args.starts):
+                for i in range(1, args.starts + 1):
                     if bridge is not None:
-                        stop_bridge(bridge, monitor, nodes)
-                    took, bridge = bridge_start(env, nodes, monitor, glob=glob, timeout=args.start_timeout)
+                        stop_bridge(bridge, monitor, nodes)  # also when it died: its mirrors go offline
+                    t0 = time.monotonic()
+                    log = Path(tmp) / f"bridge-{i}.log"
+                    cmd = _python(
+                        "-m", "paramdds.cli", "--log-level", "info", "ros2", "--mirror", glob, "--resync", "0"
+                    )
+                    bridge = _Proc(cmd, bridge_env, log=log)
+                    starver = Starver(bridge.proc.pid) if args.starve else None
+                    complete = _wait(
+                        lambda b=bridge: mirrored(monitor, nodes) == len(nodes) or b.proc.poll() is not None,
+                        args.start_timeout,
+                    ) and mirrored(monitor, nodes) == len(nodes)
+                    took = round(time.monotonic() - t0, 2) if complete else None
                     times.append(took)
-                    print(f"start {i + 1}: {took if took is not None else 'INCOMPLETE'} s", file=sys.stderr)
+                    if not complete:
+                        missing = len(nodes) - mirrored(monitor, nodes)
+                        unmirrored.append(
+                            {"start": i, "when": "start", "missing": missing, "held": holding(monitor, nodes)}
+                        )
+                    print(f"start {i}: {took if took is not None else 'INCOMPLETE'} s", file=sys.stderr)
+                    phase = "start"
+                    for seconds in stalls if bridge.proc.poll() is None else []:
+                        phase = f"stall {seconds:g} s"
+                        stall = _stall(graph, turn % len(graph.hosts), seconds, monitor, args.recover_timeout)
+                        turn += 1
+                        recovered[seconds].append(stall.recovered)
+                        noticed[seconds].append(stall.noticed)
+                        if stall.missing:
+                            unmirrored.append(
+                                {
+                                    "start": i,
+                                    "when": phase,
+                                    "missing": stall.missing,
+                                    "held": holding(monitor, nodes),
+                                }
+                            )
+                        again = f"{stall.recovered} s" if stall.recovered is not None else "NOT"
+                        print(
+                            f"start {i}: {phase}, {stall.noticed} nodes shown not mirrored during it, "
+                            f"all mirrored again {again} after SIGCONT ({stall.missing} missing)",
+                            file=sys.stderr,
+                        )
+                        if bridge.proc.poll() is not None:
+                            break
+                    if starver is not None:
+                        starver.stop()
+                        starved["stops"] += starver.stops
+                        starved["seconds"] = round(starved["seconds"] + starver.stopped, 1)
+                        starver = None
+                    _dead(bridge, i, phase, dead)
                 for _ in range(args.tools):
                     tools.append(tool(env, nodes))
             finally:
+                if starver is not None:
+                    starver.stop()
                 if bridge is not None:
                     bridge.stop()
                 monitor.close()
                 close_participant(dp)
-    done = [t for t in times if t is not None]
     return {
         "nodes": len(nodes),
+        "hosts": len(host_args),
+        "unknown_per_node": args.unknown,
+        "type_lookup": args.type_lookup,
+        "starved": starved if args.starve else None,
         "starts": len(times),
-        "complete": len(done),
-        "seconds": times,
-        "min": min(done) if done else None,
-        "median": round(median(done), 2) if done else None,
-        "max": max(done) if done else None,
+        "dead": dead,
+        "unmirrored": unmirrored,
+        "start": spread(times),
+        "stalls": {f"{s:g}": {**spread(v), "noticed": noticed[s]} for s, v in recovered.items()},
         "tools": tools,
     }
+
+
+def ok(result: dict[str, Any]) -> bool:
+    """No bridge died, every start mirrored every node, every stall ended with all mirrored again."""
+    return not result["dead"] and not result["unmirrored"] and result["start"]["complete"] == result["starts"]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -352,9 +580,24 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("-d", "--domain", type=int, default=int(os.environ.get("ROS_DOMAIN_ID", "47")))
     ap.add_argument("--params-file", help="the host's nodes (default: realworld/nav2_params.yaml)")
     ap.add_argument("--nodes", type=int, default=0, help="N synthetic nodes instead of a parameter file")
+    ap.add_argument("--hosts", type=int, default=1, help="host processes the N nodes are spread over")
+    ap.add_argument(
+        "--unknown", type=int, default=0, help="publishers per node of types the bridge does not know"
+    )
     ap.add_argument("--starts", type=int, default=10)
+    ap.add_argument("--starve", action="store_true", help="SIGSTOP/SIGCONT the bridge at random (0.3-2.5 s)")
+    ap.add_argument(
+        "--stalls", default="", help="seconds, comma-separated: a host stopped so long after each start"
+    )
     ap.add_argument("--tools", type=int, default=3)
     ap.add_argument("--start-timeout", type=float, default=START_TIMEOUT, help="seconds (%(default)s)")
+    ap.add_argument("--recover-timeout", type=float, default=RECOVER_TIMEOUT, help="seconds (%(default)s)")
+    ap.add_argument(
+        "--type-lookup",
+        choices=("off", "on"),
+        default="off",
+        help="on: the bridge's ROS 2 participant keeps Fast DDS's type lookup (to compare)",
+    )
     ap.add_argument(
         "--cyclone-uri",
         default="",
@@ -370,13 +613,50 @@ def main(argv: list[str] | None = None) -> int:
     if args.output == "json":
         print(json.dumps(result, indent=2))
     else:
-        print(
-            f"{result['nodes']} nodes, {result['complete']} of {result['starts']} bridge starts complete; "
-            f"start to all mirrored: min {result['min']} s, median {result['median']} s, "
-            f"max {result['max']} s; fresh rclpy tools reached "
-            f"{[t['reached'] for t in result['tools']]} of {result['nodes']} nodes"
+        print(table(result))
+    return 0 if ok(result) else 1
+
+
+def _span(stats: dict[str, Any]) -> str:
+    return f"min {stats['min']} s, median {stats['median']} s, max {stats['max']} s"
+
+
+def table(result: dict[str, Any]) -> str:
+    """The result as lines of text."""
+    start = result["start"]
+    lines = [
+        f"{result['nodes']} nodes in {result['hosts']} host processes"
+        + (
+            f", {result['unknown_per_node']} publishers of unknown types each"
+            if result["unknown_per_node"]
+            else ""
         )
-    return 0 if result["complete"] == result["starts"] else 1
+        + f"; the bridge's type lookup {result['type_lookup']}"
+        + (
+            f"; starved: {result['starved']['stops']:g} stops, {result['starved']['seconds']:g} s"
+            if result["starved"]
+            else ""
+        ),
+        f"bridges dead: {len(result['dead'])} of {result['starts']}"
+        + "".join(f"\n  start {d['start']} ({d['when']}): exit {d['exit']}" for d in result["dead"]),
+        f"starts complete: {start['complete']} of {result['starts']}; start to all mirrored: {_span(start)}",
+    ]
+    for seconds, stats in result["stalls"].items():
+        lines.append(
+            f"stall {seconds} s: every node mirrored again after {stats['complete']} of "
+            f"{len(stats['seconds'])} stalls; "
+            f"nodes shown not mirrored during each: {stats.get('noticed', [])}; "
+            f"SIGCONT to all mirrored: {_span(stats)}"
+        )
+    if result["unmirrored"]:
+        lines.append(
+            "nodes not mirrored: "
+            + ", ".join(f"{u['missing']} (start {u['start']}, {u['when']})" for u in result["unmirrored"])
+        )
+    if result["tools"]:
+        reached = [t["reached"] for t in result["tools"]]
+        lines.append(f"fresh rclpy tools reached {reached} of {result['nodes']} nodes")
+    return "\n".join(lines)
 
 
 if __name__ == "__main__":
