@@ -54,7 +54,7 @@ def test_the_pages_nodes_table_has_the_columns_the_real_one_has(fleet: Fleet) ->
 
 def test_the_page_names_the_extras_mutual_tls_needs() -> None:
     text = PAGE.read_text(encoding="utf-8")
-    assert "pip install 'paramdds[zenoh,secure]'" in text
+    assert "pip install -e '.[zenoh,secure]'" in text
 
 
 @pytest.mark.slow
