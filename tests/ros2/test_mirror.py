@@ -20,7 +20,7 @@ from paramdds.dds.participant import close_participant, make_participant
 from paramdds.errors import ErrorCode, OutcomeUnknownError
 from paramdds.ros2.mirror import RESYNC_SPREAD, START_WINDOW, next_resync
 
-from .conftest import REALWORLD, RosHost, oracle, paramdds_cli
+from .conftest import REALWORLD, SHORT_LEASE, RosHost, oracle, paramdds_cli
 
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(180)]
 
@@ -303,22 +303,6 @@ def test_a_hanging_callback_delays_only_its_node(
     # once the bridge gave up on the call, the node is online again and answers
     client.wait_for_node("hanger", timeout=10)
     assert client.get("hanger", ["hang"]).values()["hang"] == ParameterValue.from_python(0)
-
-
-SHORT_LEASE = """<?xml version="1.0" encoding="UTF-8" ?>
-<profiles xmlns="http://www.eprosima.com">
-  <participant profile_name="short_lease" is_default_profile="true">
-    <rtps>
-      <builtin>
-        <discovery_config>
-          <leaseDuration><sec>3</sec></leaseDuration>
-          <leaseAnnouncement><sec>1</sec></leaseAnnouncement>
-        </discovery_config>
-      </builtin>
-    </rtps>
-  </participant>
-</profiles>
-"""
 
 
 def test_a_killed_node_goes_offline_within_the_lease_its_process_announced(

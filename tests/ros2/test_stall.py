@@ -18,27 +18,13 @@ import pytest
 
 from paramdds.core.values import ParameterValue
 
-from .conftest import RosHost
+from .conftest import SHORT_LEASE, RosHost
 from .test_mirror import paramdds_side, wait_for
 
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(180)]
 
 __all__ = ["paramdds_side"]  # the fixture, used by name below
 
-SHORT_LEASE = """<?xml version="1.0" encoding="UTF-8" ?>
-<profiles xmlns="http://www.eprosima.com">
-  <participant profile_name="short_lease" is_default_profile="true">
-    <rtps>
-      <builtin>
-        <discovery_config>
-          <leaseDuration><sec>3</sec></leaseDuration>
-          <leaseAnnouncement><sec>1</sec></leaseAnnouncement>
-        </discovery_config>
-      </builtin>
-    </rtps>
-  </participant>
-</profiles>
-"""
 NODES = [f"/stall/node_{i:02d}" for i in range(10)]
 
 
