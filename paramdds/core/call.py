@@ -161,6 +161,7 @@ class Call:
     announced: bool = False  # its node's presence was seen (online or offline) during the call
     in_flight: float = IN_FLIGHT
     holding: bool = False  # a write sure never to land as long as it sends no more copies: it sends none
+    copies: int = 0  # copies sent that a peer may have taken
     _last_copy: float = field(default=float("-inf"), repr=False)
     _step: float = field(default=0.0, repr=False)
     _next_resend: float = field(default=0.0, repr=False)
@@ -190,6 +191,7 @@ class Call:
         (``now`` None: when is not known, so the copy never counts as landed nowhere)."""
         self.reached = self.reached or reached
         if reached:
+            self.copies += 1
             self._last_copy = float("inf") if now is None else now
 
     def saw(self, presence: Presence) -> None:

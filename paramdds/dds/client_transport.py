@@ -331,7 +331,10 @@ class DdsClientTransport:
                 continue
             pending = self._pending.pop(reply.request_id, None)
             if pending is not None and not pending.future.done():
-                pending.future.set_result(reply)
+                if _refused_by_a_later_life(pending, reply):
+                    pending.future.set_exception(_later_life(pending, reply))
+                else:
+                    pending.future.set_result(reply)
 
     def _not_seen(self, node: str, waited: float, held: str = "") -> ParamddsError:
         """The error for a node not (or no longer) online after ``waited`` seconds."""
@@ -503,6 +506,28 @@ def _node_info(sample: Any) -> NodeInfo | None:
         sample.incarnation,
         origin_of(tags),
         status_of(tags),
+    )
+
+
+def _refused_by_a_later_life(pending: PendingCall, reply: Any) -> bool:
+    """Whether ``reply`` refuses a compare-and-set of which more than one copy went out, from
+    a server life other than the one the write expected. A server answers a copy it already
+    took from its reply cache, but a restarted server has none: an earlier copy may have been
+    applied by the life the write expected (killed between its commit and its reply), and
+    the later life's refusal says nothing of that copy."""
+    if pending.kind != "SetParametersRequest" or pending.call.copies < 2:
+        return False
+    expected = pending.message.expected_incarnation
+    refused = bool(reply.code) or not all(r.successful for r in reply.results)
+    return bool(expected) and reply.incarnation != expected and refused
+
+
+def _later_life(pending: PendingCall, reply: Any) -> OutcomeUnknownError:
+    node = pending.node
+    return OutcomeUnknownError(
+        f"outcome unknown: node {node!r} restarted while the request was being sent again, and "
+        f"its new server refused a copy ({reply.code or 'CONFLICT'}); an earlier copy may have been "
+        "applied before the restart: `get` or `history` shows the outcome"
     )
 
 
