@@ -12,9 +12,10 @@ process. Then:
   ``ros2``, no status), then stopped (SIGTERM), and the next start waits until every mirror
   is offline. With ``--starve`` the bridge is starved of CPU all its life (SIGSTOP, then
   SIGCONT 0.3-2.5 s later, at random moments), as on a loaded machine;
-* ``--stalls 5,25,60`` after each start: one host process (each in turn) stopped for each
-  of those seconds (SIGSTOP, as a debugger breakpoint or a swap storm does), timed from its
-  SIGCONT until every node is mirrored again;
+* ``--stalls 5,25,60`` after each start (with ``--stall-every K``, after every K-th start):
+  one host process (each in turn) stopped for each of those seconds (SIGSTOP, as a
+  debugger breakpoint or a swap storm does), timed from its SIGCONT until every node is
+  mirrored again;
 * ``--tools`` fresh rclpy processes (what ``ros2 param list`` does: learn the graph, then
   a parameter client per node) that list the parameters of every node, with the bridge
   of the last start still up.
@@ -511,7 +512,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                         )
                     print(f"start {i}: {took if took is not None else 'INCOMPLETE'} s", file=sys.stderr)
                     phase = "start"
-                    for seconds in stalls if bridge.proc.poll() is None else []:
+                    stalling = bridge.proc.poll() is None and i % args.stall_every == 0
+                    for seconds in stalls if stalling else []:
                         phase = f"stall {seconds:g} s"
                         stall = _stall(graph, turn % len(graph.hosts), seconds, monitor, args.recover_timeout)
                         turn += 1
@@ -588,6 +590,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--starve", action="store_true", help="SIGSTOP/SIGCONT the bridge at random (0.3-2.5 s)")
     ap.add_argument(
         "--stalls", default="", help="seconds, comma-separated: a host stopped so long after each start"
+    )
+    ap.add_argument(
+        "--stall-every", type=int, default=1, metavar="K", help="stall after every K-th start (%(default)s)"
     )
     ap.add_argument("--tools", type=int, default=3)
     ap.add_argument("--start-timeout", type=float, default=START_TIMEOUT, help="seconds (%(default)s)")
