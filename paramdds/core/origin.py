@@ -49,10 +49,10 @@ def via_text(via: Via | str) -> str:
 
 def parse_via(text: str) -> Via | None:
     """The channel named ``text``; None for one this version does not know (a newer peer's)."""
-    try:
-        return Via(text)
-    except ValueError:
-        return None
+    return _VIAS.get(text)  # a dict, not Via(text): every set request is read through it
+
+
+_VIAS = {v.value: v for v in Via}
 
 
 @dataclass(frozen=True, slots=True)
