@@ -29,6 +29,11 @@ what to do next. The rules:
 * Any other call fails NOT_SEEN as soon as its node is known gone (offline, or absent
   once discovery settled) at a discovery change or a resend, and at the deadline when
   the node is not online; else TIMEOUT.
+* **A refusal from a later server life** (:meth:`Call.refused_by_a_later_life`) ends a
+  compare-and-set of which more than one copy went out OUTCOME_UNKNOWN: a server answers
+  a copy it already took from its reply cache, but a restarted server has none, so an
+  earlier copy may have been applied by the life the write expected (killed between its
+  commit and its reply), and the later life's refusal says nothing of that copy.
 """
 
 from __future__ import annotations
@@ -274,6 +279,12 @@ class Call:
         if self.may_apply:
             return Failure.OUTCOME_UNKNOWN
         return Failure.NO_ROUTE if waited < self.timeout * EARLY_END else Failure.TIMEOUT
+
+    def refused_by_a_later_life(self, expected_life: int, answering_life: int, refused: bool) -> bool:
+        """Whether a write's refusal (``refused``) by server life ``answering_life`` leaves its
+        outcome unknown: it expected life ``expected_life`` (a compare-and-set; 0: none), another
+        answered, and more than one copy went out (see the module's rules)."""
+        return self.write and self.copies > 1 and refused and 0 != expected_life != answering_life
 
     def closed(self) -> Failure:
         """How the call ends when its client is closed while it waits."""

@@ -510,16 +510,13 @@ def _node_info(sample: Any) -> NodeInfo | None:
 
 
 def _refused_by_a_later_life(pending: PendingCall, reply: Any) -> bool:
-    """Whether ``reply`` refuses a compare-and-set of which more than one copy went out, from
-    a server life other than the one the write expected. A server answers a copy it already
-    took from its reply cache, but a restarted server has none: an earlier copy may have been
-    applied by the life the write expected (killed between its commit and its reply), and
-    the later life's refusal says nothing of that copy."""
-    if pending.kind != "SetParametersRequest" or pending.call.copies < 2:
+    """Whether ``reply`` refuses a write from a server life other than the one it expected,
+    after more than one copy went out (:meth:`~paramdds.core.call.Call.refused_by_a_later_life`)."""
+    call = pending.call
+    if not call.write or call.copies < 2:  # the common case, before reading the reply
         return False
-    expected = pending.message.expected_incarnation
     refused = bool(reply.code) or not all(r.successful for r in reply.results)
-    return bool(expected) and reply.incarnation != expected and refused
+    return call.refused_by_a_later_life(pending.message.expected_incarnation, reply.incarnation, refused)
 
 
 def _later_life(pending: PendingCall, reply: Any) -> OutcomeUnknownError:

@@ -17,7 +17,8 @@ EXPECTED, LATER = 0x3314B8175C09313F, 0x31C6726614C9038E
 def pending(
     copies: int, expected_incarnation: int = EXPECTED, kind: str = "SetParametersRequest"
 ) -> PendingCall:
-    call = Call("soak_n11", 1, True, 5.0, 100.0, resend_after=0.2, match_poll=0.02)
+    write = kind == "SetParametersRequest"
+    call = Call("soak_n11", 1, write, 5.0, 100.0, resend_after=0.2, match_poll=0.02)
     for i in range(copies):
         call.sent(True, 100.0 + i)
     message = SimpleNamespace(expected_incarnation=expected_incarnation)
