@@ -152,7 +152,7 @@ def _look(monitor: Any, strip: str) -> dict[str, Any]:
 def _log_presence(event: Any) -> None:
     """A presence event on stderr (kept with the bench's logs when a run fails)."""
     kind = event.event.value
-    if kind in ("online", "offline", "site_online", "site_offline", "status"):
+    if kind in ("online", "offline", "site_online", "site_offline", "site_status", "status"):
         where = event.site or event.node
         extra = " by_site" if event.by_site else ""
         sys.stderr.write(f"{time.time():.3f} {kind} {where}{extra} {event.status or ''}\n")

@@ -52,7 +52,7 @@ class EventPrinter:
 
         if event.event is EventKind.SYNCED:
             return  # printed by :meth:`synced`, once the state has settled (ParameterMonitor.settle)
-        if event.event in (EventKind.SITE_OFFLINE, EventKind.SITE_ONLINE):
+        if event.event in (EventKind.SITE_OFFLINE, EventKind.SITE_ONLINE, EventKind.SITE_STATUS):
             if self._synced:
                 self._write(self._site_line(event))
             return
@@ -111,10 +111,16 @@ class EventPrinter:
             self._write(f"not synced: the state did not settle within {waited:g} s; it may be incomplete")
 
     def _site_line(self, e: MonitorEvent) -> str:
-        """A whole site went offline (every gateway of it) or came back: one line."""
+        """A whole site went offline (every gateway of it) or came back, or its nodes went stale
+        (``site_status SITE stale``: held while its gateways are gone) or fresh again
+        (``site_status SITE ok``): one line."""
+        from ..dds.monitor import EventKind
+
+        status = e.event is EventKind.SITE_STATUS
         if self._json:
-            return dumps_json({"event": e.event.value, "site": e.site, "stamp": e.stamp}, pretty=False)
-        return f"{e.event.value} {e.site}"
+            line: dict[str, object] = {"event": e.event.value, "site": e.site, "stamp": e.stamp}
+            return dumps_json({**line, "status": e.status} if status else line, pretty=False)
+        return f"{e.event.value} {e.site} {e.status or 'ok'}" if status else f"{e.event.value} {e.site}"
 
     def _node_line(self, e: MonitorEvent) -> str:
         from ..dds.monitor import EventKind

@@ -45,6 +45,10 @@ class EventKind(str, Enum):
     # a gateway of it came back: one event for the site (MonitorEvent.site; node is "")
     SITE_OFFLINE = "site_offline"
     SITE_ONLINE = "site_online"
+    # every gateway of a site went, and the site is held a few seconds before it is offline: its
+    # online nodes show status "stale" (MonitorEvent.status "stale"), then normal again (status None)
+    # when a gateway is back in time (their own status events marked by_site)
+    SITE_STATUS = "site_status"
     SYNCED = "synced"
 
 
@@ -63,8 +67,8 @@ class MonitorEvent:
     incarnation: int = 0  # the server's for the node (new on every start): see NodeState.incarnation
     origin: str | None = None  # the node's presence tag "origin" ("ros2": mirrored by the bridge), if known
     status: str | None = None  # the node's status (see NodeState.status) on online and status events
-    site: str = ""  # the site of a site_offline / site_online event (remote monitors only)
-    # an online / offline event of a node that came or went with its whole site: the site's
+    site: str = ""  # the site of a site_offline / site_online / site_status event (remote monitors only)
+    # an online / offline / status event of a node that came or went with its whole site: the site's
     # event says it once, so a log shows one line, not one per node
     by_site: bool = False
     # added / modified: who made the change, whether verified, through what, when, at which

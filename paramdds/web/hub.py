@@ -68,9 +68,9 @@ def log_entry(e: MonitorEvent) -> Row:
     return {
         "event": e.event.value,
         "node": e.node,
-        "site": e.site,  # a site_offline / site_online event's site ("" for the others)
+        "site": e.site,  # a site_offline / site_online / site_status event's site ("" for the others)
         "origin": e.origin,  # "ros2": shown with its leading slash
-        "status": e.status,  # a "status" event's new status ("unreachable", "stale"; None: normal)
+        "status": e.status,  # a (site_)status event's new status ("unreachable", "stale"; None: normal)
         "name": e.name,
         "revision": e.revision,
         "value": parameter_row(e.name, e.value, e.descriptor)["value"] if e.value is not None else None,

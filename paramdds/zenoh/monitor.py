@@ -11,11 +11,15 @@ console take it as they take the DDS one. The feed:
   history), and marks the monitor synced;
 * applies each state and token by the rules of :mod:`.monitor_rules` (the newest state
   of a node's gateway is held; a node is online while its gateway says so *and* its
-  token is alive *and* a gateway of its site is up): a gateway killed, or an uplink cut,
-  takes every node of its site offline within the Zenoh lease (:data:`~.config.LEASE_MS`),
-  told once as a ``site_offline`` event (and ``site_online`` when a gateway is back);
+  token is alive *and* a gateway of its site is up): a gateway killed, or an uplink cut or
+  dropped by loss, shows every node of its site ``stale`` within the Zenoh lease
+  (:data:`~.config.LEASE_MS`) and :data:`~.monitor_rules.SITE_GRACE`, told once as a
+  ``site_status`` event; a gateway back within :data:`~.monitor_rules.SITE_HOLD` seconds
+  makes them fresh again (another ``site_status``), else the site goes offline, told once
+  as a ``site_offline`` event (and ``site_online`` when a gateway is back);
 * asks for a node's whole state again when its token comes back (publications made
-  meanwhile were lost, so nothing stale shows online), when a delta does not follow the
+  meanwhile were lost, so nothing stale shows as current), and every node of a site when a
+  gateway of it is back after none (held or offline), when a delta does not follow the
   state held, and (a few times) when a state did not come or did not decode.
 """
 
@@ -37,7 +41,7 @@ from ..dds.monitor import EventCallback, ParameterMonitor
 from ..errors import ParamddsError
 from . import codec, keys
 from .completeness import Lack, SiteLedger
-from .monitor_rules import GAP, HELD, SITE_GRACE, RemoteStates
+from .monitor_rules import GAP, HELD, SITE_GRACE, Confirmed, RemoteStates
 from .states import ROUTE_WAIT, ask_states, gateways_of, site_active
 
 log = logging.getLogger(__name__)
@@ -83,8 +87,9 @@ class RemoteParameterMonitor(ParameterMonitor):
     only some sites needs).
 
     ``snapshot()``, ``wait_until``, ``wait_complete``, ``wait_synced`` and the events
-    (``added``, ``modified``, ``deleted``, ``online``, ``offline``, ``synced``) are those
-    of :class:`~paramdds.dds.monitor.ParameterMonitor`; node names are ``SITE/NODE``.
+    (``added``, ``modified``, ``deleted``, ``online``, ``offline``, ``status``, ``synced``)
+    are those of :class:`~paramdds.dds.monitor.ParameterMonitor`; node names are
+    ``SITE/NODE``; a whole site's are ``site_status``, ``site_offline`` and ``site_online``.
     """
 
     def __init__(
@@ -135,6 +140,7 @@ class ZenohStateFeed:
         self._refresher: threading.Thread | None = None
         self._suspects: set[str] = set()  # sites a token of which went, to ask the router about
         self._verifying = False  # a confirmation of the tokens gone is due (see _confirm_later)
+        self._expiring: set[str] = set()  # sites held, whose end of hold is due (see _hold_later)
         # sites whose first gateway came before the first sync chose its sites (None: chosen)
         self._early: set[str] | None = set()
         # an exact list of sites is asked for site by site (an operator whose certificate is granted
@@ -327,7 +333,10 @@ class ZenohStateFeed:
         with self._sink.update() as change:
             if not self._states.gateway(change, site, gateway, True):
                 return
+            unsure = self._states.unsure(site)
         self._site_back(site)
+        if unsure:  # back from its hold before some of its nodes' tokens
+            self._confirm_later(site)
 
     def _site_back(self, site: str) -> None:
         # a site's first gateway, or one back (what it published meanwhile is lost): ask for the
@@ -371,25 +380,53 @@ class ZenohStateFeed:
 
     def _confirm(self) -> None:
         """The tokens alive now of the sites a token of which went, from the router (a
-        liveliness get each), decide what is gone (:meth:`RemoteStates.confirm`)."""
+        liveliness get each), decide what is gone (:meth:`_confirm_site`)."""
         with self._refresh_lock:
             self._verifying = False
             sites, self._suspects = sorted(self._suspects), set()
-        book = self._sink
         for site in sites:
-            with book.update():
-                mark = self._states.mark()
-            try:
-                gateways, alive = self._held(site)
-            except Exception as exc:  # the session closed under us
-                log.debug("confirming the tokens of site %s failed: %s", site, exc)
+            if not self._confirm_site(site):
                 return
-            with book.update() as change:
-                up, back = self._states.confirm(change, site, mark, gateways, alive)
-            if up:
-                self._site_back(site)
-            for name in back:
-                self._refresh(*keys.split_remote(name))
+
+    def _confirm_site(self, site: str) -> bool:
+        """Ask the router which tokens of ``site`` are alive and apply it
+        (:meth:`RemoteStates.confirm`); False when the session closed under us."""
+        book = self._sink
+        with book.update():
+            mark = self._states.mark()
+        try:
+            gateways, alive = self._held(site)
+        except Exception as exc:  # the session closed under us
+            log.debug("confirming the tokens of site %s failed: %s", site, exc)
+            return False
+        now = time.monotonic()
+        with book.update() as change:
+            done: Confirmed = self._states.confirm(change, site, mark, gateways, alive, now)
+        if done.up:
+            self._site_back(site)
+        for name in done.back:
+            self._refresh(*keys.split_remote(name))
+        if done.again:
+            self._confirm_later(site)
+        if done.hold_until is not None:
+            self._hold_later(site, done.hold_until - now)
+        return True
+
+    def _hold_later(self, site: str, delay: float) -> None:
+        """Ask the router about ``site`` again once its hold is over (``delay`` seconds): with
+        no gateway back, that makes it ``site_offline``."""
+        with self._refresh_lock:
+            if site in self._expiring or self._sink.closed:
+                return
+            self._expiring.add(site)
+        timer = threading.Timer(max(delay, 0.0), self._hold_over, (site,))
+        timer.daemon = True
+        timer.start()
+
+    def _hold_over(self, site: str) -> None:
+        with self._refresh_lock:
+            self._expiring.discard(site)
+        self._confirm_site(site)
 
     def _held(self, site: str) -> tuple[set[str], set[str]]:
         """The gateways and the nodes of ``site`` whose tokens the router holds: those in any of

@@ -12,11 +12,17 @@ Zenoh for anything is :mod:`.monitor`'s. Its rules:
   state's, carried by its ``added`` / ``modified`` event;
 * a node is online while its gateway says so *and* its liveliness token is alive *and*
   its site has a gateway whose token is alive;
-* a site whose every gateway's token went (the gateway killed, or its uplink cut: the
-  router drops the session and every token of it) is one ``site_offline`` event, its
-  nodes' ``offline`` events marked ``by_site``; a gateway of it coming back is one
-  ``site_online``, and its nodes' ``online`` events are marked so too (a log shows the
-  site's line, not one per node);
+* a site whose every gateway's token went (the gateway killed, or its uplink cut or its
+  session dropped by loss: the router drops the session and every token of it) is *held*
+  for :data:`SITE_HOLD` seconds: one ``site_status`` event with status ``stale``, its
+  online nodes stay online with status ``stale`` (their values the copy held; their
+  ``status`` events marked ``by_site``). A gateway of it back within the hold is one
+  ``site_status`` event with no status, its nodes' statuses back as their gateway said
+  (marked ``by_site`` too), and no node goes offline or online: a node whose token is not
+  back yet is left to a confirmation. A hold that ends with no gateway back is one
+  ``site_offline`` event, its nodes' ``offline`` events marked ``by_site``; a gateway of it
+  coming back after that is one ``site_online``, and its nodes' ``online`` events are
+  marked so too (a log shows the site's line, not one per node);
 * a token's going is believed once the router confirms it (:meth:`RemoteStates.confirm`,
   with what a liveliness get found :data:`SITE_GRACE` seconds later): the router drops a
   session's tokens in no set order, so a node whose token went first is shown online
@@ -36,16 +42,22 @@ import time
 from collections.abc import Iterable
 from dataclasses import replace
 from enum import Enum
+from typing import NamedTuple
 
 from ..core.descriptors import ParameterDescriptor
-from ..core.monitor_events import Blame, EventKind, MonitorEvent
+from ..core.monitor_events import Blame, EventKind, MonitorEvent, NodeState
 from ..core.results import LastChange
 from ..core.state_book import BookUpdate, StateBook
 from ..core.values import ParameterValue
+from ..dds.filters import STALE
 from .codec import NodeStateMsg
 
 Table = dict[str, tuple[ParameterValue, ParameterDescriptor]]  # a node's parameters by name
 SITE_GRACE = 0.25  # seconds after a token went until the router is asked what is still alive
+# seconds a site whose every gateway went shows ``stale`` before it is ``site_offline``: of the
+# gateway sessions dropped by 30 % loss on their uplink (a TCP stream stalled past the lease), 15 of
+# 17 were back within 0.36-4.85 s, the others after 12 s (docs/zenoh.md, "Presence under loss")
+SITE_HOLD = 5.0
 
 
 class Outcome(Enum):
@@ -57,20 +69,33 @@ class Outcome(Enum):
 HELD, OLD, GAP = Outcome.HELD, Outcome.OLD, Outcome.GAP
 
 
+class Confirmed(NamedTuple):
+    """What a confirmation (:meth:`RemoteStates.confirm`) leaves the feed to do."""
+
+    up: bool  # the site has a gateway again after none: ask for its states
+    back: list[str]  # the nodes whose token is back: ask for each again
+    again: bool  # nodes of a site back from its hold have no token yet: confirm them later
+    hold_until: float | None  # the site is held until then: confirm it again at that time
+
+
 class RemoteStates:
     """What the remote monitor knows besides the book: which state each node's gateway sent
     last, whether that gateway says the node is online, and whose tokens are alive."""
 
-    def __init__(self) -> None:
+    def __init__(self, hold: float = SITE_HOLD) -> None:
+        self._hold = hold  # seconds a site whose every gateway went is held (0: site_offline at once)
         self._seen: dict[str, tuple[str, int]] = {}  # node -> (gateway, seq) of the state held
         self._reported: dict[str, bool] = {}  # node -> online as its gateway last said
+        self._status: dict[str, str | None] = {}  # node -> status as its gateway last said
         self._alive: set[str] = set()  # nodes whose liveliness token is alive
         self._gone: set[str] = set()  # nodes whose token was seen going (a first get may lag)
         self._gateways: dict[str, set[str]] = {}  # site -> its gateways whose token is alive
         self._gw_gone: set[tuple[str, str]] = set()  # (site, gateway) seen going before being seen
-        self._down: set[str] = set()  # sites seen up whose every gateway went since
+        self._held: dict[str, float] = {}  # site -> until when it is held (its every gateway went)
+        self._down: set[str] = set()  # sites seen up whose every gateway went, and stayed away
         self._leaving: set[str] = set()  # nodes whose token went, their site's gateway up: unconfirmed
         self._dropped: set[str] = set()  # nodes taken offline with their site, not online since
+        self._staled: set[str] = set()  # nodes shown stale by their site's hold
         self._tick = 0  # counts the tokens seen coming and going
         self._ticks: dict[object, int] = {}  # node or (site, gateway) -> tick of its last token event
 
@@ -109,23 +134,27 @@ class RemoteStates:
         return self._tick
 
     def confirm(
-        self, change: BookUpdate, site: str, mark: int, gateways: set[str], alive: set[str]
-    ) -> tuple[bool, list[str]]:
+        self, change: BookUpdate, site: str, mark: int, gateways: set[str], alive: set[str], now: float
+    ) -> Confirmed:
         """What the router held of ``site`` when asked after ``mark``: the ``gateways`` whose
-        token is alive and the nodes ``alive``. It decides every token of the site not seen
-        coming or going since ``mark`` (those are their own events'): gateways first (the
-        site's ``site_offline`` when none is left), then nodes. Returns whether the site has a
-        gateway again after none, and the nodes whose token is back (to ask for again)."""
+        token is alive and the nodes ``alive``; ``now`` on the feed's clock (seconds, monotonic).
+        It decides every token of the site not seen coming or going since ``mark`` (those are
+        their own events'): gateways first (the site held when none is left, ``site_offline``
+        once its hold is over with none back), then nodes."""
 
         def settled(key: object) -> bool:
             return self._ticks.get(key, 0) <= mark
 
         known = self._gateways.setdefault(site, set())
         for gone in sorted(g for g in known - gateways if settled((site, g))):
-            self.gateway(change, site, gone, False)
+            self.gateway(change, site, gone, False, now)
         up = False
         for came in sorted(g for g in gateways - known if settled((site, g))):
             up = self.gateway(change, site, came, True) or up
+        until = self._held.get(site)
+        if until is not None and now >= until:
+            self._offline(change, site)
+            until = None
         back: list[str] = []
         ours = {n for n in (*self._alive, *self._leaving, *alive) if _site(n) == site and settled(n)}
         for name in sorted(ours):
@@ -140,7 +169,12 @@ class RemoteStates:
                 self._alive.discard(name)
                 self._gone.add(name)
             self._show(change, name)
-        return up, back
+        return Confirmed(up, back, self.unsure(site), until)
+
+    def unsure(self, site: str) -> bool:
+        """Whether a node of ``site`` is shown online with its token gone, unconfirmed (a site
+        back from its hold before its nodes' tokens: to confirm soon)."""
+        return any(_site(n) == site for n in self._leaving)
 
     def gateways_found(self, found: dict[str, set[str]]) -> None:
         """The gateways' tokens a liveliness get found alive, by site (those seen going since
@@ -149,59 +183,101 @@ class RemoteStates:
             alive = {g for g in gateways if (site, g) not in self._gw_gone}
             self._gateways.setdefault(site, set()).update(alive)
 
-    def gateway(self, change: BookUpdate, site: str, gateway: str, alive: bool) -> bool:
-        """A gateway's token of ``site`` came (``alive``) or went: the site's event when the
-        last one went, or the first one came back after that. True when the site has a
-        gateway again after none (the first one seen, or one back)."""
+    def gateway(self, change: BookUpdate, site: str, gateway: str, alive: bool, now: float = 0.0) -> bool:
+        """A gateway's token of ``site`` came (``alive``) or went (at ``now``, the feed's clock):
+        the site held when the last one went; a gateway back ends the hold (or, after the
+        site's ``site_offline``, is its ``site_online``). True when the site has a gateway
+        again after none (the first one seen, or one back)."""
         self._touch((site, gateway))
         gateways = self._gateways.setdefault(site, set())
-        if alive:
-            first = not gateways
-            gateways.add(gateway)
-            if site not in self._down:
-                return first
-            self._down.discard(site)
-            change.emit(MonitorEvent(EventKind.SITE_ONLINE, stamp=time.time(), site=site))
-        else:
+        if not alive:
             if gateway not in gateways:
                 self._gw_gone.add((site, gateway))  # a get that lags must not revive it
                 return False
             gateways.discard(gateway)
-            if gateways:
+            if gateways or site in self._held or site in self._down:
                 return False
-            self._down.add(site)
-            change.emit(MonitorEvent(EventKind.SITE_OFFLINE, stamp=time.time(), site=site))
-        for name in [n for n in (*self._reported, *self._leaving) if _site(n) == site]:
-            if not alive:
+            if self._hold <= 0:
+                self._offline(change, site)
+                return False
+            self._held[site] = now + self._hold
+            change.emit(MonitorEvent(EventKind.SITE_STATUS, stamp=time.time(), site=site, status=STALE))
+            for name in self._nodes_of(site):
                 self._leaving.discard(name)
+                self._show(change, name)
+            return False
+        first = not gateways
+        gateways.add(gateway)
+        if site in self._held:  # back within the hold: its nodes stay as they are, fresh again
+            del self._held[site]
+            change.emit(MonitorEvent(EventKind.SITE_STATUS, stamp=time.time(), site=site))
+            for name in self._nodes_of(site):
+                state = change.get(name)
+                if state is not None and state.online and name not in self._alive:
+                    self._leaving.add(name)  # its token is not back yet: confirmed later
+                    self._touch(name)
+                self._show(change, name)
+            return True
+        if site not in self._down:
+            return first
+        self._down.discard(site)
+        change.emit(MonitorEvent(EventKind.SITE_ONLINE, stamp=time.time(), site=site))
+        for name in self._nodes_of(site):
             self._show(change, name)
-        return alive
+        return True
+
+    def _offline(self, change: BookUpdate, site: str) -> None:
+        """``site`` has had no gateway for its hold: its ``site_offline``, its nodes offline."""
+        self._held.pop(site, None)
+        self._down.add(site)
+        change.emit(MonitorEvent(EventKind.SITE_OFFLINE, stamp=time.time(), site=site))
+        for name in self._nodes_of(site):
+            self._leaving.discard(name)
+            self._show(change, name)
+
+    def _nodes_of(self, site: str) -> list[str]:
+        return [n for n in dict.fromkeys((*self._reported, *self._leaving)) if _site(n) == site]
 
     def _show(self, change: BookUpdate, name: str) -> None:
-        """Set ``name``'s presence in the book by the rule (module doc)."""
+        """Set ``name``'s presence and status in the book by the rule (module doc)."""
         state = change.get(name)
         if state is None:
             return
         site = _site(name)
+        status = self._status.get(name)
+        if site in self._held:  # presence kept as it was; an online node's values are the copy held
+            if state.online:
+                self._staled.add(name)
+                _set_status(change, state, STALE, by_site=True)
+            else:
+                change.set_status(state, status)  # no event: offline
+            return
+        by_status = name in self._staled  # the status its site's hold gave it, back as its gateway says
+        self._staled.discard(name)
         online = (
             self._reported.get(name, False)
             and (name in self._alive or name in self._leaving)  # leaving: online until confirmed
             and site not in self._down
         )
         if online == state.online:
+            _set_status(change, state, status, by_site=by_status)
             return
         by_site = site in self._down if not online else name in self._dropped
         if by_site and not online:
             self._dropped.add(name)
         elif online:
             self._dropped.discard(name)
+            change.set_status(state, status)  # no event: offline yet (its online event carries it)
         before = len(change.events)
         change.set_online(state, online)
         if by_site and len(change.events) > before:
             change.events[-1] = replace(change.events[-1], by_site=True)
+        if not online:
+            change.set_status(state, status)  # no event: offline now
 
     def sites_down(self) -> set[str]:
-        """The sites seen up whose every gateway went since (their ``site_offline``)."""
+        """The sites seen up whose every gateway went since and stayed away past the hold
+        (their ``site_offline``)."""
         return set(self._down)
 
     def missing(self, change: BookUpdate) -> list[str]:
@@ -233,9 +309,9 @@ class RemoteStates:
         state.revision, state.announced = msg.revision, msg.announced
         state.incarnation, state.origin = msg.incarnation, msg.origin
         self._reported[name] = msg.online
+        self._status[name] = msg.status
         if not msg.online:  # offline as its gateway says: its coming back is its own
             self._dropped.discard(name)
-        change.set_status(state, msg.status)
         self._show(change, name)
         return HELD
 
@@ -264,6 +340,14 @@ def _changes(change: BookUpdate, name: str, old: Table, new: Table, msg: NodeSta
                     EventKind.DELETED, name, pname, value, descriptor, msg.revision, stamp, msg.incarnation
                 )
             )
+
+
+def _set_status(change: BookUpdate, state: NodeState, status: str | None, *, by_site: bool) -> None:
+    """Set ``state``'s status; its ``status`` event, if any, marked ``by_site`` when its site's."""
+    before = len(change.events)
+    change.set_status(state, status)
+    if by_site and len(change.events) > before:
+        change.events[-1] = replace(change.events[-1], by_site=True)
 
 
 def _blame(lc: LastChange) -> Blame:

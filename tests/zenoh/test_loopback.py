@@ -19,6 +19,7 @@ from paramdds.dds.monitor import EventKind, MonitorEvent
 from paramdds.errors import ErrorCode, UnavailableError
 from paramdds.zenoh.client import ROUTE_WAIT, RemoteParameterClient
 from paramdds.zenoh.monitor import RemoteParameterMonitor
+from paramdds.zenoh.monitor_rules import SITE_HOLD
 
 from ..reliability.conftest import PARAMDDS, make_dds_env
 from .conftest import Fleet, free_port, holds_online, wait_for
@@ -143,9 +144,10 @@ def test_a_killed_gateway_takes_its_sites_nodes_offline_and_a_standby_takes_over
     assert client.set("s1/robot2", {"robot.mode": "manual"}).successful
     assert monitor.wait_until(lambda s: s["s1/robot2"].parameters["robot.mode"][0].value == "manual", 3.0)
 
-    # with no gateway left the site's nodes go offline, and calls fail fast
+    # with no gateway left the site's nodes show stale, then go offline (the hold), and calls fail fast
     standby.kill()
-    assert monitor.wait_until(lambda s: not any(st.online for st in s.values()), 3.0)
+    assert monitor.wait_until(lambda s: all(st.status == "stale" for st in s.values()), 3.0)
+    assert monitor.wait_until(lambda s: not any(st.online for st in s.values()), 1.0 + SITE_HOLD)
     offline = [e for e in events if e.event is EventKind.OFFLINE]
     assert {e.node for e in offline} == {"s1/robot1", "s1/robot2"}
     started = time.monotonic()

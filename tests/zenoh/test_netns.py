@@ -15,7 +15,7 @@ import os
 import subprocess
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 
 import pytest
 
@@ -24,6 +24,7 @@ from paramdds.errors import ErrorCode, OutcomeUnknownError, TransportError, Unav
 from paramdds.zenoh.client import RemoteParameterClient
 from paramdds.zenoh.config import LEASE_MS
 from paramdds.zenoh.monitor import RemoteParameterMonitor
+from paramdds.zenoh.monitor_rules import SITE_HOLD
 
 from ..conftest import next_domain_id
 from ..reliability.conftest import PARAMDDS, Proc, make_dds_env
@@ -166,12 +167,15 @@ def test_sites_in_namespaces_late_joiner_calls_and_an_uplink_cut_and_restored(si
     assert _value(monitor, "north/robot1", "robot.max_velocity") == 1.5
     assert took < 1.5, took
 
-    # the uplink of "south" is cut: its nodes go offline remotely (the Zenoh lease), the others stay
+    # the uplink of "south" is cut: its nodes show stale remotely (the Zenoh lease), then offline (the
+    # hold); the others stay
     sites.topo.set_uplink("south", False)
     cut = time.monotonic()
-    assert monitor.wait_until(lambda s: not s["south/robot1"].online and not s["south/robot2"].online, 8.0), (
-        "the cut site's nodes still show online"
-    )
+    assert monitor.wait_until(lambda s: s["south/robot1"].status == "stale", 8.0), "the cut site is not stale"
+    stale_after = time.monotonic() - cut
+    assert monitor.wait_until(
+        lambda s: not s["south/robot1"].online and not s["south/robot2"].online, 2.0 + SITE_HOLD
+    ), "the cut site's nodes still show online"
     offline_after = time.monotonic() - cut
     gone = [f"{s}/{n}" for s in ("north", "east") for n in NODES if not monitor.snapshot()[f"{s}/{n}"].online]
     presence_seen = [
@@ -206,7 +210,8 @@ def test_sites_in_namespaces_late_joiner_calls_and_an_uplink_cut_and_restored(si
     resync = time.monotonic() - restored
     assert wait_for(lambda: client.get_value("south/robot1", "robot.max_velocity").value == 3.5, 5.0)
     print(
-        f"namespaces: late joiner {took:.2f} s, offline {offline_after:.2f} s after the cut, "
+        f"namespaces: late joiner {took:.2f} s, stale {stale_after:.2f} s and offline {offline_after:.2f} s "
+        "after the cut, "
         f"resync {resync:.2f} s"
     )
     monitor.close()
@@ -239,10 +244,10 @@ def test_thirty_percent_loss_on_every_uplink(sites: Sites) -> None:
                     # the site's Zenoh session was dropped (a TCP backoff at 30 % loss outlasted the
                     # 3 s lease) with the call in flight (outcome unknown), or before it while the
                     # site reconnects (unavailable: not sent): as an operator would, wait until
-                    # the node is back online and set it again
+                    # the node is back online and current (not stale: its site held) and set it again
                     unknown.append(site)
                     time.sleep(1.0)
-                    monitor.wait_until(lambda s: node in s and s[node].online, 30.0)
+                    monitor.wait_until(lambda s: node in s and s[node].online and not s[node].status, 30.0)
                     continue
                 if not reply.successful:
                     failures.append(f"{site}: {reply.results}")
@@ -354,19 +359,22 @@ FRESH = 5  # fresh remote clients timed per loss level
 CUTS = 3  # real uplink cuts timed per loss level
 #: the columns of the measurement's rows: docs/zenoh.md's table has exactly these
 TABLE = (
-    "| loss on every uplink | lease | false `site_offline` (3 sites) | per site-hour | lone node `offline` "
-    f"| fresh client holds every node ({FRESH} clients) | real cut shown after ({CUTS} cuts) "
-    "| load (1 min, higher of start, end) |"
+    "| loss on every uplink | lease | hold | site `stale` episodes (3 sites) | their length "
+    "| false `site_offline` (3 sites) | per site-hour | lone node `offline` "
+    f"| fresh client holds every node ({FRESH} clients) | real cut shown `stale` after ({CUTS} cuts) "
+    f"| real cut shown offline after ({CUTS} cuts) | load (1 min, higher of start, end) |"
 )
 
 
 @pytest.mark.skipif(not MEASURE, reason="a measurement, not a check: PARAMDDS_MEASURE_LOSS=10,30,50")
 @pytest.mark.timeout(7200)
 def test_measure_false_offline_fresh_client_and_cut_detection_under_loss() -> None:
-    """For each loss level on every uplink: false ``site_offline`` events per site-hour over
-    ``PARAMDDS_MEASURE_SECONDS`` (600 by default), the time a fresh remote client takes to hold
-    every node (:data:`FRESH` clients, one after the other), and the time from a real uplink cut
-    to its site's ``site_offline`` (:data:`CUTS` cuts): one row of the table in docs/zenoh.md."""
+    """For each loss level on every uplink, over ``PARAMDDS_MEASURE_SECONDS`` (600 by default):
+    the sites shown ``stale`` (a gateway's session dropped, held :data:`SITE_HOLD` seconds) and
+    how long each lasted, the false ``site_offline`` events left (per site-hour); the time a
+    fresh remote client takes to hold every node (:data:`FRESH` clients, one after the other);
+    and the time from a real uplink cut to its site's ``stale`` and to its ``site_offline``
+    (:data:`CUTS` cuts): one row of the table in docs/zenoh.md."""
     observe = float(os.environ.get("PARAMDDS_MEASURE_SECONDS", "600"))
     rows = []
     for percent in [int(p) for p in MEASURE.split(",")]:
@@ -382,6 +390,8 @@ def test_measure_false_offline_fresh_client_and_cut_detection_under_loss() -> No
             time.sleep(observe)
             load = max(load, os.getloadavg()[0])
             seen = list(events)
+            stale = sum(1 for e in seen if e.event is EventKind.SITE_STATUS and e.status)
+            lengths = _episodes(seen)
             false_sites = sum(1 for e in seen if e.event is EventKind.SITE_OFFLINE)
             false_nodes = sum(1 for e in seen if e.event is EventKind.OFFLINE and not e.by_site)
             fresh = [_fresh_client(sites) for _ in range(FRESH)]
@@ -389,12 +399,27 @@ def test_measure_false_offline_fresh_client_and_cut_detection_under_loss() -> No
             monitor.close()
             per_hour = false_sites * 3600 / observe / len(SITES)
             row = (
-                f"| {percent} % | {LEASE_MS / 1000:g} s | {false_sites} in {_window(observe)} "
-                f"| {per_hour:.0f} | {false_nodes} | {_span(fresh)} | {_span(cuts)} | {load:.1f} |"
+                f"| {percent} % | {LEASE_MS / 1000:g} s | {SITE_HOLD:g} s | {stale} | {_span(lengths)} "
+                f"| {false_sites} in {_window(observe)} | {per_hour:.0f} | {false_nodes} | {_span(fresh)} "
+                f"| {_span([c[0] for c in cuts])} | {_span([c[1] for c in cuts])} | {load:.1f} |"
             )
             rows.append(row)
             print(row, flush=True)
+            print(f"{percent} %: stale episodes, seconds: {' '.join(f'{t:.2f}' for t in sorted(lengths))}")
     print("\n".join([TABLE, "|---" * TABLE.count(" | ") + "|---|", *rows]))
+
+
+def _episodes(events: list[MonitorEvent]) -> list[float]:
+    """How long each site shown ``stale`` in ``events`` stayed away: from its ``stale`` to its
+    ``site_status`` back or, past the hold, to its ``site_online`` (those not over are left out)."""
+    began: dict[str, float] = {}
+    lengths: list[float] = []
+    for e in events:
+        if e.event is EventKind.SITE_STATUS and e.status:
+            began[e.site] = e.stamp
+        elif e.event in (EventKind.SITE_STATUS, EventKind.SITE_ONLINE) and e.site in began:
+            lengths.append(e.stamp - began.pop(e.site))
+    return lengths
 
 
 def _window(seconds: float) -> str:
@@ -402,7 +427,7 @@ def _window(seconds: float) -> str:
     return f"{seconds / 60:g} min" if seconds % 60 == 0 else f"{seconds:g} s"
 
 
-def _span(times: list[float | None]) -> str:
+def _span(times: Sequence[float | None]) -> str:
     """``0.31-1.20 s`` (``2 of 5 not in 30 s`` appended when some never came)."""
     got = sorted(t for t in times if t is not None)
     text = f"{got[0]:.2f}-{got[-1]:.2f} s" if got else "none"
@@ -426,22 +451,36 @@ def _fresh_client(sites: Sites) -> float | None:
     return took if held else None
 
 
-def _cut(sites: Sites, monitor: RemoteParameterMonitor, events: list[MonitorEvent]) -> float | None:
-    """Seconds from cutting ``south``'s uplink to its ``site_offline``; the link restored after,
-    and every node back online (up to 60 s) before the next measure."""
-    holds_online(monitor, ALL, 60.0)
+def _current(monitor: RemoteParameterMonitor, timeout: float) -> bool:
+    """Wait until ``monitor`` holds every node complete, online and not stale."""
+    return bool(
+        monitor.wait_until(
+            lambda s: all(n in s and s[n].complete and s[n].online and s[n].status is None for n in ALL),
+            timeout,
+        )
+    )
+
+
+def _cut(
+    sites: Sites, monitor: RemoteParameterMonitor, events: list[MonitorEvent]
+) -> tuple[float | None, float | None]:
+    """Seconds from cutting ``south``'s uplink to its ``stale`` and to its ``site_offline``; the
+    link restored after, and every node back and current (up to 60 s) before the next measure."""
+    _current(monitor, 60.0)
     events.clear()
     sites.topo.set_uplink("south", False)
     cut = time.monotonic()
-    detected = wait_for(functools.partial(_site_went, events, "south"), 30.0)
+    stale = wait_for(functools.partial(_site_event, events, "south", EventKind.SITE_STATUS), 30.0)
+    stale_after = time.monotonic() - cut
+    detected = wait_for(functools.partial(_site_event, events, "south", EventKind.SITE_OFFLINE), 30.0)
     took = time.monotonic() - cut
     sites.topo.set_uplink("south", True)
-    holds_online(monitor, ALL, 60.0)
-    return took if detected else None
+    _current(monitor, 60.0)
+    return (stale_after if stale else None), (took if detected else None)
 
 
-def _site_went(events: list[MonitorEvent], site: str) -> bool:
-    return any(e.event is EventKind.SITE_OFFLINE and e.site == site for e in list(events))
+def _site_event(events: list[MonitorEvent], site: str, kind: EventKind) -> bool:
+    return any(e.event is kind and e.site == site for e in list(events))
 
 
 GATEWAY_STARTS = os.environ.get("PARAMDDS_MEASURE_GATEWAY_STARTS", "")  # "30,30": starts, loss %

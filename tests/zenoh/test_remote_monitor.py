@@ -9,6 +9,7 @@ never shown online.
 from __future__ import annotations
 
 import threading
+import time
 from typing import Any
 
 from paramdds.core.descriptors import ParameterDescriptor
@@ -31,9 +32,9 @@ def _params(**values: float) -> dict[str, tuple[ParameterValue, ParameterDescrip
 class FakeGateway:
     """Answers state queries with ``self.state``; publishes whatever the test says."""
 
-    def __init__(self, session: Any) -> None:
+    def __init__(self, session: Any, state: codec.NodeStateMsg | None = None) -> None:
         self.session = session
-        self.state = codec.NodeStateMsg(
+        self.state = state or codec.NodeStateMsg(
             "s1", NODE, "gw", 1, True, parameters=_params(a=1.0, b=2.0), announced=2
         )
         self.queries = 0
@@ -164,6 +165,38 @@ def test_a_nodes_status_reaches_remote_viewers_live_as_an_event_and_in_nodes(fle
     assert shown == [(EventKind.STATUS, "stale"), (EventKind.STATUS, None)]
     assert monitor.snapshot()[name].parameters["a"][0].value == 1.0  # the values stay as they were
     client.close()
+    monitor.close()
+    token.undeclare()
+
+
+def test_a_gateway_back_within_the_hold_shows_its_site_stale_then_current_again(fleet: Fleet) -> None:
+    """The gateway's tokens go (as when the router drops its session) and come back within the
+    hold: the node stays online, ``stale`` meanwhile with the values held, then current again
+    with the state asked for anew (a change made meanwhile was published to no one); one
+    ``site_status`` pair, no offline event."""
+    from paramdds.dds.monitor import EventKind, MonitorEvent
+
+    gw = FakeGateway(fleet.remote())
+    alive = keys.node_key("s1", NODE, keys.ALIVE)
+    token = gw.session.liveliness().declare_token(alive)
+    events: list[MonitorEvent] = []
+    monitor = RemoteParameterMonitor(fleet.remote(), on_event=events.append)
+    name = "s1/ns/robot1"
+    assert monitor.wait_until(lambda s: name in s and s[name].online and s[name].complete, 3.0)
+    dropped = time.time()
+    for entity in (token, gw.token, gw.queryable):
+        entity.undeclare()
+    assert monitor.wait_until(lambda s: s[name].status == "stale", 3.0)
+    assert monitor.snapshot()[name].online and monitor.snapshot()[name].parameters["a"][0].value == 1.0
+    changed = codec.NodeStateMsg("s1", NODE, "gw", 2, True, parameters=_params(a=5.0, b=2.0), announced=2)
+    back = FakeGateway(gw.session, changed)
+    token = back.session.liveliness().declare_token(alive)
+    assert monitor.wait_until(lambda s: not s[name].status and s[name].parameters["a"][0].value == 5.0, 3.0)
+    assert back.queries >= 1
+    site = [(e.event, e.status) for e in events if e.site]
+    assert site == [(EventKind.SITE_STATUS, "stale"), (EventKind.SITE_STATUS, None)]
+    presence = (EventKind.OFFLINE, EventKind.ONLINE, EventKind.SITE_OFFLINE, EventKind.SITE_ONLINE)
+    assert not [e for e in events if e.event in presence and e.stamp >= dropped]
     monitor.close()
     token.undeclare()
 

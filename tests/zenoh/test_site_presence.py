@@ -1,7 +1,8 @@
 """A whole site going offline and coming back (paramdds.zenoh.monitor_rules), without a
 session: one site event, its nodes' events marked ``by_site``, and a token's going
 believed only once the router confirms it (whatever the order of the tokens, and where
-the subscriber reported the wrong token gone)."""
+the subscriber reported the wrong token gone). A site is held ``stale`` before it goes
+offline (the hold); the tests of the site's other events use a site without one (``hold=0``)."""
 
 from __future__ import annotations
 
@@ -12,18 +13,21 @@ import pytest
 from paramdds.core.monitor_events import EventKind, MonitorEvent
 from paramdds.core.state_book import StateBook
 from paramdds.zenoh.codec import NodeStateMsg
-from paramdds.zenoh.monitor_rules import RemoteStates
+from paramdds.zenoh.monitor_rules import Confirmed, RemoteStates
 
 NODES = [f"north/n{k}" for k in range(25)]
+SITE_STATUS = EventKind.SITE_STATUS
 
 
 class Site:
-    """A book and the rules holding 25 online nodes of site ``north`` and one of ``south``."""
+    """A book and the rules holding 25 online nodes of site ``north`` and one of ``south``; a
+    site whose every gateway went is held ``hold`` seconds (0: offline at once)."""
 
-    def __init__(self) -> None:
+    def __init__(self, hold: float = 0.0) -> None:
         self.events: list[MonitorEvent] = []
         self.book = StateBook(on_event=self.events.append)
-        self.rules = RemoteStates()
+        self.rules = RemoteStates(hold)
+        self.now = 100.0  # the feed's clock (seconds)
         self.gateway("north", "g1", True)
         self.gateway("south", "g9", True)
         for name in [*NODES, "south/n0"]:
@@ -33,13 +37,14 @@ class Site:
             self.token(name, True)
         self.events.clear()
 
-    def gateway(self, site: str, gateway: str, alive: bool) -> None:
+    def gateway(self, site: str, gateway: str, alive: bool) -> bool:
+        """A gateway's token came or went; True when the feed asks for the site's states."""
         if not alive:  # reported gone: believed at confirm
             with self.book.update():
                 self.rules.gateway_went(site, gateway)
-            return
+            return False
         with self.book.update() as change:
-            self.rules.gateway(change, site, gateway, alive)
+            return self.rules.gateway(change, site, gateway, alive)
 
     def token(self, name: str, alive: bool) -> None:
         with self.book.update() as change:
@@ -47,13 +52,22 @@ class Site:
 
     def confirm(self, site: str, gateways: set[str], alive: set[str], mark: int | None = None) -> list[str]:
         """What the router holds of ``site``, asked after ``mark`` (default: now); the nodes back."""
+        return self.confirmed(site, gateways, alive, mark).back
+
+    def confirmed(
+        self, site: str, gateways: set[str], alive: set[str], mark: int | None = None
+    ) -> Confirmed:
         with self.book.update() as change:
             at = self.rules.mark() if mark is None else mark
-            return self.rules.confirm(change, site, at, gateways, alive)[1]
+            return self.rules.confirm(change, site, at, gateways, alive, self.now)
 
     def lines(self) -> list[str]:
         """What a log shows: the events not folded into their site's."""
-        shown = [f"{e.event.value} {e.site or e.node}" for e in self.events if not e.by_site]
+        shown = [
+            f"{e.event.value} {e.site or e.node}" + (f" {e.status or 'ok'}" if e.event is SITE_STATUS else "")
+            for e in self.events
+            if not e.by_site
+        ]
         self.events.clear()
         return shown
 

@@ -53,7 +53,7 @@ class DemoPrinter:
 
     def event(self, e: MonitorEvent) -> None:
         kind = e.event.value
-        if kind in ("site_offline", "site_online"):  # a site's event names no node nor parameter
+        if kind in ("site_offline", "site_online", "site_status"):  # a site's: no node nor parameter
             return
         with self.lock:
             if kind == "synced":

@@ -228,7 +228,7 @@ function updateNodes(summaries) {
 // the id the API takes and sends is the canonical one, without (both are accepted).
 const STATUS_TITLES = {
   unreachable: "in the ROS 2 graph, but its parameter services do not answer (the bridge keeps trying)",
-  stale: "a set waits on its stalled process: the values shown are the last known",
+  stale: "the values shown are the last known: a set waits on its stalled process, or its site's gateway is away",
 };
 function shownNode(node, origin) { return origin === "ros2" ? "/" + node : node; }
 
@@ -627,8 +627,9 @@ function log(events, skipped) {
   const list = $("#log");
   for (const e of events) {
     const when = new Date(e.stamp * 1000).toLocaleTimeString();
-    if (e.site) {  // site_offline / site_online: one line for the whole site
-      list.prepend(el("li", { class: "k-" + e.event, text: `${when}  ${e.event}  ${e.site}` }));
+    if (e.site) {  // site_offline / site_online / site_status: one line for the whole site
+      const how = e.event === "site_status" ? `  ${e.status || "ok"}` : "";
+      list.prepend(el("li", { class: "k-" + e.event, text: `${when}  ${e.event}  ${e.site}${how}` }));
       continue;
     }
     const who = shownNode(e.node, e.origin);
