@@ -110,7 +110,7 @@ def test_an_unlisted_disagreement_fails() -> None:
     assert ry.explain(text, *tiny) == ry.SUBNORMAL
 
 
-FILES = 3000
+FILES = 1500
 
 
 def _compare_file(path: Path, text: str, nodes: tuple[str, ...], hits: Counter[str]) -> list[str]:

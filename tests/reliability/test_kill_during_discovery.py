@@ -45,19 +45,25 @@ KILL_WITHIN = 0.5  # seconds after the clients start
 FRESH_CLIENT = str(Path(__file__).with_name("fresh_client_call.py"))
 
 
-def _client(domain: int, mode: str) -> subprocess.Popen[str]:
-    proc = subprocess.Popen(
-        [sys.executable, FRESH_CLIENT, "victim", "robot.wheel_count", mode],
-        env=make_dds_env(domain),
-        stdin=subprocess.PIPE,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    assert proc.stdout is not None
-    line = proc.stdout.readline()
-    assert line.strip() == "ready", (line, proc.stderr.read() if proc.stderr else "")
-    return proc
+def _clients(domain: int, modes: list[str]) -> list[subprocess.Popen[str]]:
+    """One client process per mode, started at once (their Python start-ups overlap), each
+    ready (imports done) before this returns."""
+    procs = [
+        subprocess.Popen(
+            [sys.executable, FRESH_CLIENT, "victim", "robot.wheel_count", mode],
+            env=make_dds_env(domain),
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        for mode in modes
+    ]
+    for proc in procs:
+        assert proc.stdout is not None
+        line = proc.stdout.readline()
+        assert line.strip() == "ready", (line, proc.stderr.read() if proc.stderr else "")
+    return procs
 
 
 def _result(proc: subprocess.Popen[str]) -> dict[str, Any]:
@@ -80,7 +86,7 @@ def test_every_call_ends_within_a_second_and_a_half_of_a_kill_during_discovery(
         victim = start_server(domain_id, "-n", "victim", "-p", str(params_file))
         procs.append(victim)
         modes = ["cli" if (trial + k) % 2 else "api" for k in range(CLIENTS)]
-        clients = [_client(domain_id, mode) for mode in modes]
+        clients = _clients(domain_id, modes)
         # each client's start precedes the kill by a random 1 ms to 0.5 s, log-uniform: most
         # kills land in the first tens of ms, while the client is still discovering the server
         phases = [math.exp(rng.uniform(math.log(0.001), math.log(KILL_WITHIN))) for _ in clients]
