@@ -71,6 +71,7 @@ from .state_cdr import (
 __all__ = [
     "StateKey",
     "StateSample",
+    "cache_sizes",
     "decode_key",
     "decode_state",
     "decode_state_slowly",
@@ -313,6 +314,18 @@ def _described(buf: bytes, pos: int, end: int) -> tuple[ParameterDescriptor, int
         entry = (buf[pos:after], descriptor)
         _bounded(decoded, _CACHE_MAX)[probe] = (entry, *seen[: _SEEN_PER_PROBE - 1])
     return descriptor, after
+
+
+def cache_sizes() -> dict[str, int]:
+    """The entries each cache of this module holds now: what a long-lived reader keeps here."""
+    return {
+        "values": len(_values),
+        "tails": sum(len(t) for t in _tails),
+        "descriptors": sum(len(d) for d in _decoded),
+        "plain": len(_plain_descriptors),
+        "encoded": len(_encoded),
+        "blames": len(_blame_bytes),
+    }
 
 
 def _bounded(cache: dict[Any, Any], limit: int) -> dict[Any, Any]:
