@@ -355,6 +355,9 @@ class Soak:
                 self.start_ros_host()
             self.check(f"server{k} started" + (", ROS 2 host started" if ros else ""))
             i += 1
+            if (now := time.monotonic()) >= next_sample:  # also when the turn outlasted its slot
+                series.append({"at_s": round(now - t_start, 1), "processes": self.sample()})
+                next_sample = now + SAMPLE_EVERY
             while (now := time.monotonic()) < min(t0 + SLOT, end) or (warm is None and now >= warm_at):
                 if warm is None and now >= warm_at:  # on time, between two turns
                     warm = {"at_s": round(now - t_start, 1), "processes": self.sample()}

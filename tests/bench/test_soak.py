@@ -116,3 +116,21 @@ def test_one_minute_soak_passes_its_checks(domain_id: int) -> None:
     if "web" not in data["skipped"]:
         assert [s["reconnects"] for s in data["streams"]] == [0, 0]
         assert all(s["events"].get("nodes", 0) > 0 for s in data["streams"])
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(300)
+def test_the_memory_churn_counts_lives_and_its_decoder_keeps_one_entry_a_server_life(domain_id: int) -> None:
+    """``python -m paramdds.bench._soak_memory``, 20 s: servers restarted, watchers looked at,
+    and a monitor's decoder holding an entry per server life and per author, not per node."""
+    cmd = [sys.executable, "-m", "paramdds.bench._soak_memory", "-d", str(domain_id), "--localhost"]
+    cmd += ["--minutes", "0.33", "--servers", "1", "--nodes", "4", "--watch", "monitor,traced,bare"]
+    cmd += ["-o", "json"]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=240)
+    assert done.returncode == 0 and done.stdout, done.stderr[-3000:]
+    data = json.loads(done.stdout)
+    assert data["lives"] >= 4 and data["lives_after_warm_up"] >= 2
+    assert set(data["watchers"]) == {"monitor", "traced", "bare"}
+    assert data["watchers"]["traced"]["heap_mib_per_100_lives"] is not None and data["heap_grown_kib"]
+    caches = data["watchers"]["monitor"]["caches"][1]
+    assert caches["heads"] <= data["lives"] and caches["blames"] <= 4  # 2 authors and the servers' own

@@ -32,11 +32,15 @@ set) and are immutable, so both directions keep them in bounded caches: decoded 
 kept by their exact bytes, one cache per offset modulo 8 (XCDR1 padding is relative to
 the stream), found through their first bytes (a descriptor's length is only known once
 it is read: the sample is compared with the few decoded ones that start as it does);
-encoded ones keyed on the descriptor and that offset. The tail after the
-descriptor (``host pid parameter_count incarnation who verified via``) is the same for
-every parameter of a node written by one change (a node's whole table when a monitor
-joins: its start), so it is kept too, by its exact bytes; so is the blame the encoder
-writes. Scalar values are shared the same way, keyed on their
+encoded ones keyed on the descriptor and that offset. The tail after the descriptor
+(``host pid parameter_count incarnation who verified via``) is read in three parts: the
+incarnation in place (a node's, new on every start of its server), and the parts around
+it each kept by their bytes: host, pid and count (a parameter's sample has none: "", 0, 0;
+a presence sample has its server process's), and the blame (one per author and path).
+Nothing kept grows with the nodes or their server lives: kept whole, with the
+incarnation, the tail was an entry per node, server life and author that outlived its
+life, and a long-lived monitor under churn grew by them. The encoder keeps the blame
+bytes it writes. Scalar values are shared the same way, keyed on their
 bytes: a live monitor spent a sixth of its sync in the garbage collector, walking
 200,000 new value objects that mostly repeat.
 """
@@ -71,6 +75,7 @@ from .state_cdr import (
 __all__ = [
     "StateKey",
     "StateSample",
+    "cache_sizes",
     "decode_key",
     "decode_state",
     "decode_state_slowly",
@@ -137,11 +142,20 @@ _values: dict[bytes, ParameterValue] = {}
 _VALUES_MAX = 8_192
 _VALUE_KEY_MAX = 96  # bytes: a scalar's 28 and a short string
 _VALUE_AT = 16  # from the revision to the value: revision (8), Time (8)
-# The tail after the descriptor by its bytes (host pid parameter_count incarnation who
-# verified via, and any padding): an entry per node and change, ~300 bytes, ~20 MB at most
-_Tail = tuple[str, int, int, int, str, bool, str]
-_tails: tuple[dict[bytes, _Tail], dict[bytes, _Tail]] = ({}, {})  # starting 0 or 4 after a multiple of 8
-_TAILS_MAX = 65_536
+# The tail after the descriptor (host pid parameter_count incarnation who verified via), read
+# in three parts (see the module doc): the incarnation in place, the parts before and after it
+# kept by their bytes, an entry per server process and per author. Kept whole, the tails were
+# an entry per node, server life and author (~450 B) outliving the life: ~20,000 an hour for a
+# monitor under the soak's churn (~9 MB), below a bound of 65,536 it never reached.
+# A tail whose host is "" (a parameter's sample), starting at an offset of 0 or 4 modulo 8:
+# the host's length and terminator, pid, parameter_count, the incarnation (8-aligned)
+_SHORT_TAILS = (struct.Struct("<IB3xiI4xQ"), struct.Struct("<IB3xiIQ"))
+_Head = tuple[str, int, int]
+_heads: dict[bytes, _Head] = {}  # host pid parameter_count, by their bytes
+_HEADS_MAX = 4_096
+_Blame = tuple[str, bool, str]
+_read_blames: dict[bytes, _Blame] = {}  # who verified via (and any padding), by their bytes
+_READ_BLAMES_MAX = 4_096
 _TAIL_KEY_MAX = 256
 # the blame the encoder writes after the incarnation, by (who, verified, via)
 _blame_bytes: dict[tuple[str, bool, str], bytes] = {}
@@ -249,15 +263,31 @@ def _decode_fast(buf: bytes) -> StateSample | None:
         else:
             descriptor, pos = _described(buf, pos, end)
         pos += -pos & 3  # a descriptor may end unaligned (on a string array)
+        short = _SHORT_TAILS[pos & 4 and 1]
+        n, z, pid, count, incarnation = short.unpack_from(buf, pos)
+        if n == 1 and z == 0:  # no host (a parameter's sample): the incarnation is read already
+            host = ""
+            pos += short.size
+        else:
+            at = pos + 4 + n  # the host's end
+            at += (-at & 3) + 8
+            key = buf[pos:at]
+            head = _heads.get(key)
+            if head is None:
+                head = _head(key)
+            host, pid, count = head
+            pos = at + ((4 - at) & 7)  # the incarnation: 8-aligned after the header
+            (incarnation,) = _unpack_u64(buf, pos)
+            pos += 8
         key = buf[pos:]
-        tail = _tails[pos & 4 and 1].get(key)
-        if tail is None:
-            tail = _tail(key, pos & 4)
+        blame = _read_blames.get(key)
+        if blame is None:
+            blame = _blame_read(key)
     except REFUSED:
         return None
     stamp = sec + nanosec / 1e9
-    fields = (node_id, name, kind, revision, stamp, value, descriptor)
-    return _new_tuple(StateSample, fields + tail)  # StateSample(*fields, *tail) without its Python __new__
+    fields = (node_id, name, kind, revision, stamp, value, descriptor, host, pid, count, incarnation)
+    return _new_tuple(StateSample, fields + blame)  # StateSample(*fields, *blame) without its Python __new__
 
 
 def _key_string(buf: bytes, pos: int, end: int) -> tuple[str, int]:
@@ -269,24 +299,30 @@ def _key_string(buf: bytes, pos: int, end: int) -> tuple[str, int]:
     return buf[pos + 4 : e - 1].decode(), e
 
 
-def _tail(tail: bytes, phase: int) -> _Tail:
-    """host, pid, parameter_count, incarnation, who, verified, via from the bytes after the
-    descriptor, which start at an offset of ``phase`` (0 or 4) modulo 8; bytes after ``via``
-    are padding, ignored as the codec does. Kept by those bytes and that offset: there they
-    decode the same wherever they come."""
-    end = len(tail)
-    host, pos = read_str(tail, 0, end)
+def _head(data: bytes) -> _Head:
+    """host, pid, parameter_count from their bytes (the host's string, padding, two 4-byte
+    numbers); kept by those bytes."""
+    end = len(data)
+    host, pos = read_str(data, 0, end)
     pos += -pos & 3
-    pid, count = _TAIL.unpack_from(tail, pos)
-    pos += _TAIL.size
-    pos += (4 - phase - pos) & 7  # the incarnation: 8-aligned after the header
-    (incarnation,) = _unpack_u64(tail, pos)
-    who, pos = read_str(tail, pos + 8, end)
-    verified = tail[pos] != 0
-    via, _ = read_str(tail, pos + 1, end)
-    result = (host, pid, count, incarnation, who, verified, via)
+    pid, count = _TAIL.unpack_from(data, pos)
+    result = (host, pid, count)
     if end <= _TAIL_KEY_MAX:
-        _bounded(_tails[phase and 1], _TAILS_MAX)[tail] = result
+        _bounded(_heads, _HEADS_MAX)[data] = result
+    return result
+
+
+def _blame_read(data: bytes) -> _Blame:
+    """who, verified, via from the bytes after the incarnation (which start 4-aligned); bytes
+    after ``via`` are padding, ignored as the codec does. Kept by those bytes: wherever they
+    come they decode the same."""
+    end = len(data)
+    who, pos = read_str(data, 0, end)
+    verified = data[pos] != 0
+    via, _ = read_str(data, pos + 1, end)
+    result = (who, verified, via)
+    if end <= _TAIL_KEY_MAX:
+        _bounded(_read_blames, _READ_BLAMES_MAX)[data] = result
     return result
 
 
@@ -313,6 +349,19 @@ def _described(buf: bytes, pos: int, end: int) -> tuple[ParameterDescriptor, int
         entry = (buf[pos:after], descriptor)
         _bounded(decoded, _CACHE_MAX)[probe] = (entry, *seen[: _SEEN_PER_PROBE - 1])
     return descriptor, after
+
+
+def cache_sizes() -> dict[str, int]:
+    """The entries each cache of this module holds now: what a long-lived reader keeps here."""
+    return {
+        "values": len(_values),
+        "heads": len(_heads),
+        "blames": len(_read_blames),
+        "descriptors": sum(len(d) for d in _decoded),
+        "plain": len(_plain_descriptors),
+        "encoded": len(_encoded),
+        "written_blames": len(_blame_bytes),
+    }
 
 
 def _bounded(cache: dict[Any, Any], limit: int) -> dict[Any, Any]:
