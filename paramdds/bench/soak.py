@@ -469,18 +469,22 @@ def run(args: argparse.Namespace) -> int:
         note(f"{what} skipped: {why}")
     tmp = Path(tempfile.mkdtemp(prefix="paramdds-soak-"))  # kept when the run fails: its logs
     soak = Soak(args, tmp, skipped)
+    stopped = False
     try:
         soak.start()
         note(f"churn for {minutes:g} min")
         run_data = soak.churn(minutes * 60.0)
         note("churn over: judging the writes and the viewers")
         judged = soak.finish()
-    except Terminated:  # SIGTERM: a graceful stop (every process is stopped below)
+    except Terminated:  # SIGTERM: a graceful stop (every process is stopped below), nothing judged
+        stopped = True
         raise
     except Exception as exc:
         raise RuntimeError(f"bench soak: {exc} (every process's output is in {tmp})") from exc
     finally:
         soak.close()
+        if stopped:  # once every process is stopped: none writes into it any more
+            shutil.rmtree(tmp, ignore_errors=True)
     data = _data(minutes, skipped, soak, run_data, judged)
     if data["passed"]:
         shutil.rmtree(tmp, ignore_errors=True)

@@ -10,8 +10,11 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 import sys
+import time
+from pathlib import Path
 
 import pytest
 from hypothesis import given
@@ -116,6 +119,23 @@ def test_one_minute_soak_passes_its_checks(domain_id: int) -> None:
     if "web" not in data["skipped"]:
         assert [s["reconnects"] for s in data["streams"]] == [0, 0]
         assert all(s["events"].get("nodes", 0) > 0 for s in data["streams"])
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(120)
+def test_a_soak_stopped_by_sigterm_leaves_no_temporary_directory(domain_id: int, tmp_path: Path) -> None:
+    cmd = [sys.executable, "-m", "paramdds.cli", "bench", "soak", "--minutes", "1", "-o", "json"]
+    cmd += ["--localhost", "-d", str(domain_id)]
+    env = dict(os.environ, PARAMDDS_LOCALHOST="1", TMPDIR=str(tmp_path))
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    deadline = time.monotonic() + 30
+    while not list(tmp_path.glob("paramdds-soak-*")) and time.monotonic() < deadline:
+        time.sleep(0.05)  # until it has made its directory
+    assert list(tmp_path.glob("paramdds-soak-*")), "the soak made no directory in 30 s"
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=90)
+    assert proc.returncode == 0, err[-2000:]  # a graceful stop
+    assert list(tmp_path.glob("paramdds-soak-*")) == []
 
 
 @pytest.mark.slow
