@@ -26,6 +26,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
 from typing import Any
 
 READY = "READY"
@@ -94,24 +95,32 @@ class Worker:
         domain: int,
         wrap: Sequence[str] = (),
         env: dict[str, str] | None = None,
+        module: str = "paramdds.bench.worker",
+        stderr_file: Path | None = None,
+        name: str = "",
     ) -> None:
         """``wrap``: a command prefix (``ip netns exec NS``); ``env``: the environment (default
-        :func:`worker_env`)."""
-        self.role = role
-        cmd = [*wrap, sys.executable, "-m", "paramdds.bench.worker", role, "-d", str(domain), *args]
+        :func:`worker_env`); ``module``: the worker's module (run as ``python -m``);
+        ``stderr_file``: where its stderr goes (appended; default a pipe); ``name``: what
+        errors call it (default ``role``)."""
+        self.role = name or role
+        self._err = stderr_file
+        cmd = [*wrap, sys.executable, "-m", module, role, "-d", str(domain), *args]
         if localhost:
             cmd.append("--localhost")
         self.started_ns = time.perf_counter_ns()
-        self.proc = subprocess.Popen(
-            cmd,
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-            bufsize=1,
-            start_new_session=True,
-            env=worker_env(localhost) if env is None else env,
-        )
+        with contextlib.ExitStack() as files:
+            err = subprocess.PIPE if stderr_file is None else files.enter_context(open(stderr_file, "a"))
+            self.proc = subprocess.Popen(
+                cmd,
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                stderr=err,
+                text=True,
+                bufsize=1,
+                start_new_session=True,
+                env=worker_env(localhost) if env is None else env,
+            )
         self._stderr_tail: list[str] = []
 
     @property
@@ -155,6 +164,10 @@ class Worker:
         return f"; stderr: {err[-800:]}" if err else ""
 
     def _read_stderr(self) -> str:
+        if self._err is not None:
+            with contextlib.suppress(OSError):
+                return self._err.read_text(errors="replace").strip()
+            return ""
         if self.proc.poll() is None or self.proc.stderr is None:
             return ""
         try:

@@ -25,11 +25,9 @@ process could not be started (one line naming it).
 from __future__ import annotations
 
 import argparse
-import contextlib
 import os
 import random
 import shutil
-import subprocess
 import sys
 import tempfile
 import threading
@@ -141,29 +139,15 @@ class Watcher(Worker):
     """A watcher process (the READY / RESULT protocol of :mod:`._common`), its stderr in a file."""
 
     def __init__(self, kind: str, *, domain: int, localhost: bool, logs: Path) -> None:
-        self.role = kind
-        self._err = logs / f"watch-{kind}.err"
-        cmd = [sys.executable, "-m", "paramdds.bench._soak_memory", "watch", kind, "-d", str(domain)]
-        if localhost:
-            cmd.append("--localhost")
-        self.started_ns = time.perf_counter_ns()
-        with open(self._err, "a") as err:
-            self.proc = subprocess.Popen(
-                cmd,
-                stdin=subprocess.PIPE,
-                stdout=subprocess.PIPE,
-                stderr=err,
-                text=True,
-                bufsize=1,
-                start_new_session=True,
-                env=worker_env(localhost),
-            )
-        self._stderr_tail = []
-
-    def _why(self) -> str:
-        with contextlib.suppress(OSError):
-            return f"; stderr: {self._err.read_text(errors='replace')[-800:]}"
-        return ""
+        super().__init__(
+            "watch",
+            [kind],
+            domain=domain,
+            localhost=localhost,
+            module="paramdds.bench._soak_memory",
+            stderr_file=logs / f"watch-{kind}.err",
+            name=kind,
+        )
 
     def ask(self, word: str) -> dict[str, Any]:
         self.send(word)

@@ -23,15 +23,12 @@ reported, not judged.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import importlib.util
 import json
 import os
 import random
 import shutil
 import socket
-import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -73,29 +70,15 @@ class SoakWorker(Worker):
     """A :mod:`._soak_worker` process (the READY / RESULT protocol), its stderr in a file."""
 
     def __init__(self, role: str, args: list[str], *, domain: int, localhost: bool, logs: Path, tag: str):
-        self.role = tag
-        self._err = logs / f"{tag}.err"
-        cmd = [sys.executable, "-m", "paramdds.bench._soak_worker", role, "-d", str(domain), *args]
-        if localhost:
-            cmd.append("--localhost")
-        self.started_ns = time.perf_counter_ns()
-        with open(self._err, "a") as err:
-            self.proc = subprocess.Popen(
-                cmd,
-                stdin=subprocess.PIPE,
-                stdout=subprocess.PIPE,
-                stderr=err,
-                text=True,
-                bufsize=1,
-                start_new_session=True,
-                env=worker_env(localhost),
-            )
-        self._stderr_tail = []
-
-    def _why(self) -> str:
-        with contextlib.suppress(OSError):
-            return f"; stderr: {self._err.read_text(errors='replace')[-800:]}"
-        return ""
+        super().__init__(
+            role,
+            args,
+            domain=domain,
+            localhost=localhost,
+            module="paramdds.bench._soak_worker",
+            stderr_file=logs / f"{tag}.err",
+            name=tag,
+        )
 
 
 def _skipped() -> dict[str, str]:
