@@ -35,7 +35,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ._common import RESULT, Worker, WorkerError, emit, note, render, worker_env
+from ._common import RESULT, Worker, WorkerError, emit, note, render, rss_mb, worker_env
 from ._soak_procs import Proc, proc_stats
 
 KINDS = ("monitor", "traced", "reader", "bare")
@@ -52,14 +52,6 @@ def _say(tag: str, **data: Any) -> None:
 
     sys.stdout.write(f"{tag} {json.dumps(data, separators=(',', ':'))}\n")
     sys.stdout.flush()
-
-
-def _rss_mb() -> float:
-    with open("/proc/self/status", encoding="ascii") as f:
-        for line in f:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) / 1024.0
-    return 0.0
 
 
 def _dropping_reader(dp: Any) -> Any:
@@ -118,7 +110,8 @@ def watch(kind: str, domain: int, localhost: bool) -> None:
             if word == "look":
                 heap = tracemalloc.get_traced_memory()[0] / 2**20 if tracemalloc.is_tracing() else None
                 caches = state.cache_sizes() if kind in ("monitor", "traced") else {}
-                _say(RESULT, rss_mb=round(_rss_mb(), 2), heap_mb=heap, caches=caches, events=events[0])
+                rss = round(rss_mb(os.getpid()), 2)
+                _say(RESULT, rss_mb=rss, heap_mb=heap, caches=caches, events=events[0])
             elif word == "mark" and tracemalloc.is_tracing():
                 mark = tracemalloc.take_snapshot().filter_traces(ignore)
                 _say(RESULT)
