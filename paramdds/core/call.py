@@ -33,7 +33,9 @@ what to do next. The rules:
   compare-and-set of which more than one copy went out OUTCOME_UNKNOWN: a server answers
   a copy it already took from its reply cache, but a restarted server has none, so an
   earlier copy may have been applied by the life the write expected (killed between its
-  commit and its reply), and the later life's refusal says nothing of that copy.
+  commit and its reply), and the later life's refusal says nothing of that copy. Unless
+  the answering life is known to have been serving the node when the first copy went
+  out: then every copy went to it, and its refusal is true (a wrong expectation).
 """
 
 from __future__ import annotations
@@ -280,11 +282,22 @@ class Call:
             return Failure.OUTCOME_UNKNOWN
         return Failure.NO_ROUTE if waited < self.timeout * EARLY_END else Failure.TIMEOUT
 
-    def refused_by_a_later_life(self, expected_life: int, answering_life: int, refused: bool) -> bool:
+    def refused_by_a_later_life(
+        self, expected_life: int, answering_life: int, refused: bool, serving_life: int = 0
+    ) -> bool:
         """Whether a write's refusal (``refused``) by server life ``answering_life`` leaves its
         outcome unknown: it expected life ``expected_life`` (a compare-and-set; 0: none), another
-        answered, and more than one copy went out (see the module's rules)."""
-        return self.write and self.copies > 1 and refused and 0 != expected_life != answering_life
+        answered, more than one copy went out (see the module's rules), and the answering life
+        is not known to have served the node since the first copy (``serving_life``, 0: not
+        known; a wrong expectation refused by the one life that got every copy is a true
+        refusal)."""
+        return (
+            self.write
+            and self.copies > 1
+            and refused
+            and 0 != expected_life != answering_life
+            and serving_life != answering_life
+        )
 
     def closed(self) -> Failure:
         """How the call ends when its client is closed while it waits."""

@@ -36,7 +36,7 @@ class PendingCall:
     its topic or verb, :attr:`message`), the transport's own handle for it (:attr:`via`,
     :attr:`matched`), and the future its raw reply (or the error to raise) is set on."""
 
-    __slots__ = ("call", "future", "kind", "matched", "message", "via")
+    __slots__ = ("call", "future", "kind", "matched", "message", "serving_life", "via")
 
     def __init__(self, call: Call, kind: str, message: Any, via: Any = None, matched: int = 0) -> None:
         self.call = call
@@ -44,6 +44,7 @@ class PendingCall:
         self.message = message
         self.via = via  # DDS: the request writer
         self.matched = matched  # DDS: the topic's match count when last looked at
+        self.serving_life = 0  # DDS: the node's server life when a compare-and-set's first copy went out
         self.future: Future[Any] = Future()
 
     @property

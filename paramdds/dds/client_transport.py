@@ -27,7 +27,8 @@ import logging
 import os
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from functools import partial
 from typing import Any
 
 from cyclonedds.core import DDSException, InstanceState
@@ -262,6 +263,8 @@ class DdsClientTransport:
             writer.write(pending.message)
             reached = bool(before or writer.get_publication_matched_status().current_count)
             call.sent(reached, time.monotonic())
+            if reached and call.copies == 1 and pending.message.expected_incarnation:
+                pending.serving_life = self._serving_life(call.node, since_first_copy=False)
         except Exception as exc:
             raise ParamddsError(f"could not send the request to {call.node!r}: {exc}") from exc
 
@@ -331,7 +334,7 @@ class DdsClientTransport:
                 continue
             pending = self._pending.pop(reply.request_id, None)
             if pending is not None and not pending.future.done():
-                if _refused_by_a_later_life(pending, reply):
+                if _refused_by_a_later_life(pending, reply, partial(self._serving_life, pending.node)):
                     pending.future.set_exception(_later_life(pending, reply))
                 else:
                     pending.future.set_result(reply)
@@ -415,6 +418,11 @@ class DdsClientTransport:
     # sample instead would make each client decode the whole system's state.
 
     def _presence_of(self, node: str) -> NodeInfo | None:
+        sample = self._presence_sample(node)
+        return None if sample is None else _node_info(sample)
+
+    def _presence_sample(self, node: str) -> Any:
+        """The latest presence sample this client holds of ``node`` (None: none)."""
         watch = self.watch()
         handle = self.presence_reader.lookup_instance(wire.ParameterEvent(node_id=node, name=""))
         if handle is None:
@@ -429,7 +437,22 @@ class DdsClientTransport:
             return None
         watch.note_read(s.sample_info for s in samples)
         samples = self._believed(samples)
-        return _node_info(samples[-1]) if samples else None
+        return samples[-1] if samples else None
+
+    def _serving_life(self, node: str, since_first_copy: bool = True) -> int:
+        """The server life (incarnation) serving ``node`` now, as its presence says (0: none
+        online). ``since_first_copy``: asked when a reply came, about a call whose first copy
+        found no presence; then only a life that is the one this client ever saw of the node
+        (no gap in its presence: not alive, then alive again) counts, else 0."""
+        sample = self._presence_sample(canonical_node_id(node))
+        if sample is None or _node_info(sample) is None:
+            return 0
+        info = sample.sample_info
+        if info.instance_state != InstanceState.Alive:
+            return 0
+        if since_first_copy and (info.disposed_generation_count or info.no_writers_generation_count):
+            return 0
+        return int(sample.incarnation)
 
     def _believed(self, samples: list[Any]) -> list[Any]:
         """Secure mode: the presence samples whose writers may write their node's partition
@@ -509,14 +532,21 @@ def _node_info(sample: Any) -> NodeInfo | None:
     )
 
 
-def _refused_by_a_later_life(pending: PendingCall, reply: Any) -> bool:
+def _refused_by_a_later_life(pending: PendingCall, reply: Any, serving_life: Callable[[], int]) -> bool:
     """Whether ``reply`` refuses a write from a server life other than the one it expected,
-    after more than one copy went out (:meth:`~paramdds.core.call.Call.refused_by_a_later_life`)."""
+    after more than one copy went out (:meth:`~paramdds.core.call.Call.refused_by_a_later_life`).
+    The life serving the node is the one seen when the first copy went out, else
+    ``serving_life()`` (the one life this client has seen, asked only in this rare case)."""
     call = pending.call
     if not call.write or call.copies < 2:  # the common case, before reading the reply
         return False
     refused = bool(reply.code) or not all(r.successful for r in reply.results)
-    return call.refused_by_a_later_life(pending.message.expected_incarnation, reply.incarnation, refused)
+    expected, answering = pending.message.expected_incarnation, reply.incarnation
+    if not call.refused_by_a_later_life(expected, answering, refused, pending.serving_life):
+        return False
+    if pending.serving_life:
+        return True
+    return call.refused_by_a_later_life(expected, answering, refused, serving_life())
 
 
 def _later_life(pending: PendingCall, reply: Any) -> OutcomeUnknownError:
