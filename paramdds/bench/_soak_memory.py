@@ -5,7 +5,7 @@ every figure) starts ``--servers`` ``paramdds server --persist`` processes of ``
 nodes each and restarts them in turn for ``--minutes``, without a pause, cleanly (SIGTERM)
 in one round and with SIGKILL in the next, while a client of this process sets two
 parameters of a random node ``--rate`` times a second under two identities (new values and
-blames, as the soak's clients make). Four watchers, each a process of this module
+blames, as the soak's clients make). Five watchers, each a process of this module
 (``… _soak_memory watch KIND``), follow the state topic all along:
 
 ``monitor``  a :class:`~paramdds.dds.monitor.ParameterMonitor` with an event callback: what
@@ -13,7 +13,9 @@ blames, as the soak's clients make). Four watchers, each a process of this modul
 ``traced``   the same with ``tracemalloc`` on: the Python heap, and the lines it grew at;
 ``reader``   a reader of ``ParameterEvents`` with the monitor's QoS, on a dispatcher like the
              monitor's, its samples taken and dropped undecoded: Cyclone's share;
-``bare``     a participant alone: what discovering each new server participant costs.
+``bare``     a participant alone: what discovering each new server participant costs;
+``client``   a :class:`~paramdds.dds.client.ParameterClient` listing the nodes 5 times a
+             second: what the soak's clients keep (their discovery watch).
 
 Each watcher's RSS (and the traced one's heap and the state decoder's cache sizes) is read
 after the warm-up (``--warm``, a fraction of the run) and at the end; the growth between the
@@ -38,7 +40,7 @@ from typing import Any
 from ._common import RESULT, Worker, WorkerError, emit, note, render, rss_mb, worker_env
 from ._soak_procs import Proc, proc_stats
 
-KINDS = ("monitor", "traced", "reader", "bare")
+KINDS = ("monitor", "traced", "reader", "bare", "client")
 PARAMS = ("soak.w0", "soak.w1")
 AUTHORS = ("memory-a", "memory-b")
 TOP = 12  # heap lines reported
@@ -78,6 +80,24 @@ def _dropping_reader(dp: Any) -> Any:
     return dispatcher
 
 
+def _listing_client(dp: Any) -> Any:
+    """A client listing the nodes every 0.2 s (each listing polls its discovery watch)."""
+    from ..dds.client import ParameterClient
+
+    client = ParameterClient(dp)
+
+    def list_nodes() -> None:
+        while True:
+            try:
+                client.nodes()
+            except Exception:  # closed at the watcher's end
+                return
+            time.sleep(0.2)
+
+    threading.Thread(target=list_nodes, name="memory-client", daemon=True).start()
+    return client
+
+
 def watch(kind: str, domain: int, localhost: bool) -> None:
     """A watcher: ``look`` answers its RSS, heap and the decoder's caches; ``mark`` keeps a
     heap snapshot; ``top`` answers the heap lines grown most since the mark."""
@@ -101,6 +121,8 @@ def watch(kind: str, domain: int, localhost: bool) -> None:
         held = ParameterMonitor(dp, on_event=count)
     elif kind == "reader":
         held = _dropping_reader(dp)
+    elif kind == "client":
+        held = _listing_client(dp)
     _say("READY", pid=os.getpid())
     mark: Any = None
     ignore = (tracemalloc.Filter(False, tracemalloc.__file__),)
