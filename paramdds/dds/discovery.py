@@ -97,7 +97,7 @@ from cyclonedds.core import DDSException, Entity, InstanceState, ReadCondition, 
 from cyclonedds.domain import DomainParticipant
 
 from ..core.call import Presence
-from ._binding import matched_publications, read_new_infos, read_participant_keys
+from ._binding import matched_publications, read_new_infos, take_participant_keys
 
 log = logging.getLogger(__name__)
 
@@ -268,6 +268,8 @@ class DiscoveryWatch:
             matched = {h & _U64 for h in matched_publications(self._reader)} - self._ignored
         except DDSException:
             matched = set()
+        else:
+            self._forget_unmatched(matched)
         self._arrivals += len(matched - self._writers_seen)
         self._writers_seen = matched
         matches = []
@@ -290,6 +292,16 @@ class DiscoveryWatch:
         self._state = self._snapshot(now, len(matched), len(waiting) - dead, dead)
         if self._state.state_writers == 0 and not self._state.settled:
             self._maybe_probe(now)
+
+    def _forget_unmatched(self, matched: set[int]) -> None:
+        """Forget the writers that delivered and are matched no more: a writer delivers only
+        once matched, and one that left never comes back (a writer found again is a new
+        handle, and delivers again), so a long-lived client keeps nothing per server life."""
+        gone = self._delivered - matched
+        if gone:
+            self._delivered -= gone
+            for writer in gone:
+                self._instance_of.pop(writer, None)
 
     def _maybe_probe(self, now: float) -> None:
         if len(self._probes) >= MAX_PROBES or now - self._started < PROBE_AFTER * (len(self._probes) + 1):
@@ -361,7 +373,7 @@ class DiscoveryWatch:
         )
 
     def _read_participants(self) -> None:
-        for sample in read_participant_keys(self._participants, self._new_participants, _BATCH):
+        for sample in take_participant_keys(self._participants, self._new_participants, _BATCH):
             key = getattr(sample, "key", None)
             if key is None or key in self._own:
                 continue

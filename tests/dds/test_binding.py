@@ -106,7 +106,7 @@ def test_qos_conversions_from_many_threads_do_not_race(domain_id: int, dds_env: 
     assert done.returncode == 0, (done.returncode, done.stdout, done.stderr[-2000:])
 
 
-def test_participant_keys_are_read_without_their_qos(domain_id: int) -> None:
+def test_participant_keys_are_taken_without_their_qos(domain_id: int) -> None:
     from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsParticipant
     from cyclonedds.core import InstanceState, ReadCondition, SampleState, ViewState
     from cyclonedds.domain import DomainParticipant
@@ -115,7 +115,8 @@ def test_participant_keys_are_read_without_their_qos(domain_id: int) -> None:
     other = DomainParticipant(domain_id)
     reader = BuiltinDataReader(dp, BuiltinTopicDcpsParticipant)
     new = ReadCondition(reader, SampleState.NotRead | ViewState.Any | InstanceState.Any)
-    samples = _binding.read_participant_keys(reader, new, 16)
+    samples = _binding.take_participant_keys(reader, new, 16)
     assert {s.key for s in samples} == {dp.guid, other.guid}
     assert all(s.qos is None for s in samples)
-    assert _binding.read_participant_keys(reader, new, 16) == []  # read once: marked read
+    assert _binding.take_participant_keys(reader, new, 16) == []  # taken once
+    assert reader.read(N=16) == []  # nothing kept: a participant that left leaves nothing behind

@@ -155,6 +155,30 @@ def test_a_busy_system_still_settles(dds: DDS, domain_id: int) -> None:
         thread.join(5)
 
 
+def test_a_long_lived_client_keeps_nothing_of_the_servers_that_left(dds: DDS, domain_id: int) -> None:
+    """Server lives come and go under a long-lived client: its discovery watch holds no
+    sample of a participant that left, and no record of a state writer that left (the soak's
+    clients grew ~1.4 KB a departed participant, read and kept by the built-in reader)."""
+    from paramdds.dds.participant import close_participant, make_participant
+    from paramdds.dds.server import ParameterServer
+
+    client = dds.client(domain_id)
+    for k in range(3):
+        dp = make_participant(domain_id, localhost=True, app_name=f"brief{k}")
+        server = ParameterServer(dp)
+        server.add_node(ParameterTable(f"brief{k}"))
+        server.start()
+        assert client.wait_for_node(f"brief{k}", timeout=5.0).online
+        server.close()
+        close_participant(dp)
+        node = f"brief{k}"
+        assert wait(lambda: client.presence(node) is Presence.OFFLINE, timeout=5.0)  # noqa: B023
+    watch = client.transport.watch()
+    assert wait(lambda: watch.state().state_writers == 0 and not watch._delivered, timeout=5.0)
+    assert not watch._instance_of
+    assert watch._participants.read(N=64) == []  # taken as they came: nothing kept of any
+
+
 @pytest.mark.slow
 def test_a_long_lived_client_needs_only_a_short_quiet_after_a_late_change(dds: DDS, domain_id: int) -> None:
     dds.server(domain_id, ParameterTable("first"))
