@@ -197,7 +197,8 @@ def test_sets_refusals_and_changes_made_elsewhere(domain: int, fox: tuple[Proc, 
         done = asyncio.create_task(asyncio.to_thread(run_cli, domain, "set", "arm", "gain", "7"))
         change = await until(ws, pushed("/arm.gain"), timeout=10)
         assert {"name": "/arm.gain", "value": 7} in change["parameters"]
-        assert (await done).returncode == 0
+        finished = await done
+        assert finished.returncode == 0, (finished.returncode, finished.stdout, finished.stderr)
         await ws.close()
         await watcher.close()
 
