@@ -24,6 +24,9 @@ uplink. Measured:
   needs), the changes made in site 0's server process; counted as UDP payload (the
   veth's bytes less 42 B of headers per packet) as the relay counts TCP payload.
 
+States that a remote monitor here refused as not decoding (asked for again) are counted
+and, if any, told under the table.
+
 Everything runs on one machine: there is no WAN round trip in these figures.
 """
 
@@ -31,6 +34,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import logging
 import socket
 import threading
 import time
@@ -215,6 +219,21 @@ def _dds_uplink(
     return out
 
 
+class _NotDecoded(logging.Handler):
+    """Counts the states this process's remote monitors refused as not decoding (their
+    warning starts "ignoring a state"): payloads with Zenoh's framing spliced in, docs/zenoh.md."""
+
+    def __init__(self) -> None:
+        super().__init__(logging.WARNING)
+        self.count = 0
+
+    def emit(self, record: logging.LogRecord) -> None:
+        message = record.getMessage()
+        note(message)  # as Python's last-resort handler would have shown it
+        if message.startswith("ignoring a state"):
+            self.count += 1
+
+
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -378,6 +397,8 @@ def _measure(
     endpoint = f"tcp/127.0.0.1:{port}"
     run: dict[str, Any] = {"sites": s}
     uplink_skip = why_no_uplink()
+    not_decoded = _NotDecoded()
+    logging.getLogger("paramdds.zenoh").addHandler(not_decoded)
     try:
         with Workers(localhost=True, domain=domains[0]) as workers:
             servers = [
@@ -459,6 +480,8 @@ def _measure(
     finally:
         relay.close()
         router.close()
+        logging.getLogger("paramdds.zenoh").removeHandler(not_decoded)
+    run["states_not_decoded"] = not_decoded.count
     return run
 
 
@@ -507,6 +530,11 @@ def run(args: argparse.Namespace) -> int:
     skipped = {r["dds_uplink_not_measured"] for r in data["runs"]} - {None}
     text = render(headers, rows) + "".join(
         f"\n(one DDS domain's uplink not measured: {why})" for why in skipped
+    )
+    text += "".join(
+        f"\n({r['states_not_decoded']} state(s) at {r['sites']} sites did not decode and were asked again)"
+        for r in data["runs"]
+        if r["states_not_decoded"]
     )
     emit(args, data, text)
     return 0

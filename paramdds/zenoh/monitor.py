@@ -42,7 +42,7 @@ from ..errors import ParamddsError
 from . import codec, keys
 from .completeness import Lack, SiteLedger
 from .monitor_rules import GAP, HELD, SITE_GRACE, Confirmed, RemoteStates
-from .states import ROUTE_WAIT, ask_states, gateways_of, site_active
+from .states import ROUTE_WAIT, ask_states, gateways_of, payload_summary, site_active
 
 log = logging.getLogger(__name__)
 
@@ -289,10 +289,12 @@ class ZenohStateFeed:
             querier.undeclare()
 
     def _on_state(self, sample: Any) -> None:
+        key, payload = str(sample.key_expr), sample.payload.to_bytes()
         try:
-            msg = codec.NodeStateMsg.decode(sample.payload.to_bytes())
-        except ParamddsError as exc:
-            log.warning("ignoring a state published on %s: %s", sample.key_expr, exc)
+            msg = codec.NodeStateMsg.decode(payload)
+        except ParamddsError as exc:  # the change it carried is lost: ask for the node, as for a reply
+            log.warning("ignoring a state published on %s (%s): %s", key, payload_summary(payload), exc)
+            self._ask_again([key], missing=False)
             return
         self._apply_state(msg)
 
@@ -480,21 +482,24 @@ class ZenohStateFeed:
                 log.debug("refreshing %s failed: %s", asked, exc)
             self._ask_again(bad)
 
-    def _ask_again(self, bad: list[str]) -> None:
-        """Ask again (up to :data:`ASK_AGAIN` times a node) for the states whose reply did not
-        decode (seen in a 30-site bench: a reply with bytes that were not its JSON), and for
-        the nodes whose token is alive but whose state did not come (the query's timeout ended
-        before every reply of a large fleet had arrived)."""
+    def _ask_again(self, bad: list[str], *, missing: bool = True) -> None:
+        """Ask again (up to :data:`ASK_AGAIN` times a node) for the states whose reply or
+        publication did not decode (the keys ``bad``: a Zenoh link closed while a batch was
+        half written splices the next batch's framing into a payload, docs/zenoh.md "Limits"),
+        and, with ``missing``, for the nodes whose token is alive but whose state did not come
+        (the query's timeout ended before every reply of a large fleet had arrived)."""
         asked: set[tuple[str, str]] = set()
         for key in bad:
             try:
                 site, node, _ = keys.parse_node_key(key)
             except ParamddsError:
                 continue
-            asked.add((site, node))
-        with self._sink.update() as change:
-            missing = self._states.missing(change)
-        asked.update(keys.split_remote(n) for n in missing)
+            if self._wanted(keys.remote_name(site, node)):
+                asked.add((site, node))
+        if missing:
+            with self._sink.update() as change:
+                lacking = self._states.missing(change)
+            asked.update(keys.split_remote(n) for n in lacking)
         for site, node in asked:
             name = keys.remote_name(site, node)
             with self._refresh_lock:

@@ -2,7 +2,7 @@
 
 :func:`ask_states` gets every node state the gateways hold for some key patterns (every
 query at once, each with its own deadline); :func:`gateways_of` and :func:`sites_of` the
-gateways and sites up.
+gateways and sites up; :func:`payload_summary` what a payload that did not decode holds.
 """
 
 from __future__ import annotations
@@ -63,16 +63,22 @@ def ask_states(
         for key, payload in replies:
             try:
                 yield codec.NodeStateMsg.decode(payload)
-            except ParamddsError as exc:  # its length and first bytes tell a cut or shifted payload
-                log.warning(
-                    "ignoring a state from %s (%d bytes, starting %s): %s",
-                    key,
-                    len(payload),
-                    payload[:12].hex(" "),
-                    exc,
-                )
+            except ParamddsError as exc:
+                log.warning("ignoring a state from %s (%s): %s", key, payload_summary(payload), exc)
                 if bad is not None:
                     bad.append(key)
+
+
+def payload_summary(payload: bytes) -> str:
+    """A payload that did not decode, for a log line: its length, its first bytes, and the
+    bytes from just before its first byte over 0x7f (the JSON is ASCII but for non-ASCII
+    text; Zenoh's framing spliced into a payload shows there as a 2-byte batch length and a
+    frame header, docs/zenoh.md "Limits")."""
+    text = f"{len(payload)} bytes, starting {payload[:12].hex(' ')}"
+    at = next((i for i, byte in enumerate(payload) if byte > 0x7F), None)
+    if at is not None:
+        text += f", at {at}: {payload[max(0, at - 1) : at + 11].hex(' ')}"
+    return text
 
 
 def _send_query(session: Any, pattern: str, timeout: float, ended: queue.SimpleQueue[_Ended]) -> None:
