@@ -228,7 +228,7 @@ class ZenohClientTransport:
                 try:
                     future.set_result(codec.loads(replies[0], f"the reply of {pending.node!r}"))
                 except ParamddsError as exc:
-                    future.set_exception(exc)
+                    future.set_exception(_unreadable(pending, exc))
                 return
             waited = time.monotonic() - started
             future.set_exception(self.error(pending, call.unanswered(waited), waited))
@@ -342,6 +342,18 @@ class ZenohClientTransport:
                 raise UnavailableError(f"node {node!r} is offline (waited {timeout:.2g} s)")
             if self._closing.wait(min(0.1, max(0.0, remaining))):
                 raise UnavailableError("the client was closed")
+
+
+def _unreadable(pending: PendingCall, exc: ParamddsError) -> ParamddsError:
+    """The error of a reply that arrived but does not decode (Zenoh can splice its framing
+    into a payload: docs/zenoh.md "Limits"): a write's outcome is then unknown (its node may
+    have applied it), a read is UNAVAILABLE (a fault on the way, not of the node: ask again)."""
+    if not pending.call.write:
+        return UnavailableError(f"the reply of node {pending.node!r} arrived damaged ({exc}); ask again")
+    return OutcomeUnknownError(
+        f"outcome unknown: the reply of node {pending.node!r} arrived damaged ({exc}); the write "
+        "reached its gateway and may have been applied: `get` or `history` shows the outcome"
+    )
 
 
 def _unsent(pending: PendingCall, exc: Exception) -> UnavailableError:

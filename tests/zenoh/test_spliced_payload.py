@@ -11,9 +11,13 @@ from __future__ import annotations
 import threading
 from typing import Any
 
+import pytest
+
 from paramdds.core.descriptors import ParameterDescriptor
 from paramdds.core.values import ParameterType, ParameterValue
+from paramdds.errors import ErrorCode, OutcomeUnknownError, ParamddsError
 from paramdds.zenoh import codec, keys
+from paramdds.zenoh.client import RemoteParameterClient
 from paramdds.zenoh.monitor import RemoteParameterMonitor
 from paramdds.zenoh.states import payload_summary
 
@@ -111,3 +115,31 @@ def test_a_spliced_reply_is_asked_for_again(fleet: Fleet) -> None:
         assert gw.queries == 2
     finally:
         monitor.close()
+
+
+def test_a_damaged_reply_to_a_set_is_an_unknown_outcome_and_to_a_get_an_error(fleet: Fleet) -> None:
+    """The gateway took the set (it may have been applied) and its reply arrived spliced: the
+    caller is told the outcome is unknown, never a failure; a get that its reply was damaged
+    (UNAVAILABLE: a fault on the way, never "bad local input")."""
+    gw = Gateway(fleet.remote())
+    asked: list[str] = []
+
+    def answer(query: Any) -> None:
+        with query:
+            asked.append(str(query.key_expr))
+            good = codec.dumps({"node": NODE, "revision": 2, "results": []})
+            query.reply(query.key_expr, spliced(good, len(good) // 2))
+
+    verbs = [gw.session.declare_queryable(keys.site_pattern("s1", v), answer) for v in ("set", "get")]
+    client = RemoteParameterClient(fleet.remote(), timeout=5.0)
+    try:
+        with pytest.raises(OutcomeUnknownError, match="arrived damaged"):
+            client.set(NAME, {"a": 3.0})
+        with pytest.raises(ParamddsError) as got:
+            client.get(NAME, ["a"])
+        assert got.value.code is ErrorCode.UNAVAILABLE and "arrived damaged" in str(got.value)
+        assert [k.rsplit("/", 1)[1] for k in asked] == ["set", "get"]  # each went out once
+    finally:
+        client.close()
+        for v in verbs:
+            v.undeclare()
