@@ -1,12 +1,12 @@
 """A ROS 2 host stopped cleanly (``quit``) takes every node out of the graph while ROS 2 runs.
 
 rclpy 9's ``try_shutdown`` destroys the nodes its context tracks while removing each from the
-list it walks, so it destroys every other one; the rest were destroyed after ROS 2 had shut
-down, and their leaving reached the graph late, or, when the process was gone first, only
-with the participant's lease (20 s): the soak saw 6 of 20 mirrored nodes online 15 s after
-such a stop. The host destroys its nodes itself, in the order it made them, before it shuts
-ROS 2 down. An observer process (rclpy, a context of its own) samples the graph while the
-host stops: what it sees of the host's nodes must always be the later-made ones.
+list it walks, so it destroys every other one; the rest, destroyed after ROS 2 had shut
+down, left the graph last, and when that last update and the process's goodbye were lost,
+only with the participant's lease (20 s), mirrored online meanwhile. The host destroys its
+nodes itself, in the order it made them, before it shuts ROS 2 down. An observer process
+(rclpy, a context of its own) samples the graph while the host stops: what it sees of the
+host's nodes must always be the later-made ones.
 """
 
 from __future__ import annotations
