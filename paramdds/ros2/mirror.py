@@ -55,7 +55,7 @@ import random
 import threading
 from collections import Counter, OrderedDict, deque
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -778,7 +778,26 @@ class Mirror:
                 return
             m.syncing = True
         if not self._closed:
-            self._pool.submit(self._sync, m)
+            self._pool.submit(self._sync, m).add_done_callback(lambda f: self._failed_sync(m, f))
+
+    def _failed_sync(self, m: Mirrored, done: Future[None]) -> None:
+        """Log a sync that raised (the pool keeps what it raises to itself: the node was left
+        unread, or unhosted, with nothing said), and let the node be read again."""
+        exc = None if done.cancelled() else done.exception()
+        if exc is None:
+            return
+        with self._lock:
+            gone = self.nodes.get(m.fqn) is not m  # it left meanwhile: its clients were closed under it
+        log.log(
+            logging.DEBUG if gone else logging.ERROR,
+            "reading %s failed: %s: %s",
+            m.fqn,
+            type(exc).__name__,
+            exc,
+            exc_info=exc,
+        )
+        with m.lock:
+            m.syncing = False
 
     def _sync(self, m: Mirrored) -> None:
         import time
