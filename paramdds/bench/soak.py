@@ -229,7 +229,7 @@ class Soak:
         }
         (self.tmp / "ros.yaml").write_text(json.dumps(doc))  # JSON is YAML (rcl reads it)
         self.start_ros_host()
-        # at info the bridge logs each node it mirrors, loses and reads again (its .err)
+        # at info the bridge logs how many nodes it has to mirror, each that leaves, each restart
         argv = [*self.gflags, "--log-level", "info", "ros2", "--mirror", f"/{ROS_NS}/*"]
         argv += ["--ros-domain", str(ros_domain)]
         bridge = Proc("bridge", "paramdds.cli", argv, env, self.tmp)
