@@ -13,7 +13,8 @@ Prints ``ready /ns/a /ns/b ...`` once its nodes exist, then reads commands on st
 ``set FQN NAME YAML`` sets a parameter from inside the node (as its own code would),
 ``get FQN NAME`` prints its value as JSON, ``serve FQN`` starts a muted node's parameter
 services, ``blink FQN SECONDS`` makes a node that lives that long (as a tool's node, such as
-``ros2 param``'s, does), ``quit`` (or end of input) shuts down cleanly.
+``ros2 param``'s, does), ``quit`` (or end of input) shuts down cleanly: every node leaves
+the graph, in the order made, before ROS 2 shuts down.
 """
 
 from __future__ import annotations
@@ -191,11 +192,14 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         pass
     _stopping.set()
-    rclpy.try_shutdown()  # wakes the executor, which returns from spin
+    executor.shutdown(timeout_sec=2.0)  # spin returns
     spinner.join(timeout=5.0)
-    executor.shutdown(timeout_sec=2.0)
+    # every node leaves the graph while ROS 2 runs, then ROS 2 shuts down: rclpy's try_shutdown
+    # destroys the nodes it tracks while dropping each from the list it walks (every other
+    # one), and the rest, destroyed after it, left the graph late or only with the lease
     for node in nodes.values():
         node.destroy_node()
+    rclpy.try_shutdown()
     return 0
 
 

@@ -125,6 +125,7 @@ class Soak:
         self.url = ""
         self.router: Any = None
         self.ros_env: dict[str, str] = {}
+        self.ros_domain: int | None = None
         self.checks: list[dict[str, Any]] = []
         self.events = dict.fromkeys(
             ("server_stops", "server_kills", "ros_host_restarts", "ros_host_unclean_stops"), 0
@@ -209,8 +210,12 @@ class Soak:
     def _start_ros2(self) -> None:
         note(f"ROS 2 host of {ROS_NODES} rclpy nodes and the bridge")
         env = dict(self.env)
-        env.pop("ROS_DOMAIN_ID", None)
-        ros_domain = random.choice([d for d in range(1, 100) if d != self.domain])
+        # ROS_DOMAIN_ID when the bench's environment sets one other than -d (a domain no one else
+        # uses on a shared machine), else a random one
+        chosen = env.pop("ROS_DOMAIN_ID", "")
+        others = [d for d in range(1, 100) if d != self.domain]
+        ros_domain = int(chosen) if chosen.isdigit() and int(chosen) != self.domain else random.choice(others)
+        self.ros_domain = ros_domain
         env.update(
             ROS_DOMAIN_ID=str(ros_domain),
             ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
@@ -224,7 +229,9 @@ class Soak:
         }
         (self.tmp / "ros.yaml").write_text(json.dumps(doc))  # JSON is YAML (rcl reads it)
         self.start_ros_host()
-        argv = [*self.gflags, "ros2", "--mirror", f"/{ROS_NS}/*", "--ros-domain", str(ros_domain)]
+        # at info the bridge logs how many nodes it has to mirror, each that leaves, each restart
+        argv = [*self.gflags, "--log-level", "info", "ros2", "--mirror", f"/{ROS_NS}/*"]
+        argv += ["--ros-domain", str(ros_domain)]
         bridge = Proc("bridge", "paramdds.cli", argv, env, self.tmp)
         self.procs["ros2 bridge"] = bridge
         bridge.wait_for("[ROS2] bridging")
@@ -503,6 +510,7 @@ def _data(
         "nodes": NODES,
         "servers": SERVERS,
         "ros_nodes": 0 if "ros2" in skipped else ROS_NODES,
+        "ros_domain": soak.ros_domain,
         "skipped": skipped,
         "churn": {**{k: v for k, v in run.items() if k in ("turns", "seconds")}, **soak.events},
         "warm_at_s": run["warm"]["at_s"],

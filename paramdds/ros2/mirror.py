@@ -55,7 +55,7 @@ import random
 import threading
 from collections import Counter, OrderedDict, deque
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -607,6 +607,7 @@ class Mirror:
         self._departed: dict[str, list[str]] = {}  # node id -> the names it had when it left
         self._first_seen: dict[str, float] = {}  # fqn -> when a node not mirrored yet was first seen
         self._writers_of: OrderedDict[bytes, str] = OrderedDict()  # writer GID -> fqn, of nodes that left
+        self._may_return: set[bytes] = set()  # of those, the ones that may come back (see returning)
         self._looking_since: float | None = None  # the first look at the graph
         self._next_check = 0.0  # when the next periodic check may start (see _due_checks)
         self.timeout = timeout
@@ -679,11 +680,17 @@ class Mirror:
         self, graph: Mapping[str, str], writers: Mapping[str, frozenset[bytes]]
     ) -> dict[str, frozenset[bytes]]:
         """Nodes back in the graph under no name (fqn -> their writers): the writers rmw shows
-        under :data:`UNKNOWN_NODE` that a node had when it left (see the module docstring)."""
+        under :data:`UNKNOWN_NODE` that a node had when it left (see the module docstring), once
+        they left the graph too, or at once when its process did not answer as it left (a stall
+        past the lease). A node of a process that stops cleanly leaves the graph before its
+        writers, which may stay, unnamed, until the lease when the process's goodbye is lost:
+        taken for the node back, it would be shown unreachable, online, with its process gone."""
+        seen = {gid for gids in writers.values() for gid in gids}
+        self._may_return |= self._writers_of.keys() - seen
         out: dict[str, set[bytes]] = {}
         for gid in writers.get(UNKNOWN_NODE, frozenset()):
             fqn = self._writers_of.get(gid)
-            if fqn is not None and fqn not in graph:
+            if fqn is not None and fqn not in graph and gid in self._may_return:
                 out.setdefault(fqn, set()).add(gid)
         return {fqn: frozenset(gids) for fqn, gids in out.items()}
 
@@ -740,11 +747,16 @@ class Mirror:
             m = self.nodes.pop(fqn, None)
         if m is None:
             return
+        stalled = m.table.status is not None  # its process did not answer when it left (.liveness)
         for gid in m.writers:  # its process may come back (a stall past the lease): see returning
             self._writers_of[gid] = fqn
             self._writers_of.move_to_end(gid)
+            if stalled:
+                self._may_return.add(gid)
+            else:
+                self._may_return.discard(gid)
         while len(self._writers_of) > REMEMBERED:
-            self._writers_of.popitem(last=False)
+            self._may_return.discard(self._writers_of.popitem(last=False)[0])
         with m.lock:
             hosted, m.hosted = m.hosted, False
             shown, m.unreachable = m.unreachable, False
@@ -766,7 +778,26 @@ class Mirror:
                 return
             m.syncing = True
         if not self._closed:
-            self._pool.submit(self._sync, m)
+            self._pool.submit(self._sync, m).add_done_callback(lambda f: self._failed_sync(m, f))
+
+    def _failed_sync(self, m: Mirrored, done: Future[None]) -> None:
+        """Log a sync that raised (the pool keeps what it raises to itself: the node was left
+        unread, or unhosted, with nothing said), and let the node be read again."""
+        exc = None if done.cancelled() else done.exception()
+        if exc is None:
+            return
+        with self._lock:
+            gone = self.nodes.get(m.fqn) is not m  # it left meanwhile: its clients were closed under it
+        log.log(
+            logging.DEBUG if gone else logging.ERROR,
+            "reading %s failed: %s: %s",
+            m.fqn,
+            type(exc).__name__,
+            exc,
+            exc_info=exc,
+        )
+        with m.lock:
+            m.syncing = False
 
     def _sync(self, m: Mirrored) -> None:
         import time
