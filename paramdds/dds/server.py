@@ -171,16 +171,6 @@ class ParameterServer:
                 for name in replies
             }
         self._dispatcher = Dispatcher(participant, "paramdds-server", tick=self._tick, period=LEASE / 4)
-        handlers = {
-            "SetParametersRequest": self._on_set,
-            "GetParametersRequest": self._on_get,
-            "ListParametersRequest": self._on_list,
-        }
-        for name, handler in handlers.items():
-            reader = self._transport.reader(
-                self._request_topic(name), self._qos.reader(name), self._where.nodes
-            )
-            self._dispatcher.add(reader, self._transport.guard(reader, handler))
 
     def _request_topic(self, name: str) -> Any:
         return filtered_topic(self._dp, name, wire.TOPICS[name], self._filter)
@@ -262,6 +252,18 @@ class ParameterServer:
         with self._hosting:
             self._started = True
             self._refilter()
+        # the request readers, made once the filter holds the nodes hosted: a client sends a copy
+        # of a waiting request as soon as a new reader matches, and one that matched before would
+        # have dropped it (nothing hosted yet), with nothing left to match
+        handlers = {
+            "SetParametersRequest": self._on_set,
+            "GetParametersRequest": self._on_get,
+            "ListParametersRequest": self._on_list,
+        }
+        for name, handler in handlers.items():
+            topic = self._request_topic(name)
+            reader = self._transport.reader(topic, self._qos.reader(name), self._where.nodes)
+            self._dispatcher.add(reader, self._transport.guard(reader, handler))
         # not filtered: assignments for nodes not hosted yet are kept for when they are added
         requests = make_topic(self._dp, "SetParametersRequest", wire.SetParametersRequest)
         reader = DataReader(self._sub, requests, self._qos.assignment_reader())

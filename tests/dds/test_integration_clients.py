@@ -17,6 +17,7 @@ import os
 import subprocess
 import sys
 import threading
+import time
 from collections.abc import Iterator
 from typing import Any
 
@@ -33,6 +34,7 @@ from paramdds.dds import client as client_module
 from paramdds.dds._binding import matched_subscriptions
 from paramdds.dds.client import AsyncParameterClient, ParameterClient
 from paramdds.dds.qos import QosProfiles
+from paramdds.dds.server import ParameterServer
 from paramdds.dds.wire import types as wire
 from paramdds.errors import UnavailableError
 
@@ -349,6 +351,30 @@ def test_a_request_sent_before_its_server_exists_is_resent_when_the_server_match
     dds.server(table)
     call.join(timeout=20.0)
     assert [r.values()["x"].value for r in replies] == [7]
+
+
+def test_a_request_waiting_while_a_server_is_built_reaches_it_once_it_starts(
+    dds: DdsSession, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The copy sent when the server's request reader matches is served: the reader exists
+    only once the server starts (made in its constructor, it matched while nothing was
+    hosted, dropped that copy, and nothing was left to match: CI timed out so, loaded)."""
+    monkeypatch.setattr(client_module, "RESEND_AFTER", 60.0)
+    client = dds.client(timeout=10.0)
+    table = ParameterTable("late")
+    table.declare("x", 7)
+    replies: list[Any] = []
+    call = threading.Thread(target=lambda: replies.append(client.get("late", ["x"])))
+    call.start()
+    server = ParameterServer(dds.participant("paramdds-test-server"))
+    server.add_node(table)
+    time.sleep(0.3)  # what a loaded machine may take between building a server and starting it
+    server.start()
+    try:
+        call.join(timeout=10.0)
+        assert [r.values()["x"].value for r in replies] == [7]
+    finally:
+        server.close()
 
 
 def test_a_lazy_client_is_sent_no_state_until_a_call_needs_presence(dds: DdsSession) -> None:
