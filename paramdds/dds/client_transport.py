@@ -544,9 +544,7 @@ def _refused_by_a_later_life(pending: PendingCall, reply: Any, serving_life: Cal
     expected, answering = pending.message.expected_incarnation, reply.incarnation
     if not call.refused_by_a_later_life(expected, answering, refused, pending.serving_life):
         return False
-    if pending.serving_life:
-        return True
-    return call.refused_by_a_later_life(expected, answering, refused, serving_life())
+    return pending.serving_life != 0 or serving_life() != answering
 
 
 def _later_life(pending: PendingCall, reply: Any) -> OutcomeUnknownError:
