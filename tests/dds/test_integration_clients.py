@@ -333,13 +333,16 @@ def test_raw_duplicate_request_is_applied_once(dds: DdsSession) -> None:
     assert table.revision == start + 1
 
 
+@pytest.mark.parametrize("pause", [0.0, 0.3], ids=["started-at-once", "started-later"])
 def test_a_request_sent_before_its_server_exists_is_resent_when_the_server_matches(
-    dds: DdsSession, monkeypatch: pytest.MonkeyPatch
+    dds: DdsSession, monkeypatch: pytest.MonkeyPatch, pause: float
 ) -> None:
-    # A VOLATILE writer never delivers a sample to a reader it matches later: the first
-    # copy of a request sent while the server is still being discovered is lost. The
-    # client sends it again as soon as its writer matches a new reader; with the timed
-    # resend pushed past the call's timeout, that is the only way this call succeeds.
+    """A VOLATILE writer never delivers a sample to a reader it matches later: the first
+    copy of a request sent while the server is still being discovered is lost. The client
+    sends it again as soon as its writer matches a new reader; with the timed resend pushed
+    past the call's timeout, that is the only way this call succeeds. ``pause``: what a loaded
+    machine may take between building a server and starting it (its request readers, made in
+    its constructor, matched while nothing was hosted and dropped that copy: CI timed out so)."""
     monkeypatch.setattr(client_module, "RESEND_AFTER", 60.0)
     client = dds.client(timeout=20.0)
     table = ParameterTable("late")
@@ -348,30 +351,12 @@ def test_a_request_sent_before_its_server_exists_is_resent_when_the_server_match
     call = threading.Thread(target=lambda: replies.append(client.get("late", ["x"])))
     call.start()
     assert not wait_until(lambda: bool(replies), timeout=0.3)  # nobody serves "late" yet
-    dds.server(table)
-    call.join(timeout=20.0)
-    assert [r.values()["x"].value for r in replies] == [7]
-
-
-def test_a_request_waiting_while_a_server_is_built_reaches_it_once_it_starts(
-    dds: DdsSession, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """The copy sent when the server's request reader matches is served: the reader exists
-    only once the server starts (made in its constructor, it matched while nothing was
-    hosted, dropped that copy, and nothing was left to match: CI timed out so, loaded)."""
-    monkeypatch.setattr(client_module, "RESEND_AFTER", 60.0)
-    client = dds.client(timeout=10.0)
-    table = ParameterTable("late")
-    table.declare("x", 7)
-    replies: list[Any] = []
-    call = threading.Thread(target=lambda: replies.append(client.get("late", ["x"])))
-    call.start()
     server = ParameterServer(dds.participant("paramdds-test-server"))
     server.add_node(table)
-    time.sleep(0.3)  # what a loaded machine may take between building a server and starting it
+    time.sleep(pause)
     server.start()
     try:
-        call.join(timeout=10.0)
+        call.join(timeout=20.0)
         assert [r.values()["x"].value for r in replies] == [7]
     finally:
         server.close()
