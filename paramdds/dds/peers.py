@@ -30,6 +30,7 @@ a few fresh ``paramdds`` processes in a hundred into a 10 s TIMEOUT.
 
 from __future__ import annotations
 
+import fnmatch
 import logging
 import queue
 import threading
@@ -121,6 +122,22 @@ def _by_design(ours: Any, endpoint: Any) -> bool:
         ours.topic.name == "SetParametersRequest"
         and {mine, theirs} == {Policy.Durability.Volatile, Policy.Durability.TransientLocal}
     )
+
+
+def _partitions(qos: Any) -> tuple[str, ...]:
+    from cyclonedds.qos import Policy
+
+    if Policy.Partition in qos:
+        return tuple(qos[Policy.Partition].partitions) or ("",)
+    return ("",)
+
+
+def _partitions_meet(ours: Any, endpoint: Any) -> bool:
+    """Whether ``ours`` and ``endpoint`` share a partition (a name on one side may be a glob):
+    a writer in a partition a reader does not read is not its peer (a server's claims in the
+    hosts partition; in secure mode, other nodes' partitions), whatever else they offer."""
+    mine, theirs = _partitions(ours.get_qos()), _partitions(endpoint.qos)
+    return any(a == b or fnmatch.fnmatchcase(a, b) or fnmatch.fnmatchcase(b, a) for a in mine for b in theirs)
 
 
 def _meets_by_design(ours: Any) -> bool:
@@ -277,7 +294,7 @@ class PeerWatch:
             key = str(ep.key)
             if ep.topic_name != topic or key in matched or ep.participant_key == self._own:
                 continue
-            if _by_design(entity, ep):
+            if _by_design(entity, ep) or not _partitions_meet(entity, ep):
                 continue
             with self._lock:
                 if key in self._seen:
@@ -314,4 +331,3 @@ class PeerWatch:
                 props = {q.key: q.value for q in p.qos if isinstance(q, Policy.Property)}
                 return props.get("__Hostname", "?"), props.get("__Pid", "?"), props.get("__ProcessName", "?")
         return "?", "?", "?"
-

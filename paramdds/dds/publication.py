@@ -11,7 +11,9 @@ protocols), never to the server:
   carrying its last change (revision, stamp, who, verified, via), each
   node's presence instance (name ``""``: host, pid, revision, count, tags), the
   incarnation drawn for each node it starts publishing, and the writer's
-  MANUAL_BY_TOPIC liveliness (asserted by the server's dispatch loop).
+  MANUAL_BY_TOPIC liveliness (asserted by the server's dispatch loop); on the plain
+  transport also each node's *claim*, a presence sample in the hosts partition where
+  other servers look for a twin (see :class:`~.transport.Hosting`).
 """
 
 from __future__ import annotations
@@ -73,10 +75,12 @@ class StatePublication:
 
     ``hosted(node_id)`` says whether the server still hosts a node: changes of a node it
     stopped hosting are not published. ``tags`` is the presence value (a string array).
+    ``claims``: the writer of the nodes' claims (None: presence is the claim, secure form).
     """
 
-    def __init__(self, writer: Any, tags: Any, hosted: Callable[[str], bool]) -> None:
+    def __init__(self, writer: Any, tags: Any, hosted: Callable[[str], bool], claims: Any = None) -> None:
         self.writer = writer
+        self._claims = claims
         self.host = socket.gethostname()
         self.pid = os.getpid()
         self._tags = tags
@@ -104,12 +108,26 @@ class StatePublication:
                 )
         self._presence(table)
         flush_writes(self.writer)
+        if self._claims is not None:  # once the node's state is out: a twin that sees the claim reads it
+            self._claims.write(
+                wire.ParameterEvent(
+                    node_id=table.node_id,
+                    name="",
+                    kind=wire.EVENT_PRESENCE,
+                    stamp=now_stamp(),
+                    host=self.host,
+                    pid=self.pid,
+                    incarnation=self.incarnation(table.node_id),
+                )
+            )
 
     def end(self, node_id: str, names: Sequence[str]) -> None:
         """Stop publishing: unregister the node's instances (readers see "no writers")."""
         for name in [*names, ""]:
             unregister_serialized(self.writer, encode_key(node_id, name))
         flush_writes(self.writer)
+        if self._claims is not None:
+            self._claims.unregister_instance(wire.ParameterEvent(node_id=node_id, name=""))
         self._incarnations.pop(node_id, None)
 
     def incarnation(self, node_id: str) -> int:

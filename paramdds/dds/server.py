@@ -58,7 +58,7 @@ from collections.abc import Callable, Iterable, Sequence
 from functools import partial
 from typing import Any
 
-from cyclonedds.core import InstanceState, Policy, SampleState, ViewState
+from cyclonedds.core import InstanceState, Policy
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.pub import DataWriter
 from cyclonedds.qos import Qos
@@ -75,7 +75,7 @@ from ..core.results import SetResult
 from ..core.revision import incarnation_text
 from ..core.values import Parameter, ParameterType, ParameterValue
 from ..errors import ErrorCode, ParamddsError
-from ._binding import BatchingWriter, flush_writes, take_serialized
+from ._binding import BatchingWriter, flush_writes
 from .dispatch import SERIALIZED, Dispatcher
 from .filters import STALE, NativeFilter, filter_tag, filtered_topic, gone_tag, status_tag
 from .node_worker import NodeWorker, Staged
@@ -85,7 +85,7 @@ from .qos import QosProfiles
 from .topics import make_topic
 from .transport import transport_of
 from .wire import types as wire
-from .wire.cdr import MalformedSample, encode
+from .wire.cdr import encode
 from .wire.convert import descriptor_to_wire, parameter_from_wire, value_from_wire, value_to_wire
 from .wire.history import last_change_to_wire, query_from_wire, record_to_wire
 from .wire.state import StateKey, StateSample, decode_key, decode_state
@@ -95,7 +95,6 @@ log = logging.getLogger(__name__)
 DEDUP_WINDOW = 4096  # replies kept for retried requests, per server
 DEDUP_BYTES = 16 * 1024 * 1024  # and at most this many bytes of request content
 RETAINED_NODES = 1024  # nodes not hosted (yet) whose retained assignments are kept
-DUPLICATE_CHECK = 2.0  # seconds after start() during which another host of our nodes is looked for
 REFUSALS_KEPT = 16  # refused parameters of one request kept in its node's history, at most
 LEASE = 1.0  # seconds: the state writer's liveliness lease, asserted from the dispatch loop
 
@@ -146,7 +145,6 @@ class ParameterServer:
         self._twins_seen: set[tuple[str, str, int]] = set()
         self._twin_of: dict[str, tuple[str, int]] = {}  # node -> (host, pid) of its other live host
         self.foreign_requests = 0  # requests that reached a handler for a node not hosted here
-        self._check: threading.Thread | None = None
         self._last_tick = time.monotonic()
         self._again_at: float | None = None  # when presence is written once more after a late loop
 
@@ -162,7 +160,16 @@ class ParameterServer:
             state_writer = BatchingWriter(
                 self._pub, make_topic(participant, "ParameterEvents", wire.ParameterEvent), state_qos
             )
-            self.publication = StatePublication(state_writer, presence_tags, self._tables.__contains__)
+            claims = None
+            if self._where.claims is not None:  # AUTOMATIC liveliness: a twin is gone when its process is
+                claims = DataWriter(
+                    self._where.claims[0],
+                    make_topic(participant, "ParameterEvents", wire.ParameterEvent),
+                    self._qos.writer("ParameterEvents"),
+                )
+            self.publication = StatePublication(
+                state_writer, presence_tags, self._tables.__contains__, claims
+            )
             replies = ("SetParametersResponse", "GetParametersResponse", "ListParametersResponse")
             self._reply_writers = {
                 name: (BatchingWriter if name == "SetParametersResponse" else DataWriter)(
@@ -268,38 +275,36 @@ class ParameterServer:
         requests = make_topic(self._dp, "SetParametersRequest", wire.SetParametersRequest)
         reader = DataReader(self._sub, requests, self._qos.assignment_reader())
         self._dispatcher.add(reader, self._transport.guard(reader, self._on_assignment))
-        if self._twins.native:  # other processes' presence of our nodes, and nothing else
+        # other processes' claims of our nodes (natively filtered: those alone reach Python)
+        claims = self._where.claims[1] if self._where.claims is not None else self._sub
+        if self._twins.native:
             twins = filtered_topic(self._dp, "ParameterEvents", wire.ParameterEvent, self._twins)
-            reader = DataReader(self._sub, twins, self._twin_qos())
-            self._dispatcher.add_raw(
-                reader, _decode_presence, self._transport.guard_raw(reader, self._on_twins)
-            )
+        else:
+            twins = make_topic(self._dp, "ParameterEvents", wire.ParameterEvent)
+        reader = DataReader(claims, twins, self._twin_qos())
+        self._dispatcher.add_raw(reader, _decode_presence, self._transport.guard_raw(reader, self._on_twins))
         self._last_tick = time.monotonic()
         self._dispatcher.start()
-        if not self._twins.native:  # without the filter, following presence would cost every change
-            nodes = set(self._tables)
-            self._check = threading.Thread(
-                target=self._warn_if_hosted_elsewhere, args=(nodes,), name="paramdds-twin-check", daemon=True
-            )
-            self._check.start()
         return self
 
     def _twin_qos(self) -> Qos:
-        # every writer's presence (a twin's among them), not our own process's samples:
-        # they are many (hosting) and never a twin
+        # every other process's claims (a twin's among them), not our own process's: they are
+        # many (hosting) and never a twin
         qos: Qos = self._qos.reader("ParameterEvents") + Qos(
             Policy.History.KeepLast(4), Policy.IgnoreLocal.Process
         )
         return qos
 
     def _on_twins(self, samples: Sequence[tuple[Any, Any]]) -> None:
-        """Presence of one of our nodes written by another process: warn, once per process.
-        When that process stops (or dies), its presence instance loses its writers here:
-        write ours again, saying which one went (a ``gone=`` tag), so monitors that showed
-        its host and pid, or listed it as a second host, show this process alone."""
+        """Another process's claim of one of our nodes: warn, once per process. When that
+        process stops (or dies), its claim loses its writer here: write our presence again,
+        saying which one went (a ``gone=`` tag), so monitors that showed its host and pid,
+        or listed it as a second host, show this process alone. Without the native filter
+        every node's claim arrives (and in secure mode a twin's parameters too): only our
+        nodes' presence instances count."""
         for sample, info in samples:
             worker = self._workers.get(sample.node_id)
-            if worker is None:
+            if worker is None or sample.name:
                 continue
             if isinstance(sample, StateKey):
                 twin = self._twin_of.pop(sample.node_id, None)
@@ -325,43 +330,11 @@ class ParameterServer:
             host,
         )
 
-    def _warn_if_hosted_elsewhere(self, nodes: set[str], seconds: float = DUPLICATE_CHECK) -> None:
-        """Without the native filter, once, at start: warn when another process hosts one of ``nodes``.
-
-        Reads the retained presence samples for a short while with a reader of its own,
-        then drops it (without the filter, following other servers' state for good would
-        cost every server every change in the system). With the filter a server follows
-        only other processes' presence of its own nodes, for good (:meth:`_on_twins`).
-        Monitors and ``paramdds nodes`` detect the same thing at any time.
-        """
-        try:
-            reader = DataReader(
-                self._sub, make_topic(self._dp, "ParameterEvents", wire.ParameterEvent), self._twin_qos()
-            )
-            deadline = time.monotonic() + seconds
-            while time.monotonic() < deadline and not self._closed:
-                for data, info in take_serialized(
-                    reader, SampleState.Any | ViewState.Any | InstanceState.Alive, 256
-                ):
-                    if not info.valid_data:
-                        continue
-                    try:
-                        sample = decode_state(data)
-                    except MalformedSample:
-                        continue
-                    if not sample.name and sample.node_id in nodes:
-                        self._warn_twin(sample.node_id, sample.host, sample.pid)
-                time.sleep(0.05)
-        except Exception as exc:  # the participant closed under us, or DDS failed: only a check
-            log.debug("the duplicate-host check ended: %s", exc)
-
     def close(self) -> None:
         """Graceful stop: unregister every instance (readers see the nodes offline)."""
         if self._closed:
             return
         self._closed = True
-        if self._check is not None:
-            self._check.join(timeout=1.0)  # it looks at _closed every 50 ms
         self._dispatcher.close()
         for node_id in list(self._tables):
             self.remove_node(node_id)

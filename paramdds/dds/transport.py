@@ -55,10 +55,21 @@ if TYPE_CHECKING:
 
     from .peers import PeerWatch
 
-__all__ = ["Grants", "Hosting", "Participant", "SecureTransport", "Transport", "Writers", "transport_of"]
+__all__ = [
+    "HOSTS",
+    "Grants",
+    "Hosting",
+    "Participant",
+    "SecureTransport",
+    "Transport",
+    "Writers",
+    "transport_of",
+]
 
 _MASK = (1 << 64) - 1
 _ACTIONS = {"SetParametersRequest": "set", "GetParametersRequest": "get", "ListParametersRequest": "list"}
+# the partition of ParameterEvents where plain servers claim the nodes they host (see Hosting)
+HOSTS = "paramdds.hosts"
 SECURE_DEPTH = 4  # secure mode: samples kept per instance by a reader that drops some (see believed)
 
 Handler = Callable[[Sequence[Any]], None]
@@ -128,12 +139,26 @@ def transport_of(participant: DomainParticipant) -> Transport:
 
 
 class Hosting:
-    """Where a server's endpoints live: its publisher and subscriber, and the nodes it may host."""
+    """Where a server's endpoints live: its publisher and subscriber, the nodes it may host,
+    and where it claims them and looks for other processes' claims (its twins).
 
-    def __init__(self, publisher: Any, subscriber: Any, nodes: frozenset[str] | None) -> None:
+    ``claims``: plain, a publisher and a subscriber in the partition :data:`HOSTS`, where
+    each server writes one presence sample per node it hosts (its *claim*) and reads the
+    others' (only those: a twin reader in the state's partition would be sent every
+    node's whole retained state at start, and every change after). Secure: None, the
+    server's own partitions hold only its nodes' samples, so it reads presence there."""
+
+    def __init__(
+        self,
+        publisher: Any,
+        subscriber: Any,
+        nodes: frozenset[str] | None,
+        claims: tuple[Any, Any] | None = None,
+    ) -> None:
         self.publisher = publisher
         self.subscriber = subscriber
         self.nodes = nodes  # None: any node
+        self.claims = claims
 
     def admit(self, node_id: str) -> None:
         """Raise NotPermittedError for a node this server was not created for (secure form)."""
@@ -185,7 +210,9 @@ class Transport:
 
     def hosting(self, nodes: Iterable[str] | None) -> Hosting:
         """A server's publisher and subscriber, for the nodes it will host (secure: required)."""
-        return Hosting(self.participant, self.participant, None)
+        hosts = Qos(Policy.Partition([HOSTS]))
+        claims = (Publisher(self.participant, qos=hosts), Subscriber(self.participant, qos=hosts))
+        return Hosting(self.participant, self.participant, None, claims)
 
     @contextmanager
     def refused(self, what: str) -> Iterator[None]:

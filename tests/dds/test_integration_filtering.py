@@ -14,6 +14,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -29,7 +30,7 @@ from paramdds.dds.qos import QosProfiles
 from paramdds.dds.wire import types as wire
 from paramdds.errors import ParamddsError
 
-from .helpers import DdsSession, wait_until
+from .helpers import DdsSession, ServerProc, wait_until
 
 pytestmark = pytest.mark.timeout(90)
 native = pytest.mark.skipif(
@@ -131,6 +132,23 @@ def test_the_presence_reader_holds_presence_only(dds: DdsSession) -> None:
     assert len(client.transport.presence_reader.read(N=100)) == 2  # no parameter samples, only presence
     assert client.transport.presence_filter.counts()[1] >= 4  # the four parameter samples stopped in Cyclone
     assert client.get_value("b", "q").value == 1
+
+
+@native
+def test_a_server_is_sent_other_servers_claims_not_their_state(dds: DdsSession, domain_id: int) -> None:
+    """A server looks for a twin (another process hosting one of its nodes) in the hosts
+    partition, where each server writes one claim per node: it is not sent another server's
+    parameters, neither their retained state when it starts nor their changes after."""
+    params = {f"p{i}": i for i in range(50)}
+    with ServerProc(domain_id, [{"id": "theirs", "params": params}]):
+        server = dds.server(table("mine"))
+        client = dds.client(timeout=5.0)
+        for i in range(20):  # 20 changes of theirs, each a state sample and a presence sample
+            client.set("theirs", {"p0": 100 + i})
+        assert wait_until(lambda: server._twins.counts()[1] >= 1, timeout=5.0)  # their claim of "theirs"
+        time.sleep(0.5)  # time enough for anything else sent to be counted
+        # one claim, where reading their presence meant 51 retained samples and 40 more
+        assert server._twins.counts() == (0, 1, 0)
 
 
 @native

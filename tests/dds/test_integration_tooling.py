@@ -4,6 +4,7 @@ and ``cyclonedds ps`` shows our process name, pid and host."""
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import signal
@@ -16,6 +17,7 @@ from pathlib import Path
 import pytest
 
 from paramdds.dds.participant import domain_config
+from paramdds.dds.qos import QosProfiles
 
 from .helpers import ServerProc, wait_until
 
@@ -33,21 +35,26 @@ WANTED_SAMPLES = [
 ]
 
 
-def _start(domain_id: int, args: list[str]) -> subprocess.Popen[str]:
+def _start(domain_id: int, args: list[str], stdin: str = "") -> subprocess.Popen[str]:
+    """The CLI with ``args``; ``stdin`` is its first input line (``--qos json`` reads the QoS there)."""
     env = dict(
         os.environ,
         CYCLONEDDS_URI=domain_config(localhost=True) or "",
         COLUMNS="250",
         NO_COLOR="1",
     )
-    return subprocess.Popen(
+    proc = subprocess.Popen(
         [CYCLONEDDS, *args, "-i", str(domain_id), "--suppress-progress-bar", "--color", "none"],
-        stdin=subprocess.DEVNULL,
+        stdin=subprocess.PIPE if stdin else subprocess.DEVNULL,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
         env=env,
     )
+    if proc.stdin is not None:
+        proc.stdin.write(stdin + "\n")
+        proc.stdin.close()
+    return proc
 
 
 def _finish(proc: subprocess.Popen[str], timeout: float = 45.0) -> str:
@@ -92,7 +99,9 @@ def test_cyclonedds_cli_sees_types_samples_and_process(domain_id: int) -> None:
         ps = _start(domain_id, ["ps", "-r", "2s"])
         subscribe = _start(
             domain_id,
-            ["subscribe", "ParameterEvents", "-r", "2s", "--qos", "scan-random", "--type", "scan-random"],
+            ["subscribe", "ParameterEvents", "-r", "2s", "--qos", "json", "--type", "scan-random"],
+            # the State profile: a scan would find the claim writers' partition too (wire.md)
+            json.dumps(QosProfiles.load().reader("ParameterEvents").asdict()),
         )
         samples = _subscribe_until(subscribe, WANTED_SAMPLES, timeout=30.0)
         out = {"typeof": _finish(typeof), "ps": _finish(ps), "subscribe": samples}
