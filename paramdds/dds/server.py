@@ -136,14 +136,17 @@ class ParameterServer:
         self._started = False
         self._closed = False
         self._filter = NativeFilter("nodes")  # the request readers' filter: the nodes hosted here
-        self._twins = NativeFilter("presence")  # other processes' presence of the nodes hosted here
+        # other processes' claims of any node (secure: presence in our partitions), and nothing else
+        self._twins = NativeFilter("presence")
         # what the presence value says about this server (a string array of name=value tags):
         # how it filters, and the caller's (``origin=ros2`` for the ROS 2 bridge's mirrors)
         tags = [filter_tag(self._filter.native), *tags]
         presence_tags = wire.ParameterValue(type=int(ParameterType.STRING_ARRAY), string_array_value=tags)
-        self._twins.set_nodes(())
+        self._twins.set_nodes(None)
         self._twins_seen: set[tuple[str, str, int]] = set()
-        self._twin_of: dict[str, tuple[str, int]] = {}  # node -> (host, pid) of its other live host
+        # node -> (host, pid) of another live process claiming it: a node hosted here then
+        # has a twin, also one added after the claim arrived
+        self._claimed: dict[str, tuple[str, int]] = {}
         self.foreign_requests = 0  # requests that reached a handler for a node not hosted here
         self._last_tick = time.monotonic()
         self._again_at: float | None = None  # when presence is written once more after a late loop
@@ -207,6 +210,9 @@ class ParameterServer:
             self._tables[node_id] = table
             self._refilter()
             retained = self._retained.pop(node_id, [])
+        other = self._claimed.get(node_id)
+        if other is not None:  # a twin that claimed the node before it was hosted here
+            self._warn_twin(node_id, *other)
         for request in retained:  # assignments that arrived before this node was hosted
             worker.submit_commit(partial(self._handle_set, worker, request, reply=False))
 
@@ -252,7 +258,6 @@ class ParameterServer:
         nodes one ``add_node`` at a time would be quadratic). Call under ``_hosting``."""
         if self._started:
             self._filter.set_nodes(self._tables)
-            self._twins.set_nodes(self._tables)
 
     def start(self) -> ParameterServer:
         """Serve. Retained assignments are applied from here on, also to nodes added later."""
@@ -275,7 +280,7 @@ class ParameterServer:
         requests = make_topic(self._dp, "SetParametersRequest", wire.SetParametersRequest)
         reader = DataReader(self._sub, requests, self._qos.assignment_reader())
         self._dispatcher.add(reader, self._transport.guard(reader, self._on_assignment))
-        # other processes' claims of our nodes (natively filtered: those alone reach Python)
+        # other processes' claims (few: one per node; secure: presence alone passes the filter)
         claims = self._where.claims[1] if self._where.claims is not None else self._sub
         if self._twins.native:
             twins = filtered_topic(self._dp, "ParameterEvents", wire.ParameterEvent, self._twins)
@@ -296,23 +301,26 @@ class ParameterServer:
         return qos
 
     def _on_twins(self, samples: Sequence[tuple[Any, Any]]) -> None:
-        """Another process's claim of one of our nodes: warn, once per process. When that
-        process stops (or dies), its claim loses its writer here: write our presence again,
-        saying which one went (a ``gone=`` tag), so monitors that showed its host and pid,
-        or listed it as a second host, show this process alone. Without the native filter
-        every node's claim arrives (and in secure mode a twin's parameters too): only our
-        nodes' presence instances count."""
+        """Other processes' claims: one of a node hosted here is a twin, warned about once per
+        process. When that process stops (or dies), its claim loses its writer here: write
+        our presence again, saying which one went (a ``gone=`` tag), so monitors that showed
+        its host and pid, or listed it as a second host, show this process alone. Only
+        presence instances count (secure mode reads a twin's parameters too)."""
         for sample, info in samples:
-            worker = self._workers.get(sample.node_id)
-            if worker is None or sample.name:
+            if sample.name:
                 continue
+            node = sample.node_id
             if isinstance(sample, StateKey):
-                twin = self._twin_of.pop(sample.node_id, None)
-                if twin is not None and info.instance_state != InstanceState.Alive:
-                    self._presence_again(worker, gone_tag(*twin))
+                if info.instance_state == InstanceState.Alive:
+                    continue
+                other = self._claimed.pop(node, None)
+                worker = self._workers.get(node)
+                if other is not None and worker is not None:
+                    self._presence_again(worker, gone_tag(*other))
             elif (sample.host, sample.pid) != (self.publication.host, self.publication.pid):
-                self._twin_of[sample.node_id] = (sample.host, sample.pid)
-                self._warn_twin(sample.node_id, sample.host, sample.pid)
+                self._claimed[node] = (sample.host, sample.pid)
+                if node in self._workers:
+                    self._warn_twin(node, sample.host, sample.pid)
 
     def _warn_twin(self, node: str, host: str, pid: int) -> None:
         if (host, pid) == (self.publication.host, self.publication.pid) or (

@@ -89,6 +89,24 @@ def test_two_processes_hosting_one_node_are_reported(domain_id: int, procs: list
     assert wait(lambda: f"also hosted by pid {second.pid}" in said(), 5.0), said()
 
 
+@pytest.mark.timeout(60)
+def test_a_node_added_to_a_running_server_meets_the_twin_that_claimed_it_first(
+    domain_id: int, dds: DDS, procs: list[Proc], caplog: pytest.LogCaptureFixture
+) -> None:
+    first = start_server(domain_id, "-n", "twin")
+    procs.append(first)
+    other = ParameterTable("other")
+    other.declare("x", 1)
+    server = dds.server(domain_id, other)  # started, hosting another node
+    assert wait(lambda: "twin" in server._claimed, 5.0)  # the first server's claim arrived
+    assert "also hosted by" not in caplog.text  # positive control: "other" has no twin
+    table = ParameterTable("twin")
+    table.declare("x", 2)
+    server.add_node(table)
+    assert f"'twin' is also hosted by pid {first.pid}" in caplog.text
+    assert wait(lambda: "also hosted by pid" in first.stderr_text(), 5.0), first.stderr_text()
+
+
 @pytest.mark.slow
 @pytest.mark.timeout(60)
 def test_watch_says_when_the_state_did_not_settle(domain_id: int, dds: DDS, procs: list[Proc]) -> None:
