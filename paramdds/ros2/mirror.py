@@ -51,9 +51,9 @@ update of its node list (``ros_discovery_info``, reliable, keep-last 1) and the 
 node's endpoints (DDS discovery). When the process exits before its last updates reached the
 bridge, and its goodbye is lost too, the later nodes keep their names in rmw's graph, without
 an endpoint, until the participant's lease (20 s). A mirrored node still named whose
-``/parameter_events`` writers and parameter services have all been gone for
-:data:`UNLISTED_FOR` seconds has left (:meth:`Mirror._unlisted`); it is kept out while the name
-lingers without a writer, and a node of that name with a writer is mirrored as a new one.
+``/parameter_events`` writer has been gone for :data:`UNLISTED_FOR` seconds has left
+(:meth:`Mirror._unlisted`); it is kept out while the name lingers without a writer, and a node
+of that name with a writer is mirrored as a new one.
 """
 
 from __future__ import annotations
@@ -106,10 +106,10 @@ REMEMBERED = 4096  # /parameter_events writers of nodes that left, remembered (t
 
 Entry = tuple[ParameterValue, ParameterDescriptor]
 READS = ("list_parameters", "get_parameters", "describe_parameters")  # clients made per read (see RosLink)
-PARAMETER_SERVICES = (*READS, "set_parameters", "set_parameters_atomically", "get_parameter_types")
-UNLISTED = "is still named in the ROS 2 graph, without its /parameter_events writer or parameter services"
-# seconds a mirrored node's name must be in the graph without those before it is taken as gone: a
-# node being destroyed loses them a few ms before its name (a bridge's look fell there in 1 of 17 stops)
+UNLISTED = "is still named in the ROS 2 graph, without its /parameter_events writer"
+# seconds a mirrored node's name must be in the graph without its writer before it is taken as
+# gone: a node being destroyed loses it a few ms before its name (a look of the bridge's fell
+# there in 1 of 17 clean stops of a 20-node host)
 UNLISTED_FOR = 1.0
 CAS_REFUSED = (
     "compare-and-set is not available on a mirrored ROS 2 node: ROS 2 has no revision, so the "
@@ -624,7 +624,7 @@ class Mirror:
         self._writers_of: OrderedDict[bytes, str] = OrderedDict()  # writer GID -> fqn, of nodes that left
         self._may_return: set[bytes] = set()  # of those, the ones that may come back (see returning)
         self._lingering: set[str] = set()  # names left in the graph by nodes gone (see _unlisted)
-        self._bare_since: dict[str, float] = {}  # fqn -> since when it was seen without them
+        self._bare_since: dict[str, float] = {}  # fqn -> since when it was seen named without its writer
         self._looking_since: float | None = None  # the first look at the graph
         self._next_check = 0.0  # when the next periodic check may start (see _due_checks)
         self.timeout = timeout
@@ -683,14 +683,13 @@ class Mirror:
     def _unlisted(
         self, current: Mapping[str, Mirrored], wanted: Mapping[str, frozenset[bytes]], now: float
     ) -> list[str]:
-        """The mirrored nodes still named in the graph that had ``/parameter_events`` writers and
-        have had none, nor any parameter service, for :data:`UNLISTED_FOR` seconds: a node's
-        going whose graph update was lost (see the module docstring). A living rclpy or rclcpp
-        node loses neither before it is destroyed; a node that never had the writer is not
-        judged."""
-        suspects = [fqn for fqn, m in current.items() if m.evented and fqn in wanted and not wanted[fqn]]
-        services = {name for name, _ in self.ros.node.get_service_names_and_types()} if suspects else set()
-        bare = {f for f in suspects if not any(f"{f}/{s}" in services for s in PARAMETER_SERVICES)}
+        """The mirrored nodes still named in the graph that had a ``/parameter_events`` writer
+        and have had none for :data:`UNLISTED_FOR` seconds: a node's going whose graph update
+        was lost (see the module docstring). rclpy and rclcpp make that publisher with the node
+        and destroy it only with the node (first of its endpoints); a node made without it is
+        not judged. Its other endpoints are not asked: the removals of a process's endpoints
+        that exits at once may be lost as well (in part)."""
+        bare = {fqn for fqn, m in current.items() if m.evented and fqn in wanted and not wanted[fqn]}
         self._bare_since = {f: self._bare_since.get(f, now) for f in bare}
         return [f for f, since in self._bare_since.items() if now - since >= UNLISTED_FOR]
 
