@@ -685,10 +685,10 @@ class Mirror:
     ) -> list[str]:
         """The mirrored nodes still named in the graph that had a ``/parameter_events`` writer
         and have had none for :data:`UNLISTED_FOR` seconds: a node's going whose graph update
-        was lost (see the module docstring). rclpy and rclcpp make that publisher with the node
-        and destroy it only with the node (first of its endpoints); a node made without it is
-        not judged. Its other endpoints are not asked: the removals of a process's endpoints
-        that exits at once may be lost as well (in part)."""
+        was lost (see the module docstring). rclpy 9 makes that publisher with the node and
+        destroys it only with it (the first of its endpoints), rclcpp's node holds it for its
+        life; a node made without it is not judged. Its other endpoints are not asked: the
+        removals of the endpoints of a process that exits at once may be lost too, in part."""
         bare = {fqn for fqn, m in current.items() if m.evented and fqn in wanted and not wanted[fqn]}
         self._bare_since = {f: self._bare_since.get(f, now) for f in bare}
         return [f for f, since in self._bare_since.items() if now - since >= UNLISTED_FOR]
