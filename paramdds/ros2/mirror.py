@@ -50,10 +50,11 @@ The opposite also happens: a process that stops destroys its nodes one by one, e
 update of its node list (``ros_discovery_info``, reliable, keep-last 1) and the removal of the
 node's endpoints (DDS discovery). When the process exits before its last updates reached the
 bridge, and its goodbye is lost too, the later nodes keep their names in rmw's graph, without
-an endpoint, until the participant's lease (20 s). A mirrored node still named whose
-``/parameter_events`` writer has been gone for :data:`UNLISTED_FOR` seconds has left
-(:meth:`Mirror._unlisted`); it is kept out while the name lingers without a writer, and a node
-of that name with a writer is mirrored as a new one.
+an endpoint, until the participant's lease (20 s); for good when a node list of the process is
+processed after the process was dropped (rmw_dds_common's graph cache adds it back). A
+mirrored node still named whose ``/parameter_events`` writer has been gone for
+:data:`UNLISTED_FOR` seconds has left (:meth:`Mirror._unlisted`); it is kept out while the name
+lingers without a writer, and a node of that name with a writer is mirrored as a new one.
 """
 
 from __future__ import annotations

@@ -4,7 +4,8 @@ A ROS 2 process that stops destroys its nodes one by one; each destruction is on
 the process's node list (``ros_discovery_info``: reliable, keep-last 1) and the removal of the
 node's endpoints (DDS discovery). When the last updates, and the process's goodbye, are lost
 as it exits, a peer's graph keeps the later nodes' names, without a single endpoint, until the
-participant's lease (20 s). The host's ``strip`` gives a peer that graph for one node: its
+participant's lease (20 s), or for good when rmw processes a node list of the process after it
+dropped the process. The host's ``strip`` gives a peer that graph for one node: its
 name stays, its parameter services and ``/parameter_events`` writer go. The bridge shows it
 offline, keeps it so while the name lingers, and mirrors the node again once a process has
 it with its writer.
