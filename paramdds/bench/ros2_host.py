@@ -13,8 +13,11 @@ Prints ``ready /ns/a /ns/b ...`` once its nodes exist, then reads commands on st
 ``set FQN NAME YAML`` sets a parameter from inside the node (as its own code would),
 ``get FQN NAME`` prints its value as JSON, ``serve FQN`` starts a muted node's parameter
 services, ``blink FQN SECONDS`` makes a node that lives that long (as a tool's node, such as
-``ros2 param``'s, does), ``quit`` (or end of input) shuts down cleanly: every node leaves
-the graph, in the order made, before ROS 2 shuts down.
+``ros2 param``'s, does), ``strip FQN`` destroys a node's parameter services and its
+``/parameter_events`` publisher and keeps the node (its name stays in the graph with none of
+them: what a peer sees of a node whose process left while the graph update of its going was
+lost), ``quit`` (or end of input) shuts down cleanly: every node leaves the graph, in the
+order made, before ROS 2 shuts down.
 """
 
 from __future__ import annotations
@@ -176,6 +179,13 @@ def main(argv: list[str] | None = None) -> int:
                 node = nodes[words[1]]
                 node._parameter_service = ParameterService(node)
                 print("served", flush=True)
+            if words[0] == "strip" and len(words) == 2:
+                node = nodes[words[1]]
+                for service in list(node.services):
+                    node.destroy_service(service)
+                node.destroy_publisher(node._parameter_event_publisher)
+                node._parameter_event_publisher = None
+                print("stripped", flush=True)
             if words[0] == "blink" and len(words) == 3:
                 ns, _, name = words[1].rpartition("/")
                 node = rclpy.create_node(name, namespace=ns or "/")

@@ -241,14 +241,27 @@ class Soak:
         self.ros_host = Proc("ros_host", "paramdds.bench.ros2_host", argv, self.ros_env, self.tmp, stdin=True)
         self.ros_host.wait_for("ready")
         self.ros_up, self.ros_changed = True, time.monotonic()
+        self._mark(f"the ROS 2 host (pid {self.ros_host.pid}) is ready")
 
     def stop_ros_host(self) -> None:
         if self.ros_host is not None:
+            self._mark(f"the ROS 2 host (pid {self.ros_host.pid}) is asked to quit")
+            t0 = time.monotonic()
             self.ros_host.stop()
-            if self.ros_host.proc.returncode != 0:  # it needed SIGTERM: its nodes linger in Fast DDS
+            code = self.ros_host.proc.returncode
+            self._mark(f"the ROS 2 host exited with {code} after {time.monotonic() - t0:.2f} s")
+            if code != 0:  # it needed SIGTERM: its nodes linger in Fast DDS
                 self.events["ros_host_unclean_stops"] += 1
         self.ros_up, self.ros_changed = False, time.monotonic()
         self.events["ros_host_restarts"] += 1
+
+    def _mark(self, what: str) -> None:
+        """A line in the bridge's log, whose own lines carry no time: the wall time (epoch seconds,
+        as the viewers' .err files have it) and what the bench did to the ROS 2 host."""
+        bridge = self.procs.get("ros2 bridge")
+        if bridge is not None:  # its stderr is open for appending: whole lines do not mix
+            with open(bridge.err, "a") as f:
+                f.write(f"bench: {time.time():.3f} {what}\n")
 
     # -- looking ---------------------------------------------------------------------------
 
@@ -299,7 +312,9 @@ class Soak:
                         wait = settle if settle is not None else wait
                         late = late and now > max(changed + wait, since + SETTLE)
             if not wrong or late:
-                self.checks.append({"what": what, "took_s": round(now - since, 2), "wrong": wrong})
+                # at: the wall time of the last change, as the viewers' .err files give theirs
+                at = round(time.time() - (now - since), 3)
+                self.checks.append({"what": what, "at": at, "took_s": round(now - since, 2), "wrong": wrong})
                 if wrong:
                     note(f"check {what}: still wrong after the settle time: {json.dumps(wrong)}")
                 return

@@ -45,6 +45,16 @@ reader it still counts as up to date), so rmw names its endpoints' node
 process: the mirror remembers the writers of the nodes that left (:data:`REMEMBERED`),
 and one that reappears unnamed brings its node back (:meth:`Mirror.returning`), mirrored at
 once (the same process, never a tool's node).
+
+The opposite also happens: a process that stops destroys its nodes one by one, each one an
+update of its node list (``ros_discovery_info``, reliable, keep-last 1) and the removal of the
+node's endpoints (DDS discovery). When the process exits before its last updates reached the
+bridge, and its goodbye is lost too, the later nodes keep their names in rmw's graph, without
+an endpoint, until the participant's lease (20 s); for good when a node list of the process is
+processed after the process was dropped (rmw_dds_common's graph cache adds it back). A
+mirrored node still named whose ``/parameter_events`` writer has been gone for
+:data:`UNLISTED_FOR` seconds has left (:meth:`Mirror._unlisted`); it is kept out while the name
+lingers without a writer, and a node of that name with a writer is mirrored as a new one.
 """
 
 from __future__ import annotations
@@ -97,6 +107,11 @@ REMEMBERED = 4096  # /parameter_events writers of nodes that left, remembered (t
 
 Entry = tuple[ParameterValue, ParameterDescriptor]
 READS = ("list_parameters", "get_parameters", "describe_parameters")  # clients made per read (see RosLink)
+UNLISTED = "is still named in the ROS 2 graph, without its /parameter_events writer"
+# seconds a mirrored node's name must be in the graph without its writer before it is taken as
+# gone: a node being destroyed loses it a few ms before its name (a look of the bridge's fell
+# there in 1 of 17 clean stops of a 20-node host)
+UNLISTED_FOR = 1.0
 CAS_REFUSED = (
     "compare-and-set is not available on a mirrored ROS 2 node: ROS 2 has no revision, so the "
     "check and the set could not be one step; set without an expected revision"
@@ -563,6 +578,7 @@ class Mirrored:
     link: RosLink
     table: MirrorTable
     writers: frozenset[bytes] = frozenset()  # its /parameter_events writers, to see a restart
+    evented: bool = False  # it has had a /parameter_events writer (see Mirror._unlisted)
     hosted: bool = False
     syncing: bool = False
     dirty: bool = False  # events came while a sync ran: sync again
@@ -608,6 +624,8 @@ class Mirror:
         self._first_seen: dict[str, float] = {}  # fqn -> when a node not mirrored yet was first seen
         self._writers_of: OrderedDict[bytes, str] = OrderedDict()  # writer GID -> fqn, of nodes that left
         self._may_return: set[bytes] = set()  # of those, the ones that may come back (see returning)
+        self._lingering: set[str] = set()  # names left in the graph by nodes gone (see _unlisted)
+        self._bare_since: dict[str, float] = {}  # fqn -> since when it was seen named without its writer
         self._looking_since: float | None = None  # the first look at the graph
         self._next_check = 0.0  # when the next periodic check may start (see _due_checks)
         self.timeout = timeout
@@ -629,11 +647,19 @@ class Mirror:
             current = dict(self.nodes)
         for fqn in current.keys() - wanted.keys():
             self._remove(fqn)
+        self._lingering &= wanted.keys()
+        for fqn in self._unlisted(current, wanted, now):
+            self._remove(fqn, UNLISTED)
+            self._lingering.add(fqn)
         if self._looking_since is None:
             self._looking_since = now
         for fqn in self._first_seen.keys() - wanted.keys():
             del self._first_seen[fqn]
         for fqn, writers in wanted.items():
+            if fqn in self._lingering:
+                if not writers:  # the name of a node gone: not mirrored again
+                    continue
+                self._lingering.discard(fqn)  # a node of that name is there again
             m = current.get(fqn)
             if m is None:
                 if not self._old_enough(fqn, writers, now):
@@ -650,9 +676,23 @@ class Mirror:
                 self._submit(m)
             else:
                 m.writers = writers
+                m.evented = m.evented or bool(writers)
                 if m.failures and now >= m.retry_at:
                     self._submit(m)
         self._due_checks(now)
+
+    def _unlisted(
+        self, current: Mapping[str, Mirrored], wanted: Mapping[str, frozenset[bytes]], now: float
+    ) -> list[str]:
+        """The mirrored nodes still named in the graph that had a ``/parameter_events`` writer
+        and have had none for :data:`UNLISTED_FOR` seconds: a node's going whose graph update
+        was lost (see the module docstring). rclpy 9 makes that publisher with the node and
+        destroys it only with it (the first of its endpoints), rclcpp's node holds it for its
+        life; a node made without it is not judged. Its other endpoints are not asked: the
+        removals of the endpoints of a process that exits at once may be lost too, in part."""
+        bare = {fqn for fqn, m in current.items() if m.evented and fqn in wanted and not wanted[fqn]}
+        self._bare_since = {f: self._bare_since.get(f, now) for f in bare}
+        return [f for f, since in self._bare_since.items() if now - since >= UNLISTED_FOR]
 
     def _due_checks(self, now: float) -> None:
         """Start the periodic checks that are due, paced: one every ``resync / nodes`` seconds,
@@ -737,12 +777,12 @@ class Mirror:
             log.warning("cannot mirror the ROS 2 node %s: %s", fqn, exc)
             return None
         link = RosLink(self.ros, fqn, self.timeout)
-        m = Mirrored(fqn, node_id, link, MirrorTable(node_id, link), writers)
+        m = Mirrored(fqn, node_id, link, MirrorTable(node_id, link), writers, evented=bool(writers))
         with self._lock:
             self.nodes[fqn] = m
         return m
 
-    def _remove(self, fqn: str) -> None:
+    def _remove(self, fqn: str, why: str = "left the ROS 2 graph") -> None:
         with self._lock:
             m = self.nodes.pop(fqn, None)
         if m is None:
@@ -761,7 +801,7 @@ class Mirror:
             hosted, m.hosted = m.hosted, False
             shown, m.unreachable = m.unreachable, False
         if hosted:
-            log.info("%s left the ROS 2 graph: offline", fqn)
+            log.info("%s %s: offline", fqn, why)
             self._departed[m.node_id] = m.table.names()
             self._unhost(m.node_id)
         if shown and self._hide is not None:
