@@ -164,9 +164,9 @@ class ParameterServer:
                 self._pub, make_topic(participant, "ParameterEvents", wire.ParameterEvent), state_qos
             )
             claims = None
-            if self._where.claims is not None:  # AUTOMATIC liveliness: a twin is gone when its process is
+            if self._where.claim_publisher is not None:  # AUTOMATIC lease: a claim goes with its process
                 claims = DataWriter(
-                    self._where.claims[0],
+                    self._where.claim_publisher,
                     make_topic(participant, "ParameterEvents", wire.ParameterEvent),
                     self._qos.writer("ParameterEvents"),
                 )
@@ -281,12 +281,11 @@ class ParameterServer:
         reader = DataReader(self._sub, requests, self._qos.assignment_reader())
         self._dispatcher.add(reader, self._transport.guard(reader, self._on_assignment))
         # other processes' claims (few: one per node; secure: presence alone passes the filter)
-        claims = self._where.claims[1] if self._where.claims is not None else self._sub
         if self._twins.native:
             twins = filtered_topic(self._dp, "ParameterEvents", wire.ParameterEvent, self._twins)
         else:
             twins = make_topic(self._dp, "ParameterEvents", wire.ParameterEvent)
-        reader = DataReader(claims, twins, self._twin_qos())
+        reader = DataReader(self._where.claim_subscriber, twins, self._twin_qos())
         self._dispatcher.add_raw(reader, _decode_presence, self._transport.guard_raw(reader, self._on_twins))
         self._last_tick = time.monotonic()
         self._dispatcher.start()

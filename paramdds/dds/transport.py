@@ -142,11 +142,12 @@ class Hosting:
     """Where a server's endpoints live: its publisher and subscriber, the nodes it may host,
     and where it claims them and looks for other processes' claims (its twins).
 
-    ``claims``: plain, a publisher and a subscriber in the partition :data:`HOSTS`, where
-    each server writes one presence sample per node it hosts (its *claim*) and reads the
-    others' (only those: a twin reader in the state's partition would be sent every
-    node's whole retained state at start, and every change after). Secure: None, the
-    server's own partitions hold only its nodes' samples, so it reads presence there."""
+    Plain, ``claim_publisher`` and ``claim_subscriber`` are in the partition :data:`HOSTS`,
+    where each server writes one presence sample per node it hosts (its *claim*) and reads
+    the others' (only those: a twin reader in the state's partition would be sent every
+    node's whole retained state at start, and every change after). Secure: no claim
+    publisher, and the claim subscriber is the server's own: its partitions hold only its
+    nodes' samples, so it reads presence there."""
 
     def __init__(
         self,
@@ -158,7 +159,8 @@ class Hosting:
         self.publisher = publisher
         self.subscriber = subscriber
         self.nodes = nodes  # None: any node
-        self.claims = claims
+        self.claim_publisher: Any = claims[0] if claims else None
+        self.claim_subscriber: Any = claims[1] if claims else subscriber
 
     def admit(self, node_id: str) -> None:
         """Raise NotPermittedError for a node this server was not created for (secure form)."""
