@@ -115,7 +115,8 @@ def _signal_group(pid: int, sig: int) -> None:
 
 
 def proc_stats(pid: int) -> dict[str, float] | None:
-    """RSS (MiB), threads and open file descriptors of ``pid``; None when it is gone."""
+    """RSS (MiB), threads and open file descriptors of ``pid``, and where its RSS lives (see
+    :func:`_rss_by_mapping`); None when it is gone."""
     try:
         rss = threads = 0.0
         with open(f"/proc/{pid}/status", encoding="ascii") as f:
@@ -127,7 +128,35 @@ def proc_stats(pid: int) -> dict[str, float] | None:
         fds = float(len(os.listdir(f"/proc/{pid}/fd")))
     except (FileNotFoundError, ProcessLookupError):
         return None
-    return {"rss_mb": round(rss, 1), "threads": threads, "fds": fds}
+    return {"rss_mb": round(rss, 1), "threads": threads, "fds": fds, **_rss_by_mapping(pid)}
+
+
+def _rss_by_mapping(pid: int) -> dict[str, float]:
+    """Where ``pid``'s RSS lives (MiB), to tell whose memory grows: ``brk_mb`` (the ``[heap]``
+    mapping: the C allocator's main arena), ``arenas_1m_mb`` (anonymous mappings of exactly
+    1 MiB: the Python object allocator's arenas), ``anon_mb`` (every other anonymous mapping:
+    the C allocator's thread arenas and large blocks, Cyclone's threads' among them). Empty when
+    ``smaps`` cannot be read."""
+    out = {"brk_mb": 0.0, "arenas_1m_mb": 0.0, "anon_mb": 0.0}
+    kind: str | None = None
+    try:
+        with open(f"/proc/{pid}/smaps", encoding="ascii", errors="replace") as f:
+            for line in f:
+                head = line.split(maxsplit=6)
+                if "-" in head[0] and len(head) >= 5 and not head[0].endswith(":"):
+                    start, end = (int(x, 16) for x in head[0].split("-"))
+                    path = head[5].strip() if len(head) > 5 else ""
+                    if path == "[heap]":
+                        kind = "brk_mb"
+                    elif path:
+                        kind = None
+                    else:
+                        kind = "arenas_1m_mb" if end - start == 1 << 20 else "anon_mb"
+                elif kind is not None and head[0] == "Rss:":
+                    out[kind] += int(head[1]) / 1024.0
+    except (OSError, ValueError, IndexError):
+        return {}
+    return {k: round(v, 1) for k, v in out.items()}
 
 
 class LiveStream:
