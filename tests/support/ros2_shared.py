@@ -528,6 +528,13 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                                     "held": holding(monitor, nodes),
                                 }
                             )
+                        if stall.missing:  # why: what the monitor holds, the bridge's ROS 2 side said
+                            said = bridge.log.read_text(errors="replace").splitlines() if bridge.log else []
+                            ros = "\n".join([x for x in said if "paramdds.ros2." in x][-60:])
+                            print(
+                                f"start {i}: {phase}: {holding(monitor, nodes)}; the bridge said:\n{ros}",
+                                file=sys.stderr,
+                            )
                         again = f"{stall.recovered} s" if stall.recovered is not None else "NOT"
                         print(
                             f"start {i}: {phase}, {stall.noticed} nodes shown not mirrored during it, "
