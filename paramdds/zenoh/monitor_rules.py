@@ -30,7 +30,11 @@ Zenoh for anything is :mod:`.monitor`'s. Its rules:
   too. The get is also the truth where the subscriber was wrong: with Zenoh 1.10 a
   session dropped by the router (an uplink cut) made a client's liveliness subscriber
   report a token of *another* site gone while the router still held it, and the dropped
-  session's own gateway token never reported gone.
+  session's own gateway token never reported gone. But a get can miss tokens the router
+  holds too (under churn every get of one confirmation ended at once with no reply, 1 of
+  720 confirmations in an hour's soak): a node whose token was never seen going and that a
+  confirmation does not find is *doubted*, still online, and confirmed again until
+  :data:`DOUBT_FOR` seconds have passed; gone only if the router still lacks it then.
 
 Every method runs inside an update of the book (its lock held), which guards this
 object too.
@@ -58,6 +62,7 @@ SITE_GRACE = 0.25  # seconds after a token went until the router is asked what i
 # gateway sessions dropped by 30 % loss on their uplink (a TCP stream stalled past the lease), 15 of
 # 17 were back within 0.36-4.85 s, the others after 12 s (docs/zenoh.md, "Presence under loss")
 SITE_HOLD = 5.0
+DOUBT_FOR = 1.0  # seconds a node not seen going, missing from a get, is asked about again before it goes
 
 
 class Outcome(Enum):
@@ -94,6 +99,7 @@ class RemoteStates:
         self._held: dict[str, float] = {}  # site -> until when it is held (its every gateway went)
         self._down: set[str] = set()  # sites seen up whose every gateway went, and stayed away
         self._leaving: set[str] = set()  # nodes whose token went, their site's gateway up: unconfirmed
+        self._doubted: dict[str, float] = {}  # node not seen going that a get missed -> since when
         self._dropped: set[str] = set()  # nodes taken offline with their site, not online since
         self._staled: set[str] = set()  # nodes shown stale by their site's hold
         self._tick = 0  # counts the tokens seen coming and going
@@ -107,6 +113,7 @@ class RemoteStates:
         """A node's token came (``alive``) or went; True when it came back after going. A token
         that goes while its site's gateway is up leaves the node online until :meth:`confirm`."""
         self._touch(name)
+        self._doubted.pop(name, None)  # seen coming or going: its own event decides
         came_back = False
         if alive:
             came_back = name in self._gone
@@ -159,6 +166,12 @@ class RemoteStates:
         ours = {n for n in (*self._alive, *self._leaving, *alive) if _site(n) == site and settled(n)}
         for name in sorted(ours):
             held = name in alive
+            if held or name not in self._alive or name in self._leaving:
+                self._doubted.pop(name, None)
+            elif now - self._doubted.setdefault(name, now) < DOUBT_FOR:
+                continue  # never seen going: asked about again (unsure) before it is believed gone
+            else:
+                del self._doubted[name]
             if held and name not in self._alive and name not in self._leaving:
                 back.append(name)
             self._leaving.discard(name)
@@ -173,8 +186,8 @@ class RemoteStates:
 
     def unsure(self, site: str) -> bool:
         """Whether a node of ``site`` is shown online with its token gone, unconfirmed (a site
-        back from its hold before its nodes' tokens: to confirm soon)."""
-        return any(_site(n) == site for n in self._leaving)
+        back from its hold before its nodes' tokens), or doubted: to confirm soon."""
+        return any(_site(n) == site for n in (*self._leaving, *self._doubted))
 
     def gateways_found(self, found: dict[str, set[str]]) -> None:
         """The gateways' tokens a liveliness get found alive, by site (those seen going since

@@ -13,7 +13,7 @@ import pytest
 from paramdds.core.monitor_events import EventKind, MonitorEvent
 from paramdds.core.state_book import StateBook
 from paramdds.zenoh.codec import NodeStateMsg
-from paramdds.zenoh.monitor_rules import Confirmed, RemoteStates
+from paramdds.zenoh.monitor_rules import DOUBT_FOR, Confirmed, RemoteStates
 
 NODES = [f"north/n{k}" for k in range(25)]
 SITE_STATUS = EventKind.SITE_STATUS
@@ -54,9 +54,7 @@ class Site:
         """What the router holds of ``site``, asked after ``mark`` (default: now); the nodes back."""
         return self.confirmed(site, gateways, alive, mark).back
 
-    def confirmed(
-        self, site: str, gateways: set[str], alive: set[str], mark: int | None = None
-    ) -> Confirmed:
+    def confirmed(self, site: str, gateways: set[str], alive: set[str], mark: int | None = None) -> Confirmed:
         with self.book.update() as change:
             at = self.rules.mark() if mark is None else mark
             return self.rules.confirm(change, site, at, gateways, alive, self.now)
@@ -155,6 +153,32 @@ def test_a_confirmation_asked_before_a_token_came_back_leaves_it_to_its_event() 
     s.token("north/n3", True)  # then n3 comes back
     s.confirm("north", {"g1"}, set(NODES) - {"north/n3"}, mark=mark)
     assert s.lines() == [] and "north/n3" in s.online()
+
+
+def test_a_get_that_misses_tokens_never_seen_going_takes_nothing_offline_until_asked_again() -> None:
+    """The hour-long soak: a restarted server's tokens went, and every get of that confirmation
+    ended at once with no reply: the whole healthy site was shown offline for 10 s."""
+    s = Site()
+    restarted = NODES[:5]
+    for name in restarted:
+        s.token(name, False)
+    first = s.confirmed("north", {"g1"}, set())  # the router is asked: the get finds no token at all
+    assert s.lines() == [f"offline {n}" for n in restarted]  # their going was seen: believed
+    assert first.again and s.online() == {*NODES[5:], "south/n0"}  # the others: asked again
+    s.now += DOUBT_FOR / 2
+    assert s.confirmed("north", {"g1"}, set(NODES[5:])).again is False  # found: no event
+    assert s.lines() == [] and s.online() == {*NODES[5:], "south/n0"}
+
+
+def test_a_token_never_seen_going_that_the_router_still_lacks_later_is_gone() -> None:
+    s = Site()  # a subscriber that missed the going (a session dropped by the router)
+    assert s.confirmed("north", {"g1"}, set(NODES) - {"north/n3"}).again
+    assert s.lines() == [] and "north/n3" in s.online()
+    s.now += DOUBT_FOR / 2
+    assert s.confirmed("north", {"g1"}, set(NODES) - {"north/n3"}).again  # not yet
+    s.now += DOUBT_FOR / 2
+    assert s.confirmed("north", {"g1"}, set(NODES) - {"north/n3"}).again is False
+    assert s.lines() == ["offline north/n3"]
 
 
 def test_a_token_the_router_holds_that_was_seen_gone_is_back_and_asked_for() -> None:
