@@ -172,10 +172,14 @@ class Bridge:
         """One look at both graphs (the loop's body)."""
         graph = self.ros.graph()
         writers = self.ros.event_publishers()
+        # seen by a participant made after it left, not by ours (see Mirror.found_again)
+        found = self.mirror.found_again(graph, time.monotonic())
         for fqn, gids in self.mirror.returning(graph, writers).items():
             # back from a stall past the lease, unnamed in ROS 2's graph (see Mirror.returning);
             # it was mirrored before, so it is not of the bridge enclave
             graph[fqn], writers[fqn] = "", gids
+        for fqn, (enclave, gids) in found.items():
+            graph[fqn], writers[fqn] = enclave, gids
         listed = self.client.nodes()
         # Ours: every node the mirror holds, hosted or not at this instant, taken after the
         # listing. A mirror being hosted, or hosted again after a restart, is online in the

@@ -55,6 +55,16 @@ processed after the process was dropped (rmw_dds_common's graph cache adds it ba
 mirrored node still named whose ``/parameter_events`` writer has been gone for
 :data:`UNLISTED_FOR` seconds has left (:meth:`Mirror._unlisted`); it is kept out while the name
 lingers without a writer, and a node of that name with a writer is mirrored as a new one.
+
+That needs the bridge's participant to rediscover the resumed process at all; a bridge
+stopped or starved itself while the process resumed may not, and its graph then lacks the
+nodes for good. So a node that left is looked for, :data:`LOOK_FOR` seconds, through a
+participant made after it left (:meth:`Mirror.found_again`): the resumed process never
+knew that one, and the two discover each other afresh. A node found so, or back unnamed
+while such a participant exists (the bridge's participant may have rediscovered only part
+of the process), is mirrored through that participant (its services called, its
+``/parameter_events`` read there: one subscription per such participant) until the
+bridge's own participant lists it again.
 """
 
 from __future__ import annotations
@@ -104,6 +114,8 @@ START_WINDOW = 4.0
 # rmw's name for the node of an endpoint whose participant's node list it does not have
 UNKNOWN_NODE = fqn_of("_NODE_NAME_UNKNOWN_", "_NODE_NAMESPACE_UNKNOWN_")
 REMEMBERED = 4096  # /parameter_events writers of nodes that left, remembered (the newest)
+LOOK_FOR = 600.0  # seconds a node that left is looked for by a participant made after it left
+MAX_RESCUES = 4  # rescue participants alive at once (each an rclpy context that discovers the whole graph)
 
 Entry = tuple[ParameterValue, ParameterDescriptor]
 READS = ("list_parameters", "get_parameters", "describe_parameters")  # clients made per read (see RosLink)
@@ -589,6 +601,9 @@ class Mirrored:
     retry_at: float = 0.0
     failing_since: float = 0.0  # when the reads of a never-read node began to fail
     unreachable: bool = False  # shown on paramdds as status=unreachable
+    # the participant that found it again after it left (Mirror.found_again): it is looked
+    # for, and its /parameter_events read, there
+    found_on: RosSide | None = None
     lock: threading.Lock = field(default_factory=threading.Lock)
 
 
@@ -597,6 +612,23 @@ def next_resync(now: float, period: float) -> float:
     1 - :data:`RESYNC_SPREAD` to all of it), so the nodes a bridge read together at its
     start do not all resync in the same seconds of every period."""
     return now + period * random.uniform(1.0 - RESYNC_SPREAD, 1.0)
+
+
+def _seen(
+    side: RosSide, fqn: str, looks: dict[int, tuple[dict[str, str], dict[str, frozenset[bytes]]]]
+) -> tuple[str, frozenset[bytes]] | None:
+    """``fqn``'s enclave and ``/parameter_events`` writers as ``side`` sees them (None: not
+    there, or without writers); ``looks`` keeps each participant's graph for one look."""
+    look = looks.get(id(side))
+    if look is None:
+        try:
+            look = side.graph(), side.event_publishers()
+        except Exception:  # closed meanwhile (the bridge is closing)
+            log.debug("reading the graph of a rescue participant failed", exc_info=True)
+            look = {}, {}
+        looks[id(side)] = look
+    graph, writers = look
+    return (graph[fqn], writers[fqn]) if fqn in graph and writers.get(fqn) else None
 
 
 class Mirror:
@@ -620,7 +652,12 @@ class Mirror:
         self._show, self._hide = show_unreachable, hide_unreachable
         self._rescues: list[tuple[RosSide, float]] = []  # new participants, the newest last
         self._rescue_lock = threading.Lock()
+        self._made = 0  # rescue participants made (their names' numbers)
+        self._listening: dict[int, RosSide] = {}  # id -> a rescue participant reading /parameter_events
         self._departed: dict[str, list[str]] = {}  # node id -> the names it had when it left
+        self._gone_at: dict[str, float] = {}  # fqn -> when it left the graph, mirrored (see found_again)
+        self._found: dict[str, RosSide] = {}  # fqn -> the participant that found it, at the last look
+        self._unnamed: frozenset[str] = frozenset()  # the nodes back unnamed, at the last look (returning)
         self._first_seen: dict[str, float] = {}  # fqn -> when a node not mirrored yet was first seen
         self._writers_of: OrderedDict[bytes, str] = OrderedDict()  # writer GID -> fqn, of nodes that left
         self._may_return: set[bytes] = set()  # of those, the ones that may come back (see returning)
@@ -637,7 +674,7 @@ class Mirror:
         self.lost = 0  # /parameter_events samples DDS reported lost
         self.missed = 0  # values a periodic check found different from what the events said
         self.checks: deque[tuple[float, str]] = deque(maxlen=1000)  # (when, fqn): the last checks started
-        self._subscription = ros.subscribe_events(self._on_event, self._on_lost)
+        self._subscription = ros.subscribe_events(self._events_via(ros), self._on_lost)
 
     # -- the graph ----------------------------------------------------------------
 
@@ -646,7 +683,8 @@ class Mirror:
         with self._lock:
             current = dict(self.nodes)
         for fqn in current.keys() - wanted.keys():
-            self._remove(fqn)
+            if self._remove(fqn):
+                self._gone_at[fqn] = now
         self._lingering &= wanted.keys()
         for fqn in self._unlisted(current, wanted, now):
             self._remove(fqn, UNLISTED)
@@ -732,7 +770,88 @@ class Mirror:
             fqn = self._writers_of.get(gid)
             if fqn is not None and fqn not in graph and gid in self._may_return:
                 out.setdefault(fqn, set()).add(gid)
+        self._unnamed = frozenset(out)
         return {fqn: frozenset(gids) for fqn, gids in out.items()}
+
+    def found_again(
+        self, graph: Mapping[str, str], now: float
+    ) -> dict[str, tuple[str, frozenset[bytes]]]:
+        """The nodes missing from ``graph`` (the bridge's participant's) that a rescue
+        participant sees, fqn -> (enclave, writers): those it found before, while it still
+        sees them, and those that left in the last :data:`LOOK_FOR` seconds, looked for through
+        a participant made after they left (see the module docstring). Only a node with its
+        ``/parameter_events`` writers in view counts (they name its process and its restarts)."""
+        self._gone_at = {f: t for f, t in self._gone_at.items() if now - t <= LOOK_FOR}
+        with self._lock:
+            found = [m for m in self.nodes.values() if m.found_on is not None]
+        looks: dict[int, tuple[dict[str, str], dict[str, frozenset[bytes]]]] = {}
+        out: dict[str, tuple[str, frozenset[bytes]]] = {}
+        for m in found:
+            if m.fqn in graph:
+                self._home(m)
+            elif m.found_on is not None and (hit := _seen(m.found_on, m.fqn, looks)) is not None:
+                out[m.fqn] = hit
+        missing = {f: t for f, t in self._gone_at.items() if f not in graph}
+        self._found = {}
+        if not missing:
+            return out
+        # made after the last of them left: the others' processes never knew it either
+        newer = self._side_made_after(max(missing.values()), now, "look for nodes that left")
+        if newer is None:
+            return out
+        for fqn in missing:
+            if (hit := _seen(newer, fqn, looks)) is not None:
+                out[fqn] = hit
+                self._found[fqn] = newer
+        return out
+
+    def _made_since(self, since: float) -> RosSide | None:
+        """The newest rescue participant if it was made at or after ``since``."""
+        with self._rescue_lock:
+            newest = self._rescues[-1] if self._rescues else None
+        return newest[0] if newest is not None and newest[1] >= since else None
+
+    def _home(self, m: Mirrored) -> None:
+        """A node found again that the bridge's own participant sees again: read through that
+        one from now on, in full (events may have been missed meanwhile), and the rescue
+        participant closed once no node uses it."""
+        log.info("%s is in the bridge's ROS 2 graph again: mirrored through its participant", m.fqn)
+        m.found_on = None
+        m.link.renew(self.ros)
+        self._submit(m)
+        self._retire_rescues()
+
+    def _side_made_after(self, since: float, now: float, why: str) -> RosSide | None:
+        """A rescue participant made at or after ``since``: the newest, or a new one (at most
+        one every :data:`RESCUE_EVERY` seconds, :data:`MAX_RESCUES` alive). None: none for now."""
+        with self._rescue_lock:
+            if self._closed:
+                return None
+            if self._rescues and self._rescues[-1][1] >= since:
+                return self._rescues[-1][0]
+            if self._rescues and now - self._rescues[-1][1] < RESCUE_EVERY:
+                return None
+            if len(self._rescues) >= MAX_RESCUES:
+                log.debug("%d rescue participants in use: no new one to %s", len(self._rescues), why)
+                return None
+            self._made += 1
+            try:
+                side = RosSide(self.ros.domain, f"{self.ros.node.get_name()}_{self._made}", threads=2)
+            except Exception:
+                log.warning("cannot make a new ROS 2 participant", exc_info=True)
+                return None
+            log.warning("a new ROS 2 participant to %s", why)
+            self._rescues.append((side, now))
+            return side
+
+    def _listen(self, side: RosSide) -> None:
+        """Read ``/parameter_events`` through ``side`` too (once per participant): the events
+        of the nodes mirrored through it after they left (see :meth:`_on_event`)."""
+        with self._rescue_lock:
+            if self._closed or id(side) in self._listening:
+                return
+            self._listening[id(side)] = side
+        side.subscribe_events(self._events_via(side), self._on_lost)
 
     def by_process(self) -> dict[bytes, list[Mirrored]]:
         """The hosted mirrors by their ROS 2 process (participant; see :mod:`.liveness`)."""
@@ -776,17 +895,29 @@ class Mirror:
         except ParamddsError as exc:
             log.warning("cannot mirror the ROS 2 node %s: %s", fqn, exc)
             return None
-        link = RosLink(self.ros, fqn, self.timeout)
-        m = Mirrored(fqn, node_id, link, MirrorTable(node_id, link), writers, evented=bool(writers))
+        left = self._gone_at.pop(fqn, None)
+        # found by a participant made after it left, or back unnamed (see returning) while
+        # one exists: the bridge's participant may see only part of the resumed process
+        found_on = self._found.pop(fqn, None)
+        if found_on is None and left is not None and fqn in self._unnamed:
+            found_on = self._made_since(left)
+        if found_on is not None:
+            log.warning("%s is back: mirrored through a participant made after it left", fqn)
+            self._listen(found_on)
+        link = RosLink(found_on or self.ros, fqn, self.timeout)
+        m = Mirrored(
+            fqn, node_id, link, MirrorTable(node_id, link), writers, evented=bool(writers), found_on=found_on
+        )
         with self._lock:
             self.nodes[fqn] = m
         return m
 
-    def _remove(self, fqn: str, why: str = "left the ROS 2 graph") -> None:
+    def _remove(self, fqn: str, why: str = "left the ROS 2 graph") -> bool:
+        """Stop mirroring ``fqn``; whether it was hosted (then it went offline on paramdds)."""
         with self._lock:
             m = self.nodes.pop(fqn, None)
         if m is None:
-            return
+            return False
         stalled = m.table.status is not None  # its process did not answer when it left (.liveness)
         for gid in m.writers:  # its process may come back (a stall past the lease): see returning
             self._writers_of[gid] = fqn
@@ -808,6 +939,7 @@ class Mirror:
             self._hide(m.node_id)
         m.link.close()
         self._retire_rescues()
+        return hosted
 
     def _submit(self, m: Mirrored, *, full: bool = True) -> None:
         """Read ``m`` on the sync pool: everything (``full``), or only check its values."""
@@ -960,45 +1092,39 @@ class Mirror:
 
     def _rescue_side(self, m: Mirrored) -> RosSide | None:
         """A participant made after ``m`` began to fail (it discovers the graph afresh, knowing
-        the parameter service types first): the newest, or a new one when the newest is older
-        than that and RESCUE_EVERY has passed. None: keep the current one for now."""
+        the parameter service types first): see :meth:`_side_made_after`. None: keep the
+        current one for now."""
         import time
 
-        now = time.monotonic()
-        with self._rescue_lock:
-            if self._closed:
-                return None
-            if self._rescues and self._rescues[-1][1] >= m.failing_since:
-                newest = self._rescues[-1][0]
-                return None if m.link.ros is newest else newest
-            if self._rescues and now - self._rescues[-1][1] < RESCUE_EVERY:
-                return None
-            try:
-                name = f"{self.ros.node.get_name()}_{len(self._rescues) + 1}"
-                side = RosSide(self.ros.domain, name, threads=2)
-            except Exception:
-                log.warning("cannot make a new ROS 2 participant", exc_info=True)
-                return None
-            log.warning("a new ROS 2 participant for nodes whose services do not answer (%s)", m.fqn)
-            self._rescues.append((side, now))
-            return side
+        why = f"reach {m.fqn}, whose services do not answer"
+        side = self._side_made_after(m.failing_since, time.monotonic(), why)
+        return None if side is m.link.ros else side
 
     def _retire_rescues(self) -> None:
         """Close the rescue participants no longer the newest that no node's clients use."""
         with self._lock:
-            used = {id(m.link.ros) for m in self.nodes.values()}
+            used = {id(s) for m in self.nodes.values() for s in (m.link.ros, m.found_on)}
         with self._rescue_lock:
             idle = [(s, t) for s, t in self._rescues[:-1] if id(s) not in used]
             self._rescues = [r for r in self._rescues if r not in idle]
+            for side, _ in idle:
+                self._listening.pop(id(side), None)
         for side, _ in idle:
             side.close()
 
     # -- /parameter_events --------------------------------------------------------
 
-    def _on_event(self, msg: Any) -> None:
+    def _events_via(self, side: RosSide) -> Callable[[Any], None]:
+        """The ``/parameter_events`` callback of the subscription made through ``side``."""
+        return lambda msg: self._on_event(msg, side)
+
+    def _on_event(self, msg: Any, via: RosSide) -> None:
+        """One ``/parameter_events`` message, read through ``via``: taken for a node found again
+        only from the participant that found it, for any other only from the bridge's own (a
+        node seen by two would have its events applied twice, out of order)."""
         with self._lock:
             m = self.nodes.get(msg.node)
-        if m is None:
+        if m is None or (m.found_on or self.ros) is not via:
             return
         with m.lock:
             if m.syncing:
@@ -1033,5 +1159,6 @@ class Mirror:
             self._remove(fqn)
         with self._rescue_lock:
             rescues, self._rescues = self._rescues, []
+            self._listening.clear()
         for side, _ in rescues:
             side.close()
