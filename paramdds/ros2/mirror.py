@@ -46,6 +46,17 @@ process: the mirror remembers the writers of the nodes that left (:data:`REMEMBE
 and one that reappears unnamed brings its node back (:meth:`Mirror.returning`), mirrored at
 once (the same process, never a tool's node).
 
+That needs the bridge's participant to rediscover the resumed process at all; a bridge
+stopped or starved itself while the process resumed may not, and its graph then lacks the
+nodes for good. So a node whose process did not answer as it left (a stall past the lease;
+a crash too, which never comes back) is looked for, :data:`LOOK_FOR` seconds, through a
+participant made after it left (:meth:`Mirror.found_again`): the resumed process never
+knew that one, and the two discover each other afresh. A node found so, or back unnamed
+while such a participant exists (the bridge's participant may have rediscovered only part
+of the process), is mirrored through that participant (its services called, its
+``/parameter_events`` read there: one subscription per such participant) until the
+bridge's own participant lists it again.
+
 The opposite also happens: a process that stops destroys its nodes one by one, each one an
 update of its node list (``ros_discovery_info``, reliable, keep-last 1) and the removal of the
 node's endpoints (DDS discovery). When the process exits before its last updates reached the
@@ -55,16 +66,6 @@ processed after the process was dropped (rmw_dds_common's graph cache adds it ba
 mirrored node still named whose ``/parameter_events`` writer has been gone for
 :data:`UNLISTED_FOR` seconds has left (:meth:`Mirror._unlisted`); it is kept out while the name
 lingers without a writer, and a node of that name with a writer is mirrored as a new one.
-
-That needs the bridge's participant to rediscover the resumed process at all; a bridge
-stopped or starved itself while the process resumed may not, and its graph then lacks the
-nodes for good. So a node that left is looked for, :data:`LOOK_FOR` seconds, through a
-participant made after it left (:meth:`Mirror.found_again`): the resumed process never
-knew that one, and the two discover each other afresh. A node found so, or back unnamed
-while such a participant exists (the bridge's participant may have rediscovered only part
-of the process), is mirrored through that participant (its services called, its
-``/parameter_events`` read there: one subscription per such participant) until the
-bridge's own participant lists it again.
 """
 
 from __future__ import annotations
@@ -655,7 +656,7 @@ class Mirror:
         self._made = 0  # rescue participants made (their names' numbers)
         self._listening: dict[int, RosSide] = {}  # id -> a rescue participant reading /parameter_events
         self._departed: dict[str, list[str]] = {}  # node id -> the names it had when it left
-        self._gone_at: dict[str, float] = {}  # fqn -> when it left the graph, mirrored (see found_again)
+        self._gone_at: dict[str, float] = {}  # fqn -> when it left the graph stalled (see found_again)
         self._found: dict[str, RosSide] = {}  # fqn -> the participant that found it, at the last look
         self._unnamed: frozenset[str] = frozenset()  # the nodes back unnamed, at the last look (returning)
         self._first_seen: dict[str, float] = {}  # fqn -> when a node not mirrored yet was first seen
@@ -683,7 +684,7 @@ class Mirror:
         with self._lock:
             current = dict(self.nodes)
         for fqn in current.keys() - wanted.keys():
-            if self._remove(fqn):
+            if self._remove(fqn):  # its process did not answer as it left: looked for (found_again)
                 self._gone_at[fqn] = now
         self._lingering &= wanted.keys()
         for fqn in self._unlisted(current, wanted, now):
@@ -773,9 +774,7 @@ class Mirror:
         self._unnamed = frozenset(out)
         return {fqn: frozenset(gids) for fqn, gids in out.items()}
 
-    def found_again(
-        self, graph: Mapping[str, str], now: float
-    ) -> dict[str, tuple[str, frozenset[bytes]]]:
+    def found_again(self, graph: Mapping[str, str], now: float) -> dict[str, tuple[str, frozenset[bytes]]]:
         """The nodes missing from ``graph`` (the bridge's participant's) that a rescue
         participant sees, fqn -> (enclave, writers): those it found before, while it still
         sees them, and those that left in the last :data:`LOOK_FOR` seconds, looked for through
@@ -913,7 +912,9 @@ class Mirror:
         return m
 
     def _remove(self, fqn: str, why: str = "left the ROS 2 graph") -> bool:
-        """Stop mirroring ``fqn``; whether it was hosted (then it went offline on paramdds)."""
+        """Stop mirroring ``fqn``; whether it may come back: it was hosted (it went offline on
+        paramdds) and its process did not answer as it left (a stall past the lease, or a
+        crash; a clean stop answers to the end)."""
         with self._lock:
             m = self.nodes.pop(fqn, None)
         if m is None:
@@ -939,7 +940,7 @@ class Mirror:
             self._hide(m.node_id)
         m.link.close()
         self._retire_rescues()
-        return hosted
+        return hosted and stalled
 
     def _submit(self, m: Mirrored, *, full: bool = True) -> None:
         """Read ``m`` on the sync pool: everything (``full``), or only check its values."""

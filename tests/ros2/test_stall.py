@@ -174,3 +174,38 @@ def test_the_bridge_stopped_now_and_then_shows_no_running_process_stale(
         bridge.send_signal(signal.SIGCONT)
         bridge.send_signal(signal.SIGINT)
         bridge.wait(timeout=30)
+
+
+def test_only_a_process_that_left_unanswering_is_looked_for_through_a_new_participant(
+    ros_env: dict[str, str], tmp_path: Path, ros_hosts: Any, bridge: Any, paramdds_side: Any
+) -> None:
+    """docs/ros2.md: a node whose process did not answer as it left is looked for through a
+    participant made after it left, and that participant is a node of the ROS 2 graph; a
+    clean stop (ROS 2 nodes come and go all day) makes none."""
+    _, monitor = paramdds_side
+    rescues = f"/{bridge.ros.node.get_name()}_"
+
+    def looking() -> list[str]:
+        return [f for f in bridge.ros.graph() if f.startswith(rescues)]
+
+    quitter: RosHost = ros_hosts("--node", "/clean/a")
+    wait_for(lambda: len(_mirrored(monitor, quitter.nodes)) == 1, 30, "the node mirrored")
+    quitter.close()
+    wait_for(lambda: not monitor.snapshot()["clean/a"].online, 10, "offline after a clean stop")
+    time.sleep(2.0)  # four looks of the bridge
+    assert looking() == []
+
+    profile = tmp_path / "short_lease.xml"
+    profile.write_text(SHORT_LEASE)
+    stalled = RosHost({**ros_env, "FASTDDS_DEFAULT_PROFILES_FILE": str(profile)}, "--node", "/stalled/b")
+    try:
+        wait_for(lambda: len(_mirrored(monitor, stalled.nodes)) == 1, 30, "the node mirrored")
+        os.kill(stalled.proc.pid, signal.SIGSTOP)
+        try:
+            wait_for(lambda: not monitor.snapshot()["stalled/b"].online, 10, "offline past the lease")
+            wait_for(looking, 5, "a participant looking for it")
+        finally:
+            os.kill(stalled.proc.pid, signal.SIGCONT)
+        wait_for(lambda: len(_mirrored(monitor, stalled.nodes)) == 1, 5, "mirrored again")
+    finally:
+        stalled.close()
