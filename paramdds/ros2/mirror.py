@@ -115,7 +115,7 @@ START_WINDOW = 4.0
 # rmw's name for the node of an endpoint whose participant's node list it does not have
 UNKNOWN_NODE = fqn_of("_NODE_NAME_UNKNOWN_", "_NODE_NAMESPACE_UNKNOWN_")
 REMEMBERED = 4096  # /parameter_events writers of nodes that left, remembered (the newest)
-LOOK_FOR = 600.0  # seconds a node that left is looked for by a participant made after it left
+LOOK_FOR = 600.0  # seconds a node that left stalled is looked for by a participant made after it left
 MAX_RESCUES = 4  # rescue participants alive at once (each an rclpy context that discovers the whole graph)
 
 Entry = tuple[ParameterValue, ParameterDescriptor]
