@@ -8,19 +8,17 @@ process resumes; a real monitor; the test's own domains.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
-import subprocess
-import sys
 import time
 from collections.abc import Iterator
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import pytest
 
-from tests.support.ros2_shared import Starver, mirrored
+from tests.support.ros2_shared import Starver, _Proc, _python, mirrored
 
 from .conftest import SHORT_LEASE, RosHost
 from .test_mirror import paramdds_side, wait_for
@@ -48,32 +46,16 @@ def host(ros_env: dict[str, str], tmp_path: Path) -> Iterator[RosHost]:
     host.close()
 
 
-@dataclass
-class BridgeProcess:
-    proc: subprocess.Popen[bytes]
-    log: Path
-
-
 @pytest.fixture
-def bridge_process(ros_env: dict[str, str], tmp_path: Path) -> Iterator[BridgeProcess]:
+def bridge_process(ros_env: dict[str, str], tmp_path: Path) -> Iterator[_Proc]:
     """``paramdds ros2`` in a process of its own (so that it can be stopped), its log kept."""
-    log = tmp_path / "bridge.log"
-    with open(log, "wb") as err:
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "paramdds.cli", "--log-level", "info", "ros2", "--resync", "0"],
-            env=ros_env,
-            stdout=subprocess.DEVNULL,
-            stderr=err,
-        )
-    yield BridgeProcess(proc, log)
-    proc.send_signal(signal.SIGCONT)
-    proc.send_signal(signal.SIGINT)
-    try:
-        proc.wait(timeout=30)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait()
-    print(log.read_text(errors="replace")[-3000:])
+    cmd = _python("-m", "paramdds.cli", "--log-level", "info", "ros2", "--resync", "0")
+    proc = _Proc(cmd, ros_env, log=tmp_path / "bridge.log")
+    yield proc
+    with contextlib.suppress(ProcessLookupError):
+        os.kill(proc.proc.pid, signal.SIGCONT)
+    proc.stop()
+    print(proc.tail())
 
 
 def _value(monitor: Any, node: str, name: str) -> Any:
@@ -83,7 +65,7 @@ def _value(monitor: Any, node: str, name: str) -> Any:
 
 
 def test_a_starved_bridge_mirrors_again_a_process_stopped_past_the_lease_within_5_s(
-    host: RosHost, bridge_process: BridgeProcess, paramdds_side: Any
+    host: RosHost, bridge_process: _Proc, paramdds_side: Any
 ) -> None:
     _, monitor = paramdds_side
     bridge = bridge_process.proc
@@ -105,6 +87,7 @@ def test_a_starved_bridge_mirrors_again_a_process_stopped_past_the_lease_within_
         bridge.send_signal(signal.SIGCONT)
     wait_for(lambda: mirrored(monitor, NODES) == len(NODES), resumed + 5.0 - time.monotonic(), "back in 5 s")
     took = time.monotonic() - resumed
+    assert bridge_process.log is not None
     left = bridge_process.log.read_text(errors="replace")
     assert all(f"{n} left the ROS 2 graph" in left for n in NODES), "the stall did not pass the lease"
     # a change made in ROS 2 reaches paramdds through the node's events (no periodic resync here)
