@@ -124,7 +124,7 @@ class Liveness:
     def _drop(self, prefix: bytes) -> None:
         probe = self._probes.pop(prefix)
         try:
-            self.ros.node.destroy_client(probe.client)
+            self.ros.destroy_client(probe.client)
         except Exception:
             log.debug("destroying the probe client of %s failed", probe.fqn, exc_info=True)
 

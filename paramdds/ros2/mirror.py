@@ -258,7 +258,7 @@ class RosLink:
     def _destroy(self, ros: RosSide, clients: Sequence[Any]) -> None:
         for client in clients:
             try:
-                ros.node.destroy_client(client)
+                ros.destroy_client(client)
             except Exception:
                 log.debug("destroying a client of %s failed", self.fqn, exc_info=True)
 

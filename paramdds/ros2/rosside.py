@@ -42,6 +42,7 @@ from __future__ import annotations
 import logging
 import threading
 import time
+import weakref
 from collections.abc import Callable
 from typing import Any
 
@@ -176,6 +177,16 @@ class RosSide:
 
     def client(self, srv_type: Any, service: str) -> Any:
         return self.node.create_client(srv_type, service, callback_group=self.clients_group)
+
+    def destroy_client(self, client: Any) -> None:
+        """Destroy a client of :meth:`client` and forget it in its callback group, where rclpy
+        keeps a dead weak reference for every client destroyed (ros2/rclpy#1356): the bridge
+        makes and drops four clients per ROS 2 node start, and that set was its steady growth
+        under host restarts."""
+        try:
+            self.node.destroy_client(client)
+        finally:
+            self.clients_group.entities.discard(weakref.ref(client))
 
     def call(self, client: Any, request: Any, timeout: float) -> Any:
         """Call a service and wait at most ``timeout`` seconds. UNAVAILABLE when the service is not
