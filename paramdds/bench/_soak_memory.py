@@ -19,8 +19,9 @@ blames, as the soak's clients make). Five watchers, each a process of this modul
 
 Each watcher's RSS (and the traced one's heap and the state decoder's cache sizes) is read
 after the warm-up (``--warm``, a fraction of the run) and at the end; the growth between the
-two is reported per 100 server lives, with the lines of the traced heap that grew most.
-What is not in the Python heap is Cyclone's (or the allocator's). Exit 0, or 4 when a
+two is reported per 100 server lives, with the lines of the traced heap that grew most, and
+each watcher's C heap (glibc's ``mallinfo2``): bytes in use, and bytes freed but held by the
+allocator. What is not in the Python heap is Cyclone's (or the allocator's). Exit 0, or 4 when a
 process could not be started (one line naming it).
 """
 
@@ -38,12 +39,13 @@ from pathlib import Path
 from typing import Any
 
 from ._common import RESULT, Worker, WorkerError, emit, note, render, rss_mb, worker_env
-from ._soak_procs import Proc, proc_stats
+from ._soak_procs import Proc, c_heap_mb, proc_stats
 
 KINDS = ("monitor", "traced", "reader", "bare", "client")
 PARAMS = ("soak.w0", "soak.w1")
 AUTHORS = ("memory-a", "memory-b")
 TOP = 12  # heap lines reported
+HEADS = ["watcher", "RSS MiB warm", "end", "%", "MiB/100 lives", "heap MiB/100 lives", "C heap MiB (free)"]
 
 
 # -- the watchers (each a process: ``python -m paramdds.bench._soak_memory watch KIND``) --------
@@ -133,7 +135,7 @@ def watch(kind: str, domain: int, localhost: bool) -> None:
                 heap = tracemalloc.get_traced_memory()[0] / 2**20 if tracemalloc.is_tracing() else None
                 caches = state.cache_sizes() if kind in ("monitor", "traced") else {}
                 rss = round(rss_mb(os.getpid()), 2)
-                _say(RESULT, rss_mb=rss, heap_mb=heap, caches=caches, events=events[0])
+                _say(RESULT, rss_mb=rss, heap_mb=heap, c_heap=c_heap_mb(), caches=caches, events=events[0])
             elif word == "mark" and tracemalloc.is_tracing():
                 mark = tracemalloc.take_snapshot().filter_traces(ignore)
                 _say(RESULT)
@@ -321,6 +323,7 @@ def _data(
             "rss_mib_per_100_lives": round(100.0 * grown / lives, 3) if lives else None,
             "heap_mib_per_100_lives": round(100.0 * heap / lives, 3) if lives and heap is not None else None,
             "caches": [w["caches"], e["caches"]],
+            "c_heap_mb": [w["c_heap"], e["c_heap"]],
         }
     return {
         "minutes": args.minutes,
@@ -343,13 +346,16 @@ def _table(data: dict[str, Any]) -> str:
     for kind, g in data["watchers"].items():
         per = g["rss_mib_per_100_lives"]
         heap = g["heap_mib_per_100_lives"]
+        c0, c1 = g["c_heap_mb"]
+        c = "" if c0 is None or c1 is None else f"{c0['used']} -> {c1['used']} ({c0['free']} -> {c1['free']})"
         rows.append([kind, g["rss_mb"][0], g["rss_mb"][1], f"{g['growth_pct']:+.1f}",
-                     "" if per is None else f"{per:.3f}", "" if heap is None else f"{heap:.3f}"])  # fmt: skip
+                     "" if per is None else f"{per:.3f}", "" if heap is None else f"{heap:.3f}",
+                     c])  # fmt: skip
     lines = [
         f"soak memory: {data['servers']} servers x {data['nodes_per_server']} nodes, {data['lives']} server "
         f"lives in {data['end_at_s']} s ({data['lives_after_warm_up']} after the warm-up look at "
         f"{data['warm_at_s']} s); writes {data['writes']}",
-        render(["watcher", "RSS MiB warm", "end", "%", "MiB/100 lives", "heap MiB/100 lives"], rows),
+        render(HEADS, rows),
     ]
     if data["heap_grown_kib"]:
         lines.append("traced heap grown since the warm-up (KiB, objects):")

@@ -1,5 +1,6 @@
 """The soak bench's processes: programs started with their output in files, what /proc says
-of a process (RSS, threads, open descriptors), and a reader of the web console's live stream.
+of a process (RSS, threads, open descriptors, and its C heap when it writes it down), and a
+reader of the web console's live stream.
 
 Every program runs in a process group of its own and dies with the bench (``PR_SET_PDEATHSIG``),
 so a bench killed with SIGKILL leaves nothing answering on its domain.
@@ -8,7 +9,9 @@ so a bench killed with SIGKILL leaves nothing answering on its domain.
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import http.client
+import json
 import os
 import signal
 import subprocess
@@ -22,17 +25,64 @@ from typing import Any
 from ._common import WorkerError
 
 # ``python -c _DYING MODULE ARGS…``: run MODULE as ``python -m`` would, ended by SIGTERM when the
-# bench (its parent) dies
+# bench (its parent) dies; its C heap written down as :func:`heap_probe` does
 _DYING = (
     "import ctypes, runpy, signal, sys\n"
     "try:\n"
     "    ctypes.CDLL(None).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG\n"
     "except (OSError, AttributeError):\n"
     "    pass\n"
+    "from paramdds.bench._soak_procs import heap_probe\n"
+    "heap_probe()\n"
     "module = sys.argv[1]\n"
     "sys.argv = [module, *sys.argv[2:]]\n"
     "runpy.run_module(module, run_name='__main__', alter_sys=True)\n"
 )
+
+
+HEAP_DIR_ENV = "PARAMDDS_SOAK_HEAP"  # where a soak's process writes its C heap (see heap_probe)
+HEAP_EVERY = 5.0  # seconds between two writes of it
+
+
+def c_heap_mb() -> dict[str, float] | None:
+    """This process's C heap (glibc's ``mallinfo2``, every arena), MiB: ``used`` (handed out
+    and not freed, mmapped blocks included) and ``free`` (freed, kept by the allocator). None
+    off glibc (or before 2.33)."""
+
+    class MallInfo2(ctypes.Structure):
+        _fields_ = [(f, ctypes.c_size_t) for f in
+                    ("arena", "ordblks", "smblks", "hblks", "hblkhd", "usmblks", "fsmblks", "uordblks",
+                     "fordblks", "keepcost")]  # fmt: skip
+
+    try:
+        fn = ctypes.CDLL(None).mallinfo2
+    except (OSError, AttributeError):
+        return None
+    fn.restype = MallInfo2
+    m = fn()
+    return {"used": round((m.uordblks + m.hblkhd) / 2**20, 2), "free": round(m.fordblks / 2**20, 2)}
+
+
+def heap_probe() -> None:
+    """When :data:`HEAP_DIR_ENV` names a directory: a daemon thread writing this process's
+    :func:`c_heap_mb` to ``<dir>/<pid>.json`` every :data:`HEAP_EVERY` seconds, which
+    :func:`proc_stats` reads (what grows: memory in use, or memory the allocator keeps)."""
+    directory = os.environ.get(HEAP_DIR_ENV)
+    if not directory or c_heap_mb() is None:
+        return
+    path = Path(directory) / f"{os.getpid()}.json"
+
+    def write() -> None:
+        tmp = path.with_suffix(".tmp")
+        while True:
+            try:
+                tmp.write_text(json.dumps(c_heap_mb()))
+                tmp.replace(path)
+            except OSError:  # the bench ended (its directory removed)
+                return
+            time.sleep(HEAP_EVERY)
+
+    threading.Thread(target=write, name="soak-heap-probe", daemon=True).start()
 
 
 class Proc:
@@ -114,9 +164,11 @@ def _signal_group(pid: int, sig: int) -> None:
         os.killpg(pid, sig)
 
 
-def proc_stats(pid: int) -> dict[str, float] | None:
-    """RSS (MiB), threads and open file descriptors of ``pid``, and where its RSS lives (see
-    :func:`_rss_by_mapping`); None when it is gone."""
+def proc_stats(pid: int, heap_dir: Path | None = None) -> dict[str, float] | None:
+    """RSS (MiB), threads and open file descriptors of ``pid``, where its RSS lives (see
+    :func:`_rss_by_mapping`) and, when it wrote them to ``heap_dir`` (:func:`heap_probe`), its
+    C heap's MiB in use (``c_used_mb``) and freed but kept (``c_free_mb``); None when it is
+    gone."""
     try:
         rss = threads = 0.0
         with open(f"/proc/{pid}/status", encoding="ascii") as f:
@@ -128,7 +180,21 @@ def proc_stats(pid: int) -> dict[str, float] | None:
         fds = float(len(os.listdir(f"/proc/{pid}/fd")))
     except (FileNotFoundError, ProcessLookupError):
         return None
-    return {"rss_mb": round(rss, 1), "threads": threads, "fds": fds, **_rss_by_mapping(pid)}
+    return {
+        "rss_mb": round(rss, 1),
+        "threads": threads,
+        "fds": fds,
+        **_rss_by_mapping(pid),
+        **_heap(pid, heap_dir),
+    }
+
+
+def _heap(pid: int, heap_dir: Path | None) -> dict[str, float]:
+    try:
+        heap = json.loads((heap_dir / f"{pid}.json").read_text()) if heap_dir is not None else None
+    except (OSError, ValueError):
+        return {}
+    return {"c_used_mb": heap["used"], "c_free_mb": heap["free"]} if isinstance(heap, dict) else {}
 
 
 def _rss_by_mapping(pid: int) -> dict[str, float]:

@@ -29,6 +29,8 @@ import threading
 import time
 from typing import Any
 
+from ._soak_procs import heap_probe
+
 SOAK_PREFIX = "soak."
 
 
@@ -232,6 +234,7 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--zenoh", default="", help="viewer: a remote monitor through this router")
     p.add_argument("--site", default="site0", help="viewer --zenoh: the site it holds")
     args = p.parse_args(argv)
+    heap_probe()
     signal.signal(signal.SIGTERM, _on_sigterm)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the bench process decides when we stop
     try:

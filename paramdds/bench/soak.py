@@ -37,7 +37,7 @@ from typing import Any
 from ..exits import Terminated
 from ._common import RESULT, Worker, emit, median, note, render, worker_env
 from ._soak_checks import growth, stale_values, verify_writes, wrong_presence
-from ._soak_procs import LiveStream, Proc, proc_stats
+from ._soak_procs import HEAP_DIR_ENV, LiveStream, Proc, c_heap_mb, proc_stats
 from ._soak_worker import client_params
 
 NODES = 50
@@ -69,12 +69,23 @@ def soak_params() -> list[str]:
 class SoakWorker(Worker):
     """A :mod:`._soak_worker` process (the READY / RESULT protocol), its stderr in a file."""
 
-    def __init__(self, role: str, args: list[str], *, domain: int, localhost: bool, logs: Path, tag: str):
+    def __init__(
+        self,
+        role: str,
+        args: list[str],
+        *,
+        domain: int,
+        localhost: bool,
+        logs: Path,
+        tag: str,
+        env: dict[str, str],
+    ):
         super().__init__(
             role,
             args,
             domain=domain,
             localhost=localhost,
+            env=env,
             module="paramdds.bench._soak_worker",
             stderr_file=logs / f"{tag}.err",
             name=tag,
@@ -110,7 +121,9 @@ class Soak:
         self.localhost = bool(args.localhost)
         self.tmp = tmp
         self.skipped = skipped
-        self.env = worker_env(self.localhost)
+        self.heap_dir = tmp / "heap"  # each process's C heap (see _soak_procs.heap_probe)
+        self.heap_dir.mkdir()
+        self.env = {**worker_env(self.localhost), HEAP_DIR_ENV: str(self.heap_dir)}
         self.gflags = ["-d", str(self.domain), *(["--localhost"] if self.localhost else [])]
         self.servers: list[Proc | None] = [None] * SERVERS
         self.server_nodes = [node_names()[k::SERVERS] for k in range(SERVERS)]
@@ -158,7 +171,15 @@ class Soak:
         self.events["server_kills" if kill else "server_stops"] += 1
 
     def _worker(self, tag: str, role: str, *argv: str) -> SoakWorker:
-        w = SoakWorker(role, list(argv), domain=self.domain, localhost=self.localhost, logs=self.tmp, tag=tag)
+        w = SoakWorker(
+            role,
+            list(argv),
+            domain=self.domain,
+            localhost=self.localhost,
+            logs=self.tmp,
+            tag=tag,
+            env=self.env,
+        )
         self.workers[tag] = w
         return w
 
@@ -330,7 +351,11 @@ class Soak:
         return pids
 
     def sample(self) -> dict[str, dict[str, float] | None]:
-        return {name: proc_stats(pid) for name, pid in self.long_lived().items()}
+        out = {name: proc_stats(pid, self.heap_dir) for name, pid in self.long_lived().items()}
+        mine, heap = out["bench (this process)"], c_heap_mb()
+        if mine is not None and heap is not None:
+            mine.update(c_used_mb=heap["used"], c_free_mb=heap["free"])
+        return out
 
     def churn(self, seconds: float) -> dict[str, Any]:
         """Restart the servers in turn (and the ROS 2 host with every third) for ``seconds``."""
@@ -549,13 +574,27 @@ def table(data: dict[str, Any]) -> str:
     for name, p in data["processes"].items():
         w, e, g = p["warm"], p["end"], p["growth_pct"]
         if w is None or e is None or g is None:
-            rows.append([name, "gone", "", "", "", "", "", "", "", ""])
+            rows.append([name, "gone", "", "", "", "", "", "", "", "", ""])
             continue
+        heap = f"{w['c_used_mb']} -> {e['c_used_mb']}" if "c_used_mb" in w and "c_used_mb" in e else ""
         rows.append(
-            [name, w["rss_mb"], e["rss_mb"], f"{g['rss_mb']:+.1f}", int(w["threads"]), int(e["threads"]),
-             f"{g['threads']:+.1f}", int(w["fds"]), int(e["fds"]), f"{g['fds']:+.1f}"]
+            [name, w["rss_mb"], e["rss_mb"], f"{g['rss_mb']:+.1f}", heap,
+             int(w["threads"]), int(e["threads"]), f"{g['threads']:+.1f}",
+             int(w["fds"]), int(e["fds"]), f"{g['fds']:+.1f}"]
         )  # fmt: skip
-    heads = ["process", "RSS MiB warm", "end", "%", "threads warm", "end", "%", "fds warm", "end", "%"]
+    heads = [
+        "process",
+        "RSS MiB warm",
+        "end",
+        "%",
+        "C in use MiB",
+        "threads warm",
+        "end",
+        "%",
+        "fds warm",
+        "end",
+        "%",
+    ]
     c, wr, get, pr = data["churn"], data["writes"], data["get"], data["presence"]
     ms = get["ms"] or {"p50": float("nan"), "p99": float("nan"), "max": float("nan")}
     lines = [

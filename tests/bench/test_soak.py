@@ -115,6 +115,8 @@ def test_one_minute_soak_passes_its_checks(domain_id: int) -> None:
     for name, p in data["processes"].items():
         for sample in (p["warm"], p["end"]):
             assert sample["rss_mb"] > 0 and sample["threads"] >= 1 and sample["fds"] >= 3, name
+            # every process wrote its C heap down (glibc): in use, MiBs with a participant
+            assert sample["c_used_mb"] > 1.0 and sample["c_free_mb"] >= 0.0, name
     assert data["warm_at_s"] >= 20 and data["end_at_s"] >= 55
     if "web" not in data["skipped"]:
         assert [s["reconnects"] for s in data["streams"]] == [0, 0]
@@ -152,5 +154,7 @@ def test_the_memory_churn_counts_lives_and_its_decoder_keeps_one_entry_a_server_
     assert data["lives"] >= 4 and data["lives_after_warm_up"] >= 2
     assert set(data["watchers"]) == {"monitor", "traced", "bare"}
     assert data["watchers"]["traced"]["heap_mib_per_100_lives"] is not None and data["heap_grown_kib"]
+    heap = data["watchers"]["bare"]["c_heap_mb"][1]  # glibc's count: a participant's C heap is MiBs
+    assert heap["used"] > 1.0 and heap["free"] >= 0.0
     caches = data["watchers"]["monitor"]["caches"][1]
     assert caches["heads"] <= data["lives"] and caches["blames"] <= 4  # 2 authors and the servers' own
