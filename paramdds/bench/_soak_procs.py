@@ -44,21 +44,21 @@ HEAP_DIR_ENV = "PARAMDDS_SOAK_HEAP"  # where a soak's process writes its C heap 
 HEAP_EVERY = 5.0  # seconds between two writes of it
 
 
+class _MallInfo2(ctypes.Structure):
+    _fields_ = [(f, ctypes.c_size_t) for f in
+                ("arena", "ordblks", "smblks", "hblks", "hblkhd", "usmblks", "fsmblks", "uordblks",
+                 "fordblks", "keepcost")]  # fmt: skip
+
+
 def c_heap_mb() -> dict[str, float] | None:
     """This process's C heap (glibc's ``mallinfo2``, every arena), MiB: ``used`` (handed out
     and not freed, mmapped blocks included) and ``free`` (freed, kept by the allocator). None
     off glibc (or before 2.33)."""
-
-    class MallInfo2(ctypes.Structure):
-        _fields_ = [(f, ctypes.c_size_t) for f in
-                    ("arena", "ordblks", "smblks", "hblks", "hblkhd", "usmblks", "fsmblks", "uordblks",
-                     "fordblks", "keepcost")]  # fmt: skip
-
     try:
         fn = ctypes.CDLL(None).mallinfo2
     except (OSError, AttributeError):
         return None
-    fn.restype = MallInfo2
+    fn.restype = _MallInfo2
     m = fn()
     return {"used": round((m.uordblks + m.hblkhd) / 2**20, 2), "free": round(m.fordblks / 2**20, 2)}
 
