@@ -172,7 +172,7 @@ class Bridge:
         """One look at both graphs (the loop's body)."""
         graph = self.ros.graph()
         writers = self.ros.event_publishers()
-        # seen by a participant made after it left, not by ours (see Mirror.found_again)
+        # seen by a participant its process never knew, not by ours (see Mirror.found_again)
         found = self.mirror.found_again(graph, time.monotonic())
         for fqn, gids in self.mirror.returning(graph, writers).items():
             # back from a stall past the lease, unnamed in ROS 2's graph (see Mirror.returning);
@@ -236,6 +236,7 @@ class Bridge:
         self._last_step = now
         groups = self.mirror.by_process()
         stalled = self.liveness.update({p: [m.fqn for m in ms] for p, ms in groups.items()}, now)
+        self.mirror.stalls(stalled, now)
         hosted = self.server.nodes
         for prefix, mirrors in groups.items():
             status = STALE if prefix in stalled else None

@@ -44,6 +44,7 @@ class _Probe:
     out: list[tuple[float, Any]] = field(default_factory=list)  # (sent at, future)
     next_at: float = 0.0
     stalled: bool = False
+    since: float = 0.0  # while stalled: when its oldest call unanswered was sent
 
 
 class Liveness:
@@ -61,11 +62,12 @@ class Liveness:
         self._probes: dict[bytes, _Probe] = {}
         self.sent = 0  # probes sent (for the figures)
 
-    def update(self, processes: Mapping[bytes, Sequence[str]], now: float) -> set[bytes]:
-        """Probe each process (its nodes' fqns, any order) once due; the processes stalled now."""
+    def update(self, processes: Mapping[bytes, Sequence[str]], now: float) -> dict[bytes, float]:
+        """Probe each process (its nodes' fqns, any order) once due; the processes stalled now,
+        with when each stopped answering (its oldest call unanswered was sent then)."""
         for prefix in self._probes.keys() - processes.keys():
             self._drop(prefix)
-        stalled: set[bytes] = set()
+        stalled: dict[bytes, float] = {}
         for prefix, fqns in processes.items():
             probe = self._probes.get(prefix)
             if probe is None or probe.fqn not in fqns:
@@ -76,7 +78,7 @@ class Liveness:
             if now >= probe.next_at:
                 self._send(probe, now)
             if probe.stalled:
-                stalled.add(prefix)
+                stalled[prefix] = probe.since
         return stalled
 
     def _collect(self, probe: _Probe, now: float) -> None:
@@ -96,7 +98,7 @@ class Liveness:
         probe.out = keep
         late = now - keep[0][0] if keep else 0.0
         if late >= STALE_AFTER and not probe.stalled:
-            probe.stalled = True
+            probe.stalled, probe.since = True, keep[0][0]
             log.warning(
                 "the ROS 2 process of %s has not answered for %.1f s: its nodes show stale", probe.fqn, late
             )

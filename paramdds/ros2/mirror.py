@@ -50,8 +50,12 @@ That needs the bridge's participant to rediscover the resumed process at all; a 
 stopped or starved itself while the process resumed may not, and its graph then lacks the
 nodes for good. So a node whose process did not answer as it left (a stall past the lease;
 a crash too, which never comes back) is looked for, :data:`LOOK_FOR` seconds, through a
-participant made after it left (:meth:`Mirror.found_again`): the resumed process never
-knew that one, and the two discover each other afresh. A node found so, or back unnamed
+participant its process never knew (:meth:`Mirror.found_again`): made after it stopped
+answering and that never saw it before it left, or else made after it left. The resumed
+process and that participant discover each other afresh. Such a participant is made as
+soon as a process has not answered for :data:`READY_AFTER` seconds (:meth:`Mirror.stalls`),
+so that it has discovered the rest of the graph before the lease runs out, and finds the
+process at its first announcement when it resumes. A node found so, or back unnamed
 while such a participant exists (the bridge's participant may have rediscovered only part
 of the process), is mirrored through that participant (its services called, its
 ``/parameter_events`` read there: one subscription per such participant) until the
@@ -115,8 +119,11 @@ START_WINDOW = 4.0
 # rmw's name for the node of an endpoint whose participant's node list it does not have
 UNKNOWN_NODE = fqn_of("_NODE_NAME_UNKNOWN_", "_NODE_NAMESPACE_UNKNOWN_")
 REMEMBERED = 4096  # /parameter_events writers of nodes that left, remembered (the newest)
-LOOK_FOR = 600.0  # seconds a node that left stalled is looked for by a participant made after it left
+LOOK_FOR = 600.0  # seconds a node that left stalled is looked for through a participant new to it
 MAX_RESCUES = 4  # rescue participants alive at once (each an rclpy context that discovers the whole graph)
+# seconds a process has not answered before a rescue participant is made for it (see Mirror.stalls):
+# ready, with the rest of the graph discovered, when it stalls past its lease and resumes
+READY_AFTER = 5.0
 
 Entry = tuple[ParameterValue, ParameterDescriptor]
 READS = ("list_parameters", "get_parameters", "describe_parameters")  # clients made per read (see RosLink)
@@ -605,7 +612,20 @@ class Mirrored:
     # the participant that found it again after it left (Mirror.found_again): it is looked
     # for, and its /parameter_events read, there
     found_on: RosSide | None = None
+    stalled_since: float | None = None  # when its process stopped answering, while it does not (.liveness)
+    # the rescue participants that saw it while its process did not answer: its process knew
+    # them (it was stopped later, or only its executor hung), so they cannot find it again
+    seen_by: set[RosSide] = field(default_factory=set)
     lock: threading.Lock = field(default_factory=threading.Lock)
+
+
+@dataclass(frozen=True)
+class Gone:
+    """A node that left the graph while its process did not answer: looked for (found_again)."""
+
+    left: float
+    since: float  # when its process stopped answering (``left`` when not known)
+    seen_by: frozenset[RosSide] = frozenset()  # see Mirrored.seen_by
 
 
 def next_resync(now: float, period: float) -> float:
@@ -656,7 +676,7 @@ class Mirror:
         self._made = 0  # rescue participants made (their names' numbers)
         self._listening: dict[int, RosSide] = {}  # id -> a rescue participant reading /parameter_events
         self._departed: dict[str, list[str]] = {}  # node id -> the names it had when it left
-        self._gone_at: dict[str, float] = {}  # fqn -> when it left the graph stalled (see found_again)
+        self._gone: dict[str, Gone] = {}  # fqn -> how it left the graph stalled (see found_again)
         self._found: dict[str, RosSide] = {}  # fqn -> the participant that found it, at the last look
         self._unnamed: frozenset[str] = frozenset()  # the nodes back unnamed, at the last look (returning)
         self._first_seen: dict[str, float] = {}  # fqn -> when a node not mirrored yet was first seen
@@ -684,8 +704,8 @@ class Mirror:
         with self._lock:
             current = dict(self.nodes)
         for fqn in current.keys() - wanted.keys():
-            if self._remove(fqn):  # its process did not answer as it left: looked for (found_again)
-                self._gone_at[fqn] = now
+            if (gone := self._remove(fqn, now=now)) is not None:  # looked for (found_again)
+                self._gone[fqn] = gone
         self._lingering &= wanted.keys()
         for fqn in self._unlisted(current, wanted, now):
             self._remove(fqn, UNLISTED)
@@ -780,7 +800,7 @@ class Mirror:
         sees them, and those that left in the last :data:`LOOK_FOR` seconds, looked for through
         a participant made after they left (see the module docstring). Only a node with its
         ``/parameter_events`` writers in view counts (they name its process and its restarts)."""
-        self._gone_at = {f: t for f, t in self._gone_at.items() if now - t <= LOOK_FOR}
+        self._gone = {f: g for f, g in self._gone.items() if now - g.left <= LOOK_FOR}
         with self._lock:
             found = [m for m in self.nodes.values() if m.found_on is not None]
         looks: dict[int, tuple[dict[str, str], dict[str, frozenset[bytes]]]] = {}
@@ -790,12 +810,14 @@ class Mirror:
                 self._home(m)
             elif m.found_on is not None and (hit := _seen(m.found_on, m.fqn, looks)) is not None:
                 out[m.fqn] = hit
-        missing = {f: t for f, t in self._gone_at.items() if f not in graph}
+        missing = {f: g for f, g in self._gone.items() if f not in graph}
         self._found = {}
         if not missing:
             return out
-        # made after the last of them left: the others' processes never knew it either
-        newer = self._side_made_after(max(missing.values()), now, "look for nodes that left")
+        # one their processes never knew: made after the last of them stopped answering
+        newer = self._side_made_after(
+            max(map(self._unknown_since, missing.values())), now, "look for nodes that left"
+        )
         if newer is None:
             return out
         for fqn in missing:
@@ -804,11 +826,45 @@ class Mirror:
                 self._found[fqn] = newer
         return out
 
+    def stalls(self, stalled: Mapping[bytes, float], now: float) -> None:
+        """The ROS 2 processes that do not answer now (participant -> since when, from
+        :mod:`.liveness`). Each of their nodes keeps since when, and the rescue participants
+        that saw it meanwhile (its process ran then, so it knew them). A process silent for
+        :data:`READY_AFTER` seconds gets a rescue participant made after it stopped answering,
+        if none is: should it stall past its lease, that one has the rest of the graph
+        discovered when it resumes, and finds it at its first announcement (found_again)."""
+        with self._lock:
+            nodes = list(self.nodes.values())
+        with self._rescue_lock:
+            rescues = list(self._rescues)
+        looks: dict[int, tuple[dict[str, str], dict[str, frozenset[bytes]]]] = {}
+        for m in nodes:
+            prefix = process_of(m.writers)
+            since = stalled.get(prefix) if prefix is not None else None
+            if since != m.stalled_since:  # a stall began, or ended
+                m.stalled_since, m.seen_by = since, set()
+            if since is None:
+                continue
+            for side, made in rescues:
+                if made >= since and side not in m.seen_by and _seen(side, m.fqn, looks) is not None:
+                    m.seen_by.add(side)
+        silent = [t for t in stalled.values() if now - t >= READY_AFTER]
+        if silent:
+            self._side_made_after(max(silent), now, "be ready to find a ROS 2 process that does not answer")
+
     def _made_since(self, since: float) -> RosSide | None:
         """The newest rescue participant if it was made at or after ``since``."""
         with self._rescue_lock:
             newest = self._rescues[-1] if self._rescues else None
         return newest[0] if newest is not None and newest[1] >= since else None
+
+    def _unknown_since(self, gone: Gone) -> float:
+        """From when a participant made is unknown to the process of a node that left stalled:
+        made after it stopped answering, unless the newest such one saw the node meanwhile
+        (its process ran then: only one made after it left is sure to be new to it)."""
+        with self._rescue_lock:
+            newest = self._rescues[-1][0] if self._rescues else None
+        return gone.left if newest in gone.seen_by else gone.since
 
     def _home(self, m: Mirrored) -> None:
         """A node found again that the bridge's own participant sees again: read through that
@@ -894,14 +950,14 @@ class Mirror:
         except ParamddsError as exc:
             log.warning("cannot mirror the ROS 2 node %s: %s", fqn, exc)
             return None
-        left = self._gone_at.pop(fqn, None)
-        # found by a participant made after it left, or back unnamed (see returning) while
+        gone = self._gone.pop(fqn, None)
+        # found by a participant its process never knew, or back unnamed (see returning) while
         # one exists: the bridge's participant may see only part of the resumed process
         found_on = self._found.pop(fqn, None)
-        if found_on is None and left is not None and fqn in self._unnamed:
-            found_on = self._made_since(left)
+        if found_on is None and gone is not None and fqn in self._unnamed:
+            found_on = self._made_since(self._unknown_since(gone))
         if found_on is not None:
-            log.warning("%s is back: mirrored through a participant made after it left", fqn)
+            log.warning("%s is back: mirrored through a participant its process did not know", fqn)
             self._listen(found_on)
         link = RosLink(found_on or self.ros, fqn, self.timeout)
         m = Mirrored(
@@ -911,14 +967,14 @@ class Mirror:
             self.nodes[fqn] = m
         return m
 
-    def _remove(self, fqn: str, why: str = "left the ROS 2 graph") -> bool:
-        """Stop mirroring ``fqn``; whether it may come back: it was hosted (it went offline on
-        paramdds) and its process did not answer as it left (a stall past the lease, or a
-        crash; a clean stop answers to the end)."""
+    def _remove(self, fqn: str, why: str = "left the ROS 2 graph", now: float = 0.0) -> Gone | None:
+        """Stop mirroring ``fqn`` (it left at ``now``); how it left if it may come back: it was
+        hosted (it went offline on paramdds) and its process did not answer as it left (a
+        stall past the lease, or a crash; a clean stop answers to the end)."""
         with self._lock:
             m = self.nodes.pop(fqn, None)
         if m is None:
-            return False
+            return None
         stalled = m.table.status is not None  # its process did not answer when it left (.liveness)
         for gid in m.writers:  # its process may come back (a stall past the lease): see returning
             self._writers_of[gid] = fqn
@@ -940,7 +996,10 @@ class Mirror:
             self._hide(m.node_id)
         m.link.close()
         self._retire_rescues()
-        return hosted and stalled
+        if not (hosted and stalled):
+            return None
+        since = now if m.stalled_since is None else min(m.stalled_since, now)
+        return Gone(now, since, frozenset(m.seen_by))
 
     def _submit(self, m: Mirrored, *, full: bool = True) -> None:
         """Read ``m`` on the sync pool: everything (``full``), or only check its values."""

@@ -180,7 +180,7 @@ def test_only_a_process_that_left_unanswering_is_looked_for_through_a_new_partic
     ros_env: dict[str, str], tmp_path: Path, ros_hosts: Any, bridge: Any, paramdds_side: Any
 ) -> None:
     """docs/ros2.md: a node whose process did not answer as it left is looked for through a
-    participant made after it left, and that participant is a node of the ROS 2 graph; a
+    participant its process never knew, and that participant is a node of the ROS 2 graph; a
     clean stop (ROS 2 nodes come and go all day) makes none."""
     _, monitor = paramdds_side
     rescues = f"/{bridge.ros.node.get_name()}_"
@@ -209,3 +209,43 @@ def test_only_a_process_that_left_unanswering_is_looked_for_through_a_new_partic
         wait_for(lambda: len(_mirrored(monitor, stalled.nodes)) == 1, 5, "mirrored again")
     finally:
         stalled.close()
+
+
+def test_a_process_that_does_not_answer_gets_a_participant_ready_before_its_lease_runs_out(
+    ros_env: dict[str, str], tmp_path: Path, bridge: Any, paramdds_side: Any
+) -> None:
+    """docs/ros2.md: a process silent for READY_AFTER seconds gets a participant made after it
+    stopped answering, while its nodes are still in the graph; when it stalls past its lease
+    and resumes, that one finds it (no other is made after it left)."""
+    from paramdds.ros2.mirror import READY_AFTER
+
+    _, monitor = paramdds_side
+    rescues = f"/{bridge.ros.node.get_name()}_"
+
+    def looking() -> list[str]:
+        return sorted(f for f in bridge.ros.graph() if f.startswith(rescues))
+
+    profile = tmp_path / "lease_15.xml"
+    profile.write_text(SHORT_LEASE.replace("<sec>3</sec>", "<sec>15</sec>"))
+    host = RosHost({**ros_env, "FASTDDS_DEFAULT_PROFILES_FILE": str(profile)}, "--node", "/ready/a")
+    try:
+        wait_for(lambda: len(_mirrored(monitor, host.nodes)) == 1, 30, "the node mirrored")
+        time.sleep(1.0)  # its probes answered
+        assert looking() == []
+        os.kill(host.proc.pid, signal.SIGSTOP)
+        stopped = time.monotonic()
+        try:
+            # stale within 4.5 s (the test above), then READY_AFTER more, one look of the bridge
+            wait_for(looking, 4.5 + READY_AFTER + 0.5, "a participant made while it does not answer")
+            ready = looking()
+            state = monitor.snapshot()["ready/a"]
+            assert state.online and state.status == "stale", state  # still in the graph: lease not out
+            assert time.monotonic() - stopped < 15.0
+            wait_for(lambda: not monitor.snapshot()["ready/a"].online, 15, "offline past the lease")
+            time.sleep(1.0)
+        finally:
+            os.kill(host.proc.pid, signal.SIGCONT)
+        wait_for(lambda: len(_mirrored(monitor, host.nodes)) == 1, 5, "mirrored again")
+        assert looking() == ready  # found through the participant made ready, none made after it left
+    finally:
+        host.close()
