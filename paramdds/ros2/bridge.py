@@ -99,7 +99,7 @@ class Bridge:
             show_unreachable=self._show_unreachable,
             hide_unreachable=self._hide_unreachable,
         )
-        self.liveness = Liveness(self.ros)
+        self.liveness = Liveness()
         self._unsaid: dict[str, MirrorTable] = {}  # node id -> back to ok, presence not written yet
         self._last_step: float | None = None
         self.exposer: Any = None
@@ -235,7 +235,7 @@ class Bridge:
             self.liveness.excuse(now)  # we did not run: the probes out are not late
         self._last_step = now
         groups = self.mirror.by_process()
-        stalled = self.liveness.update({p: [m.fqn for m in ms] for p, ms in groups.items()}, now)
+        stalled = self.liveness.update({p: {m.fqn: m.link.ros for m in ms} for p, ms in groups.items()}, now)
         self.mirror.stalls(stalled, now)
         hosted = self.server.nodes
         for prefix, mirrors in groups.items():

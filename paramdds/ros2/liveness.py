@@ -8,7 +8,9 @@ call unanswered for :data:`STALE_AFTER` seconds shows the process stalled, until
 answers. A process is a DDS participant (the first 12 bytes of its writers' GIDs, the
 GUID prefix): an rclpy process stopped, or starved, answers for none of its nodes.
 
-One call per process, not per node, and one client per process in the bridge. What a
+One call per process, not per node, and one client per process in the bridge, made by the
+participant its node is mirrored through (the bridge's own, or one that found the process
+again after a stall past the lease: the bridge's own may not see it any more). What a
 call costs the process grows with its nodes all the same (rclpy's executor rebuilds its
 wait set from every node's entities on each wake-up): docs/ros2.md has the figures.
 """
@@ -16,7 +18,7 @@ wait set from every node's entities on each wake-up): docs/ros2.md has the figur
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -40,6 +42,7 @@ class _Probe:
     """The probe of one process: the node it asks, the client, the calls out (oldest first)."""
 
     fqn: str
+    side: RosSide  # the participant that made the client
     client: Any
     out: list[tuple[float, Any]] = field(default_factory=list)  # (sent at, future)
     next_at: float = 0.0
@@ -57,23 +60,24 @@ class Liveness:
     answer shows the process answering; it shows stalled once its oldest call out, sent
     after the last one answered, is :data:`STALE_AFTER` old, until one is answered."""
 
-    def __init__(self, ros: RosSide) -> None:
-        self.ros = ros
+    def __init__(self) -> None:
         self._probes: dict[bytes, _Probe] = {}
         self.sent = 0  # probes sent (for the figures)
 
-    def update(self, processes: Mapping[bytes, Sequence[str]], now: float) -> dict[bytes, float]:
-        """Probe each process (its nodes' fqns, any order) once due; the processes stalled now,
-        with when each stopped answering (its oldest call unanswered was sent then)."""
+    def update(self, processes: Mapping[bytes, Mapping[str, RosSide]], now: float) -> dict[bytes, float]:
+        """Probe each process once due (its nodes: fqn -> the participant each is mirrored
+        through); the processes stalled now, with when each stopped answering (its oldest call
+        unanswered was sent then)."""
         for prefix in self._probes.keys() - processes.keys():
             self._drop(prefix)
         stalled: dict[bytes, float] = {}
-        for prefix, fqns in processes.items():
+        for prefix, nodes in processes.items():
             probe = self._probes.get(prefix)
-            if probe is None or probe.fqn not in fqns:
+            if probe is None or nodes.get(probe.fqn) is not probe.side:
                 if probe is not None:
                     self._drop(prefix)
-                probe = self._probes[prefix] = _Probe(min(fqns), self._client(min(fqns)))
+                fqn = min(nodes)
+                probe = self._probes[prefix] = _Probe(fqn, nodes[fqn], self._client(nodes[fqn], fqn))
             self._collect(probe, now)
             if now >= probe.next_at:
                 self._send(probe, now)
@@ -109,10 +113,11 @@ class Liveness:
         for probe in self._probes.values():
             probe.out = [(now, f) for _, f in probe.out]
 
-    def _client(self, fqn: str) -> Any:
+    @staticmethod
+    def _client(side: RosSide, fqn: str) -> Any:
         from rcl_interfaces import srv
 
-        return self.ros.client(srv.GetParameterTypes, f"{fqn}/get_parameter_types")
+        return side.client(srv.GetParameterTypes, f"{fqn}/get_parameter_types")
 
     def _send(self, probe: _Probe, now: float) -> None:
         from rcl_interfaces import srv
@@ -126,8 +131,8 @@ class Liveness:
     def _drop(self, prefix: bytes) -> None:
         probe = self._probes.pop(prefix)
         try:
-            self.ros.destroy_client(probe.client)
-        except Exception:
+            probe.side.destroy_client(probe.client)
+        except Exception:  # its participant closed already
             log.debug("destroying the probe client of %s failed", probe.fqn, exc_info=True)
 
     def close(self) -> None:

@@ -249,3 +249,38 @@ def test_a_process_that_does_not_answer_gets_a_participant_ready_before_its_leas
         assert looking() == ready  # found through the participant made ready, none made after it left
     finally:
         host.close()
+
+
+def test_a_node_mirrored_through_another_participant_is_probed_through_it(
+    ros_hosts: Any, bridge: Any, paramdds_side: Any
+) -> None:
+    """A process found again after a stall past the lease is mirrored through the participant
+    that found it, and may stay out of the bridge's own participant's graph for good: its
+    liveness probe goes through the participant its nodes are mirrored through. Probed through
+    the bridge's own, it never showed stale again, and its next stall past the lease was taken
+    for a clean stop (its nodes never looked for: seen with one process stopped twice)."""
+    from paramdds.ros2.rosside import RosSide
+
+    host: RosHost = ros_hosts("--node", "/probed/a")
+    _, monitor = paramdds_side
+    wait_for(lambda: len(_mirrored(monitor, host.nodes)) == 1, 30, "the node mirrored")
+
+    def probes(side: Any) -> list[str]:
+        return [c.srv_name for c in side.node.clients if c.srv_name.endswith("/get_parameter_types")]
+
+    link = bridge.mirror.nodes["/probed/a"].link
+    other = RosSide(None, "probed_elsewhere", threads=2)
+    try:
+        link.renew(other)  # as found_again leaves a node found by a rescue participant
+        wait_for(lambda: probes(other) == ["/probed/a/get_parameter_types"], 5, "the probe made there")
+        assert probes(bridge.ros) == []
+        os.kill(host.proc.pid, signal.SIGSTOP)
+        try:
+            wait_for(lambda: monitor.snapshot()["probed/a"].status == "stale", 4.5, "stale through it")
+        finally:
+            os.kill(host.proc.pid, signal.SIGCONT)
+        wait_for(lambda: monitor.snapshot()["probed/a"].status is None, 4.0, "ok again")
+        link.renew(bridge.ros)
+        wait_for(lambda: probes(bridge.ros) == ["/probed/a/get_parameter_types"], 5, "the probe back home")
+    finally:
+        other.close()
