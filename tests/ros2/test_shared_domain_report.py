@@ -87,3 +87,38 @@ def test_the_table_says_dead_bridges_and_each_stalls_recovery() -> None:
         "[0, 25]; SIGCONT to all mirrored: min 0.4 s, median 0.5 s, max 0.6 s"
     )
     assert lines[5].startswith("stall 25 s: every node mirrored again after 1 of 2 stalls;")
+
+
+def test_the_table_says_how_long_the_starved_bridge_ran_of_each_recovery() -> None:
+    stalls = {"60": {**spread([2.0, 6.0]), "noticed": [25, 25], "bridge_ran": spread([0.8, 1.1])}}
+    line = next(x for x in table(_result(stalls=stalls)).splitlines() if x.startswith("stall 60 s"))
+    assert line.endswith(
+        "SIGCONT to all mirrored: min 2.0 s, median 4.0 s, max 6.0 s; of which the bridge ran: "
+        "min 0.8 s, median 0.95 s, max 1.1 s"
+    )
+
+
+def test_the_starver_counts_the_seconds_its_process_ran() -> None:
+    import subprocess
+    import sys
+    import time
+
+    from tests.support.ros2_shared import STARVE_RUN, STARVE_STOP, Starver
+
+    proc = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        start = time.monotonic()
+        starver = Starver(proc.pid, seed=3)
+        time.sleep(6.0)
+        end = time.monotonic()
+        starver.stop()
+        ran = starver.ran(start, end)
+        # every second of the window is run or stopped; at least one stop in 6 s
+        assert starver.stops >= 1
+        assert abs(ran + starver.stopped - (end - start)) < 0.1, (ran, starver.stopped)
+        assert STARVE_RUN[0] <= starver.ran(start, start + STARVE_RUN[0])  # it runs before its first stop
+        assert starver.ran(end, end + 1.0) == 1.0  # not starved any more
+        assert STARVE_STOP[0] <= starver.stopped
+    finally:
+        proc.kill()
+        proc.wait()

@@ -244,6 +244,7 @@ class Starver:
         self.pid = pid
         self.stops = 0
         self.stopped = 0.0  # seconds in all
+        self._stops: list[tuple[float, float]] = []  # (SIGSTOP, SIGCONT), monotonic; inf while stopped
         self._random = random.Random(seed)
         self._done = threading.Event()
         self._thread = threading.Thread(target=self._run, name="starver", daemon=True)
@@ -256,6 +257,7 @@ class Starver:
                 os.kill(self.pid, signal.SIGSTOP)
                 self.stops += 1
                 t0 = time.monotonic()
+                self._stops.append((t0, float("inf")))
                 self._done.wait(pause)
                 self.stopped += time.monotonic() - t0
             except ProcessLookupError:
@@ -263,6 +265,13 @@ class Starver:
             finally:
                 with contextlib.suppress(ProcessLookupError):
                     os.kill(self.pid, signal.SIGCONT)
+                if self._stops and self._stops[-1][1] == float("inf"):
+                    self._stops[-1] = (self._stops[-1][0], time.monotonic())
+
+    def ran(self, start: float, end: float) -> float:
+        """Seconds the process ran (was not stopped by us) from ``start`` to ``end`` (monotonic)."""
+        stopped = sum(max(0.0, min(b, end) - max(a, start)) for a, b in list(self._stops))
+        return round(end - start - stopped, 2)
 
     def stop(self) -> None:
         """Stop starving it (it runs on when this returns)."""
@@ -431,15 +440,19 @@ def _dead(bridge: _Proc, start: int, when: str, dead: list[dict[str, Any]]) -> N
 @dataclass
 class Stall:
     """One stall of a host process: seconds from its SIGCONT until every node was mirrored again
-    (None: not within the timeout), the nodes not mirrored then, and the most nodes shown not
-    mirrored while it was stopped (0: the bridge did not notice the stall)."""
+    (None: not within the timeout), the nodes not mirrored then, the most nodes shown not
+    mirrored while it was stopped (0: the bridge did not notice the stall), and of the seconds
+    to all mirrored those the bridge ran (None: not starved)."""
 
     recovered: float | None
     missing: int
     noticed: int
+    ran: float | None = None
 
 
-def _stall(graph: Graph, index: int, seconds: float, monitor: Any, timeout: float) -> Stall:
+def _stall(
+    graph: Graph, index: int, seconds: float, monitor: Any, timeout: float, starver: Starver | None = None
+) -> Stall:
     """Stop host ``index`` (SIGSTOP) for ``seconds``, then SIGCONT; what the monitor showed."""
     pid = graph.hosts[index].proc.pid
     nodes = graph.nodes
@@ -454,8 +467,10 @@ def _stall(graph: Graph, index: int, seconds: float, monitor: Any, timeout: floa
         os.kill(pid, signal.SIGCONT)
     t0 = time.monotonic()
     done = _wait(lambda: mirrored(monitor, nodes) == len(nodes), timeout)
-    took = round(time.monotonic() - t0, 2) if done else None
-    return Stall(took, len(nodes) - mirrored(monitor, nodes), noticed)
+    t1 = time.monotonic()
+    took = round(t1 - t0, 2) if done else None
+    ran = starver.ran(t0, t1) if starver is not None and done else None
+    return Stall(took, len(nodes) - mirrored(monitor, nodes), noticed, ran)
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
@@ -481,6 +496,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             times: list[float | None] = []
             recovered: dict[float, list[float | None]] = {s: [] for s in stalls}
             noticed: dict[float, list[int]] = {s: [] for s in stalls}
+            ran: dict[float, list[float | None]] = {s: [] for s in stalls}
             unmirrored: list[dict[str, Any]] = []
             dead: list[dict[str, Any]] = []
             tools: list[dict[str, Any]] = []
@@ -515,10 +531,13 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                     stalling = bridge.proc.poll() is None and i % args.stall_every == 0
                     for seconds in stalls if stalling else []:
                         phase = f"stall {seconds:g} s"
-                        stall = _stall(graph, turn % len(graph.hosts), seconds, monitor, args.recover_timeout)
+                        stall = _stall(
+                            graph, turn % len(graph.hosts), seconds, monitor, args.recover_timeout, starver
+                        )
                         turn += 1
                         recovered[seconds].append(stall.recovered)
                         noticed[seconds].append(stall.noticed)
+                        ran[seconds].append(stall.ran)
                         if stall.missing:
                             unmirrored.append(
                                 {
@@ -536,9 +555,10 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                                 file=sys.stderr,
                             )
                         again = f"{stall.recovered} s" if stall.recovered is not None else "NOT"
+                        running = f", the bridge running {stall.ran} s of it" if stall.ran is not None else ""
                         print(
                             f"start {i}: {phase}, {stall.noticed} nodes shown not mirrored during it, "
-                            f"all mirrored again {again} after SIGCONT ({stall.missing} missing)",
+                            f"all mirrored again {again} after SIGCONT{running} ({stall.missing} missing)",
                             file=sys.stderr,
                         )
                         if bridge.proc.poll() is not None:
@@ -568,7 +588,14 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         "dead": dead,
         "unmirrored": unmirrored,
         "start": spread(times),
-        "stalls": {f"{s:g}": {**spread(v), "noticed": noticed[s]} for s, v in recovered.items()},
+        "stalls": {
+            f"{s:g}": {
+                **spread(v),
+                "noticed": noticed[s],
+                "bridge_ran": spread(ran[s]) if args.starve else None,
+            }
+            for s, v in recovered.items()
+        },
         "tools": tools,
     }
 
@@ -659,6 +686,7 @@ def table(result: dict[str, Any]) -> str:
             f"{len(stats['seconds'])} stalls; "
             f"nodes shown not mirrored during each: {stats.get('noticed', [])}; "
             f"SIGCONT to all mirrored: {_span(stats)}"
+            + (f"; of which the bridge ran: {_span(stats['bridge_ran'])}" if stats.get("bridge_ran") else "")
         )
     if result["unmirrored"]:
         lines.append(
