@@ -798,7 +798,7 @@ class Mirror:
         """The nodes missing from ``graph`` (the bridge's participant's) that a rescue
         participant sees, fqn -> (enclave, writers): those it found before, while it still
         sees them, and those that left in the last :data:`LOOK_FOR` seconds, looked for through
-        a participant made after they left (see the module docstring). Only a node with its
+        a participant their processes never knew (see the module docstring). Only a node with its
         ``/parameter_events`` writers in view counts (they name its process and its restarts)."""
         self._gone = {f: g for f, g in self._gone.items() if now - g.left <= LOOK_FOR}
         with self._lock:
