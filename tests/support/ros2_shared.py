@@ -242,8 +242,6 @@ class Starver:
 
     def __init__(self, pid: int, seed: int | None = None) -> None:
         self.pid = pid
-        self.stops = 0
-        self.stopped = 0.0  # seconds in all
         self._stops: list[tuple[float, float]] = []  # (SIGSTOP, SIGCONT), monotonic; inf while stopped
         self._random = random.Random(seed)
         self._done = threading.Event()
@@ -255,11 +253,8 @@ class Starver:
             pause = self._random.uniform(*STARVE_STOP)
             try:
                 os.kill(self.pid, signal.SIGSTOP)
-                self.stops += 1
-                t0 = time.monotonic()
-                self._stops.append((t0, float("inf")))
+                self._stops.append((time.monotonic(), float("inf")))
                 self._done.wait(pause)
-                self.stopped += time.monotonic() - t0
             except ProcessLookupError:
                 return
             finally:
@@ -267,6 +262,15 @@ class Starver:
                     os.kill(self.pid, signal.SIGCONT)
                 if self._stops and self._stops[-1][1] == float("inf"):
                     self._stops[-1] = (self._stops[-1][0], time.monotonic())
+
+    @property
+    def stops(self) -> int:
+        return len(self._stops)
+
+    @property
+    def stopped(self) -> float:
+        """Seconds stopped in all (those of a stop in progress not counted)."""
+        return sum(b - a for a, b in list(self._stops) if b != float("inf"))
 
     def ran(self, start: float, end: float) -> float:
         """Seconds the process ran (was not stopped by us) from ``start`` to ``end`` (monotonic)."""
