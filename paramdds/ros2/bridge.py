@@ -175,7 +175,11 @@ class Bridge:
         starts then, not up to POLL later: a bridge starved of CPU may run for only so long."""
         deadline = time.monotonic() + POLL
         while not self._stop.wait(min(SIGHT_EVERY, max(0.0, deadline - time.monotonic()))):
-            if time.monotonic() >= deadline or self.mirror.sighted():
+            if time.monotonic() >= deadline:
+                return
+            if sighted := self.mirror.sighted():
+                names = ", ".join(sorted(sighted))
+                log.info("in view again after a stall: %s; looking at the graph now", names)
                 return
 
     def step(self) -> None:

@@ -828,26 +828,26 @@ class Mirror:
                 self._found[fqn] = newer
         return out
 
-    def sighted(self) -> bool:
-        """Whether the newest rescue participant has come to see a node that left stalled and
-        that it may find (see :meth:`found_again`) since the last call: one look at that
-        participant's node names, none while no node is looked for. The bridge looks at the
-        whole graph at once then, not at its next poll (a starved bridge runs only so long)."""
+    def sighted(self) -> frozenset[str]:
+        """The nodes that left stalled that the newest rescue participant, if it may find them
+        (see :meth:`found_again`), has come to see since the last call: one look at its node
+        names, none while no node is looked for. The bridge then looks at the whole graph at
+        once, not at its next poll (a bridge starved of CPU may run for only so long)."""
         if not self._gone:
-            return False
+            return frozenset()
         with self._rescue_lock:
             newest = self._rescues[-1] if self._rescues else None
         if newest is None:
-            return False
+            return frozenset()
         side, made = newest
         try:
             names = side.graph()
         except Exception:  # closed meanwhile (the bridge is closing)
-            return False
+            return frozenset()
         gone = list(self._gone.items())
         seen = frozenset(f for f, g in gone if f in names and made >= self._unknown_since(g))
         new, self._sighted = seen - self._sighted, seen
-        return bool(new)
+        return new
 
     def stalls(self, stalled: Mapping[bytes, float], now: float) -> None:
         """The ROS 2 processes that do not answer now (participant -> since when, from
