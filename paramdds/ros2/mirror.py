@@ -55,9 +55,8 @@ answering and that never saw it before it left, or else made after it left. The 
 process and that participant discover each other afresh. Such a participant is made as
 soon as a process has not answered for :data:`READY_AFTER` seconds (:meth:`Mirror.stalls`),
 so that it has discovered the rest of the graph before the lease runs out, and finds the
-process at its first announcement when it resumes, with the read clients of its nodes made
-there too (:meth:`Mirror._prime`); between two looks at the graph the bridge asks that
-participant whether it sees such a node (:meth:`Mirror.sighted`). A node found so, or back unnamed
+process at its first announcement when it resumes; between two looks at the graph the bridge
+asks that participant whether it sees such a node (:meth:`Mirror.sighted`). A node found so, or back unnamed
 while such a participant exists (the bridge's participant may have rediscovered only part
 of the process), is mirrored through that participant (its services called, its
 ``/parameter_events`` read there: one subscription per such participant) until the
@@ -81,7 +80,7 @@ import logging
 import random
 import threading
 from collections import Counter, OrderedDict, deque
-from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -190,12 +189,6 @@ class RosLink:
     def _call(self, service: str, request: Any, timeout: float | None = None) -> Any:
         self.calls[service] += 1
         return self.ros.call(self._client(service), request, self.timeout if timeout is None else timeout)
-
-    def prime(self) -> None:
-        """Make the read clients now, ahead of a read (see :meth:`Mirror.stalls`): they live
-        until the end of the first read, as those made by it do."""
-        for service in READS:
-            self._client(service)
 
     def fetch(self) -> dict[str, Entry]:
         """Every parameter of the node with its value and descriptor (list, get, describe)."""
@@ -687,7 +680,6 @@ class Mirror:
         self._gone: dict[str, Gone] = {}  # fqn -> how it left the graph stalled (see found_again)
         self._found: dict[str, RosSide] = {}  # fqn -> the participant that found it, at the last look
         self._sighted: frozenset[str] = frozenset()  # nodes that left stalled, in view at the last sighting
-        self._primed: dict[str, RosLink] = {}  # fqn -> read clients made on a rescue participant (_prime)
         self._unnamed: frozenset[str] = frozenset()  # the nodes back unnamed, at the last look (returning)
         self._first_seen: dict[str, float] = {}  # fqn -> when a node not mirrored yet was first seen
         self._writers_of: OrderedDict[bytes, str] = OrderedDict()  # writer GID -> fqn, of nodes that left
@@ -863,8 +855,7 @@ class Mirror:
         that saw it meanwhile (its process ran then, so it knew them). A process silent for
         :data:`READY_AFTER` seconds gets a rescue participant made after it stopped answering,
         if none is: should it stall past its lease, that one has the rest of the graph
-        discovered when it resumes, and finds it at its first announcement (found_again). Its
-        nodes' read clients are made there too (:meth:`_prime`)."""
+        discovered when it resumes, and finds it at its first announcement (found_again)."""
         with self._lock:
             nodes = list(self.nodes.values())
         with self._rescue_lock:
@@ -880,31 +871,9 @@ class Mirror:
             for side, made in rescues:
                 if made >= since and side not in m.seen_by and _seen(side, m.fqn, looks) is not None:
                     m.seen_by.add(side)
-        silent = {m.fqn: t for m in nodes if (t := m.stalled_since) is not None and now - t >= READY_AFTER}
-        ready = None
+        silent = [t for t in stalled.values() if now - t >= READY_AFTER]
         if silent:
-            ready = self._side_made_after(
-                max(silent.values()), now, "be ready to find a ROS 2 process that does not answer"
-            )
-        self._prime(ready, silent.keys())
-
-    def _prime(self, side: RosSide | None, silent: Collection[str]) -> None:
-        """Read clients made on ``side`` for the nodes of the processes silent for
-        :data:`READY_AFTER` seconds: should such a node stall past its lease and be found through
-        ``side``, its process discovers them along with ``side`` when it resumes, and its first
-        read does not wait for new clients to be made and matched (:meth:`_add`). Those of a node
-        that answers again, or is no longer looked for, are closed."""
-        for fqn in silent:
-            held = self._primed.get(fqn)
-            if side is None or (held is not None and held.ros is side):
-                continue
-            if held is not None:
-                held.close()
-            self._primed[fqn] = link = RosLink(side, fqn, self.timeout)
-            link.prime()
-        keep = set(silent) | self._gone.keys()
-        for fqn in self._primed.keys() - keep:
-            self._primed.pop(fqn).close()
+            self._side_made_after(max(silent), now, "be ready to find a ROS 2 process that does not answer")
 
     def _made_since(self, since: float) -> RosSide | None:
         """The newest rescue participant if it was made at or after ``since``."""
@@ -1013,11 +982,7 @@ class Mirror:
         if found_on is not None:
             log.warning("%s is back: mirrored through a participant its process did not know", fqn)
             self._listen(found_on)
-        link = self._primed.pop(fqn, None)
-        if link is not None and link.ros is not (found_on or self.ros):
-            link.close()
-            link = None
-        link = link or RosLink(found_on or self.ros, fqn, self.timeout)
+        link = RosLink(found_on or self.ros, fqn, self.timeout)
         m = Mirrored(
             fqn, node_id, link, MirrorTable(node_id, link), writers, evented=bool(writers), found_on=found_on
         )
@@ -1275,8 +1240,6 @@ class Mirror:
         self._pool.shutdown(wait=False, cancel_futures=True)
         for fqn in list(self.nodes):
             self._remove(fqn)
-        for link in self._primed.values():
-            link.close()
         with self._rescue_lock:
             rescues, self._rescues = self._rescues, []
             self._listening.clear()

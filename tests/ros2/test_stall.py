@@ -217,18 +217,13 @@ def test_a_process_that_does_not_answer_gets_a_participant_ready_before_its_leas
     """docs/ros2.md: a process silent for READY_AFTER seconds gets a participant made after it
     stopped answering, while its nodes are still in the graph; when it stalls past its lease
     and resumes, that one finds it (no other is made after it left)."""
-    from paramdds.ros2.mirror import READS, READY_AFTER
+    from paramdds.ros2.mirror import READY_AFTER
 
     _, monitor = paramdds_side
     rescues = f"/{bridge.ros.node.get_name()}_"
 
     def looking() -> list[str]:
         return sorted(f for f in bridge.ros.graph() if f.startswith(rescues))
-
-    def reads(rescue: str) -> list[str]:
-        """The read services of /ready/a that the participant ``rescue`` has clients of."""
-        clients = bridge.ros.node.get_client_names_and_types_by_node(rescue.lstrip("/"), "/")
-        return sorted(n for n, _ in clients if n.startswith("/ready/a/") and n.rsplit("/", 1)[1] in READS)
 
     profile = tmp_path / "lease_15.xml"
     profile.write_text(SHORT_LEASE.replace("<sec>3</sec>", "<sec>15</sec>"))
@@ -246,18 +241,12 @@ def test_a_process_that_does_not_answer_gets_a_participant_ready_before_its_leas
             state = monitor.snapshot()["ready/a"]
             assert state.online and state.status == "stale", state  # still in the graph: lease not out
             assert time.monotonic() - stopped < 15.0
-            # its read clients made there too, in the graph for the process to discover on resuming
-            made = sorted(f"/ready/a/{service}" for service in READS)
-            wait_for(lambda: reads(ready[0]) == made, 5, "read clients on that participant")
-            primed = bridge.mirror._primed["/ready/a"]
             wait_for(lambda: not monitor.snapshot()["ready/a"].online, 15, "offline past the lease")
             time.sleep(1.0)
         finally:
             os.kill(host.proc.pid, signal.SIGCONT)
         wait_for(lambda: len(_mirrored(monitor, host.nodes)) == 1, 5, "mirrored again")
         assert looking() == ready  # found through the participant made ready, none made after it left
-        assert bridge.mirror.nodes["/ready/a"].link is primed  # read with the clients made ready
-        wait_for(lambda: reads(ready[0]) == [], 5, "the read clients closed after the read")
     finally:
         host.close()
 
