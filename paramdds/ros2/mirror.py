@@ -55,12 +55,12 @@ answering and that never saw it before it left, or else made after it left. The 
 process and that participant discover each other afresh. Such a participant is made as
 soon as a process has not answered for :data:`READY_AFTER` seconds (:meth:`Mirror.stalls`),
 so that it has discovered the rest of the graph before the lease runs out, and finds the
-process at its first announcement when it resumes; between two looks at the graph the bridge
-asks that participant whether it sees such a node (:meth:`Mirror.sighted`). A node found so, or back unnamed
-while such a participant exists (the bridge's participant may have rediscovered only part
-of the process), is mirrored through that participant (its services called, its
-``/parameter_events`` read there: one subscription per such participant) until the
-bridge's own participant lists it again.
+process at its first announcement when it resumes; between two looks at the graph the
+bridge asks that participant whether it sees such a node (:meth:`Mirror.sighted`). A node
+found so, or back unnamed while such a participant exists (the bridge's participant may
+have rediscovered only part of the process), is mirrored through that participant (its
+services called, its ``/parameter_events`` read there: one subscription per such
+participant) until the bridge's own participant lists it again.
 
 The opposite also happens: a process that stops destroys its nodes one by one, each one an
 update of its node list (``ros_discovery_info``, reliable, keep-last 1) and the removal of the
