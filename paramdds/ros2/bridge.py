@@ -50,7 +50,6 @@ SECURE_REFUSED = (
 log = logging.getLogger(__name__)
 
 POLL = 0.5  # seconds between looks at the ROS 2 graph and the paramdds presence
-SIGHT_EVERY = 0.1  # seconds between two asks, within POLL, whether a node that left stalled is back
 START_WAIT = 3.0  # seconds at most a start waits to learn what paramdds already holds
 ORIGIN = "ros2"
 
@@ -167,20 +166,7 @@ class Bridge:
                 self.step()
             except Exception:
                 log.exception("the bridge loop failed; trying again")
-            self._until_next_look()
-
-    def _until_next_look(self) -> None:
-        """Wait :data:`POLL` seconds, or less: until a rescue participant sees a node that left
-        stalled (:meth:`Mirror.sighted`), asked every :data:`SIGHT_EVERY` seconds. Its recovery
-        starts then, not up to POLL later: a bridge starved of CPU may run for only so long."""
-        deadline = time.monotonic() + POLL
-        while not self._stop.wait(min(SIGHT_EVERY, max(0.0, deadline - time.monotonic()))):
-            if time.monotonic() >= deadline:
-                return
-            if sighted := self.mirror.sighted():
-                names = ", ".join(sorted(sighted))
-                log.info("in view again after a stall: %s; looking at the graph now", names)
-                return
+            self._stop.wait(POLL)
 
     def step(self) -> None:
         """One look at both graphs (the loop's body)."""

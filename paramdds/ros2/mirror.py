@@ -55,12 +55,11 @@ answering and that never saw it before it left, or else made after it left. The 
 process and that participant discover each other afresh. Such a participant is made as
 soon as a process has not answered for :data:`READY_AFTER` seconds (:meth:`Mirror.stalls`),
 so that it has discovered the rest of the graph before the lease runs out, and finds the
-process at its first announcement when it resumes; between two looks at the graph the
-bridge asks that participant whether it sees such a node (:meth:`Mirror.sighted`). A node
-found so, or back unnamed while such a participant exists (the bridge's participant may
-have rediscovered only part of the process), is mirrored through that participant (its
-services called, its ``/parameter_events`` read there: one subscription per such
-participant) until the bridge's own participant lists it again.
+process at its first announcement when it resumes. A node found so, or back unnamed
+while such a participant exists (the bridge's participant may have rediscovered only part
+of the process), is mirrored through that participant (its services called, its
+``/parameter_events`` read there: one subscription per such participant) until the
+bridge's own participant lists it again.
 
 The opposite also happens: a process that stops destroys its nodes one by one, each one an
 update of its node list (``ros_discovery_info``, reliable, keep-last 1) and the removal of the
@@ -679,7 +678,6 @@ class Mirror:
         self._departed: dict[str, list[str]] = {}  # node id -> the names it had when it left
         self._gone: dict[str, Gone] = {}  # fqn -> how it left the graph stalled (see found_again)
         self._found: dict[str, RosSide] = {}  # fqn -> the participant that found it, at the last look
-        self._sighted: frozenset[str] = frozenset()  # nodes that left stalled, in view at the last sighting
         self._unnamed: frozenset[str] = frozenset()  # the nodes back unnamed, at the last look (returning)
         self._first_seen: dict[str, float] = {}  # fqn -> when a node not mirrored yet was first seen
         self._writers_of: OrderedDict[bytes, str] = OrderedDict()  # writer GID -> fqn, of nodes that left
@@ -827,27 +825,6 @@ class Mirror:
                 out[fqn] = hit
                 self._found[fqn] = newer
         return out
-
-    def sighted(self) -> frozenset[str]:
-        """The nodes that left stalled that the newest rescue participant, if it may find them
-        (see :meth:`found_again`), has come to see since the last call: one look at its node
-        names, none while no node is looked for. The bridge then looks at the whole graph at
-        once, not at its next poll (a bridge starved of CPU may run for only so long)."""
-        if not self._gone:
-            return frozenset()
-        with self._rescue_lock:
-            newest = self._rescues[-1] if self._rescues else None
-        if newest is None:
-            return frozenset()
-        side, made = newest
-        try:
-            names = side.graph()
-        except Exception:  # closed meanwhile (the bridge is closing)
-            return frozenset()
-        gone = list(self._gone.items())
-        seen = frozenset(f for f, g in gone if f in names and made >= self._unknown_since(g))
-        new, self._sighted = seen - self._sighted, seen
-        return new
 
     def stalls(self, stalled: Mapping[bytes, float], now: float) -> None:
         """The ROS 2 processes that do not answer now (participant -> since when, from
