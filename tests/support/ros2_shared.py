@@ -550,21 +550,12 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
                         recovered[seconds].append(stall.recovered)
                         noticed[seconds].append(stall.noticed)
                         ran[seconds].append(stall.ran)
-                        if stall.missing:
-                            unmirrored.append(
-                                {
-                                    "start": i,
-                                    "when": phase,
-                                    "missing": stall.missing,
-                                    "held": holding(monitor, nodes),
-                                }
-                            )
-                        if stall.missing:  # why: what the monitor holds, the bridge's ROS 2 side said
+                        if stall.missing:  # what the monitor holds; why: what the bridge's ROS 2 side said
+                            held = holding(monitor, nodes)
+                            miss = {"start": i, "when": phase, "missing": stall.missing, "held": held}
+                            unmirrored.append(miss)
                             ros = "\n".join(_ros_said(bridge)[-60:])
-                            print(
-                                f"start {i}: {phase}: {holding(monitor, nodes)}; the bridge said:\n{ros}",
-                                file=sys.stderr,
-                            )
+                            print(f"start {i}: {phase}: {held}; the bridge said:\n{ros}", file=sys.stderr)
                         elif stall.recovered is not None and stall.recovered > RECOVER_WITHIN:
                             ros = "\n".join(_ros_said(bridge)[said_before:][-60:])
                             print(f"start {i}: {phase}: slow; the bridge said:\n{ros}", file=sys.stderr)
