@@ -10,7 +10,8 @@ makes a node without parameter services (until ``serve``); ``--unknown K`` gives
 publishers of message types a bridge has no endpoint of (:data:`UNKNOWN_TYPES`, in turn).
 
 Prints ``ready /ns/a /ns/b ...`` once its nodes exist, then reads commands on stdin:
-``set FQN NAME YAML`` sets a parameter from inside the node (as its own code would),
+``set FQN NAME YAML`` sets a parameter from inside the node (as its own code would), ``hush
+FQN NAME YAML`` the same without its ``/parameter_events`` message (what a peer that lost it sees),
 ``get FQN NAME`` prints its value as JSON, ``serve FQN`` starts a muted node's parameter
 services, ``blink FQN SECONDS`` makes a node that lives that long (as a tool's node, such as
 ``ros2 param``'s, does), ``strip FQN`` destroys a node's parameter services and its
@@ -169,10 +170,16 @@ def main(argv: list[str] | None = None) -> int:
                 continue
             if words[0] == "quit":
                 break
-            if words[0] == "set" and len(words) == 4:
+            if words[0] in ("set", "hush") and len(words) == 4:
                 node = nodes[words[1]]
-                result = node.set_parameters([Parameter(words[2], value=yaml.safe_load(words[3]))])[0]
-                print("set", "ok" if result.successful else f"refused {result.reason}", flush=True)
+                events = node._parameter_event_publisher
+                if words[0] == "hush":  # no /parameter_events message for it: as one lost
+                    node._parameter_event_publisher = None
+                try:
+                    result = node.set_parameters([Parameter(words[2], value=yaml.safe_load(words[3]))])[0]
+                finally:
+                    node._parameter_event_publisher = events
+                print(words[0], "ok" if result.successful else f"refused {result.reason}", flush=True)
             if words[0] == "serve" and len(words) == 2:
                 from rclpy.parameter_service import ParameterService
 

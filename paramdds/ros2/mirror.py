@@ -59,7 +59,9 @@ process at its first announcement when it resumes. A node found so, or back unna
 while such a participant exists (the bridge's participant may have rediscovered only part
 of the process), is mirrored through that participant (its services called, its
 ``/parameter_events`` read there: one subscription per such participant) until the
-bridge's own participant lists it again.
+bridge's own participant lists it again. A node back with a writer it had when it left is its
+process resumed: it is hosted at once with what it held as it left, and its values checked
+(:meth:`Mirror._resume`), not read in full.
 
 The opposite also happens: a process that stops destroys its nodes one by one, each one an
 update of its node list (``ros_discovery_info``, reliable, keep-last 1) and the removal of the
@@ -616,6 +618,9 @@ class Mirrored:
     # the rescue participants that saw it while its process did not answer: its process knew
     # them (it was stopped later, or only its executor hung), so they cannot find it again
     seen_by: set[RosSide] = field(default_factory=set)
+    # hosted with what it held when it left stalled (Mirror._resume), its values not yet read
+    # back from the node: checked until a read answers
+    unconfirmed: bool = False
     lock: threading.Lock = field(default_factory=threading.Lock)
 
 
@@ -626,6 +631,8 @@ class Gone:
     left: float
     since: float  # when its process stopped answering (``left`` when not known)
     seen_by: frozenset[RosSide] = frozenset()  # see Mirrored.seen_by
+    writers: frozenset[bytes] = frozenset()  # its /parameter_events writers: one back is its process
+    held: Mapping[str, Entry] = field(default_factory=dict)  # what it held as it left (Mirror._resume)
 
 
 def next_resync(now: float, period: float) -> float:
@@ -726,7 +733,10 @@ class Mirror:
                 m = self._add(fqn, writers)
                 if m is None:
                     continue
-                self._submit(m)
+                if m.unconfirmed:
+                    self._resume(m, now)
+                else:
+                    self._submit(m)
             elif m.writers and writers - m.writers:  # a writer we did not know: the node restarted
                 log.info("%s restarted: resynchronizing it under a new incarnation", fqn)
                 m.writers = writers
@@ -738,7 +748,32 @@ class Mirror:
                 m.evented = m.evented or bool(writers)
                 if m.failures and now >= m.retry_at:
                     self._submit(m)
+                elif self._to_confirm(m, now):
+                    self._submit(m, full=False)
         self._due_checks(now)
+
+    def _resume(self, m: Mirrored, now: float) -> None:
+        """Host a node back from a stall past the lease (a ``/parameter_events`` writer it had
+        when it left: its process) at once, with what it held when it left, and check its values
+        (one ``get_parameters``, as the periodic check does). A process stopped changed nothing
+        meanwhile; what it changed as it resumed (a set queued during the stall), before this
+        participant matched its writer, or while out of the bridge's view without being stopped
+        (a network cut), the check commits. Read in full, a resumed process answered its first
+        read 0.5-2.7 s late, while every peer rediscovered it (docs/ros2.md)."""
+        log.info("%s is back from a stall: mirrored with what it held, its values checked", m.fqn)
+        with m.lock:
+            m.hosted = True
+            m.retry_at = now + self.timeout  # the check below: not asked again meanwhile
+            m.resync_at = next_resync(now, self.resync_period)
+        self._host_now(m)
+        self._submit(m, full=False)
+
+    def _to_confirm(self, m: Mirrored, now: float) -> bool:
+        """Whether a resumed node whose check did not answer is checked again now (not while its
+        process shows stalled: the check would wait its whole timeout; see _due_checks)."""
+        with m.lock:
+            due = m.unconfirmed and not m.syncing and now >= m.retry_at
+        return due and m.table.status is None
 
     def _unlisted(
         self, current: Mapping[str, Mirrored], wanted: Mapping[str, frozenset[bytes]], now: float
@@ -963,6 +998,9 @@ class Mirror:
         m = Mirrored(
             fqn, node_id, link, MirrorTable(node_id, link), writers, evented=bool(writers), found_on=found_on
         )
+        if gone is not None and writers & gone.writers:  # its process, back from its stall
+            m.table.resync(gone.held)
+            m.unconfirmed = True
         with self._lock:
             self.nodes[fqn] = m
         return m
@@ -999,7 +1037,8 @@ class Mirror:
         if not (hosted and stalled):
             return None
         since = now if m.stalled_since is None else min(m.stalled_since, now)
-        return Gone(now, since, frozenset(m.seen_by))
+        held = {name: (value, desc) for name, value, desc in m.table.snapshot()}
+        return Gone(now, since, frozenset(m.seen_by), m.writers, held)
 
     def _submit(self, m: Mirrored, *, full: bool = True) -> None:
         """Read ``m`` on the sync pool: everything (``full``), or only check its values."""
@@ -1066,6 +1105,7 @@ class Mirror:
                 m.hosted = m.hosted or host
                 m.failures = 0
                 m.failing_since = 0.0
+                m.unconfirmed = False
                 shown, m.unreachable = m.unreachable, False
                 m.resync_at = next_resync(time.monotonic(), self.resync_period)
             if shown:
@@ -1077,11 +1117,14 @@ class Mirror:
                 if not again:
                     m.syncing = False
             if host:
-                self._host(m.table)
-                # readers still hold what it had last time: what it no longer has is deleted
-                self._forget(m.node_id, self._departed.pop(m.node_id, []))
+                self._host_now(m)
             if not again:
                 return
+
+    def _host_now(self, m: Mirrored) -> None:
+        self._host(m.table)
+        # readers still hold what it had last time: what it no longer has is deleted
+        self._forget(m.node_id, self._departed.pop(m.node_id, []))
 
     def _check(self, m: Mirrored) -> bool:
         """The periodic check of a hosted node: one ``get_parameters`` of every name it holds
@@ -1106,8 +1149,11 @@ class Mirror:
             if missed:
                 self.missed += len(missed)
                 log.info("%s: %s differed from its events; mirrored now", m.fqn, ", ".join(missed))
+        now = time.monotonic()
         with m.lock:
-            m.resync_at = next_resync(time.monotonic(), self.resync_period)
+            m.resync_at = next_resync(now, self.resync_period)
+            m.unconfirmed = m.unconfirmed and values is None
+            m.retry_at = now + RETRY if m.unconfirmed else m.retry_at
             again = m.dirty or m.full
             if not again:
                 m.syncing = False

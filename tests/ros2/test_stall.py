@@ -7,6 +7,7 @@ test's own domains.
 
 from __future__ import annotations
 
+import logging
 import os
 import signal
 import time
@@ -81,6 +82,34 @@ def test_a_process_stopped_past_the_lease_is_mirrored_again_within_5_s_of_resumi
     assert host.command("set /stall/node_03 use_sim_time true") == "set ok"
     wait_for(lambda: client.get_value("stall/node_03", "use_sim_time").value is True, 5, "an event mirrored")
     print(f"all {len(host.nodes)} nodes mirrored again {took:.2f} s after SIGCONT")
+
+
+def test_a_resumed_process_is_mirrored_with_what_it_held_then_its_values_checked(
+    short_lease_host: RosHost, bridge: Any, paramdds_side: Any, caplog: pytest.LogCaptureFixture
+) -> None:
+    """docs/ros2.md: a process back from a stall past the lease is hosted at once with what its
+    nodes held as they left, then their values are checked: a change the bridge never heard of
+    (its event lost; or made as the process resumed, before the bridge matched its writer again)
+    is mirrored once the process is back."""
+    host = short_lease_host
+    client, monitor = paramdds_side
+    wait_for(lambda: len(_mirrored(monitor, host.nodes)) == len(host.nodes), 30, "every node mirrored")
+    before = client.get_value("stall/rich", "limits.speed").value
+    assert host.command("hush /stall/rich limits.speed 4.5") == "hush ok"
+    assert host.command("get /stall/rich limits.speed") == "value 4.5"
+    time.sleep(1.0)
+    assert client.get_value("stall/rich", "limits.speed").value == before  # no event: not mirrored
+    caplog.set_level(logging.INFO, logger="paramdds.ros2.mirror")
+    os.kill(host.proc.pid, signal.SIGSTOP)
+    try:
+        wait_for(lambda: not _mirrored(monitor, host.nodes), 10, "the stopped nodes offline")
+        time.sleep(1.0)
+    finally:
+        os.kill(host.proc.pid, signal.SIGCONT)
+    wait_for(lambda: len(_mirrored(monitor, host.nodes)) == len(host.nodes), 5, "every node mirrored again")
+    wait_for(lambda: client.get_value("stall/rich", "limits.speed").value == 4.5, 5, "the change mirrored")
+    resumed = {r.getMessage().split()[0] for r in caplog.records if "back from a stall" in r.getMessage()}
+    assert resumed == set(host.nodes), resumed  # none read in full
 
 
 def test_a_process_stopped_shorter_than_the_lease_shows_stale_without_a_set_and_ok_after(
