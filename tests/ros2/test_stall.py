@@ -52,6 +52,18 @@ def _mirrored(monitor: Any, fqns: list[str]) -> dict[str, Any]:
     }
 
 
+def _stop_past_the_lease(host: RosHost, monitor: Any) -> float:
+    """Stop ``host`` until its nodes are offline, and a second more; when it was resumed."""
+    os.kill(host.proc.pid, signal.SIGSTOP)
+    try:
+        # past the 3 s lease the bridge's ROS 2 graph drops the process: its nodes go offline
+        wait_for(lambda: not _mirrored(monitor, host.nodes), 10, "the stopped nodes offline")
+        time.sleep(1.0)
+    finally:
+        os.kill(host.proc.pid, signal.SIGCONT)
+    return time.monotonic()
+
+
 def test_a_process_stopped_past_the_lease_is_mirrored_again_within_5_s_of_resuming(
     short_lease_host: RosHost, bridge: Any, paramdds_side: Any
 ) -> None:
@@ -61,14 +73,7 @@ def test_a_process_stopped_past_the_lease_is_mirrored_again_within_5_s_of_resumi
     assert host.command("set /stall/rich limits.speed 2.5") == "set ok"
     wait_for(lambda: client.get_value("stall/rich", "limits.speed").value == 2.5, 10, "the change mirrored")
     before = {f: st.incarnation for f, st in _mirrored(monitor, host.nodes).items()}
-    os.kill(host.proc.pid, signal.SIGSTOP)
-    try:
-        # past the 3 s lease the bridge's ROS 2 graph drops the process: its nodes go offline
-        wait_for(lambda: not _mirrored(monitor, host.nodes), 10, "the stopped nodes offline")
-        time.sleep(1.0)
-    finally:
-        os.kill(host.proc.pid, signal.SIGCONT)
-    resumed = time.monotonic()
+    resumed = _stop_past_the_lease(host, monitor)
     wait_for(lambda: len(_mirrored(monitor, host.nodes)) == len(host.nodes), 5, "every node mirrored again")
     took = time.monotonic() - resumed
     back = _mirrored(monitor, host.nodes)
@@ -100,12 +105,7 @@ def test_a_resumed_process_is_mirrored_with_what_it_held_then_its_values_checked
     time.sleep(1.0)
     assert client.get_value("stall/rich", "limits.speed").value == before  # no event: not mirrored
     caplog.set_level(logging.INFO, logger="paramdds.ros2.mirror")
-    os.kill(host.proc.pid, signal.SIGSTOP)
-    try:
-        wait_for(lambda: not _mirrored(monitor, host.nodes), 10, "the stopped nodes offline")
-        time.sleep(1.0)
-    finally:
-        os.kill(host.proc.pid, signal.SIGCONT)
+    _stop_past_the_lease(host, monitor)
     wait_for(lambda: len(_mirrored(monitor, host.nodes)) == len(host.nodes), 5, "every node mirrored again")
     wait_for(lambda: client.get_value("stall/rich", "limits.speed").value == 4.5, 5, "the change mirrored")
     resumed = {r.getMessage().split()[0] for r in caplog.records if "back from a stall" in r.getMessage()}
