@@ -35,11 +35,11 @@ from cyclonedds.idl.annotations import key
 from cyclonedds.idl.types import sequence, uint8, uint64
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
-from cyclonedds.topic import Topic
 
 from ..dds._binding import cookie_buffer, waitset_attach_indexed, waitset_wait_indexed, write_serialized
 from ..dds.dispatch import Dispatcher
 from ..dds.qos import QosProfiles
+from ..dds.topics import make_topic
 from ..dds.wire import types as wire
 
 ECHO_REQUEST = "BenchEchoRequest"  # names chosen so the Request / Reply QoS profiles apply
@@ -92,10 +92,10 @@ def echo_template(size: int, node: str = "bench_n0000") -> bytearray:
 
 def serve_echo(participant: Any, qos: QosProfiles, reply_size: int) -> Dispatcher:
     """Answer every Echo request with a pre-encoded Echo of ``reply_size`` bytes (same ids)."""
-    writer = DataWriter(participant, Topic(participant, ECHO_REPLY, Echo), qos.writer(ECHO_REPLY))
+    writer = DataWriter(participant, make_topic(participant, ECHO_REPLY, Echo), qos.writer(ECHO_REPLY))
     reply = echo_template(reply_size)
     at = _ids_offset()
-    reader = DataReader(participant, Topic(participant, ECHO_REQUEST, Echo), qos.reader(ECHO_REQUEST))
+    reader = DataReader(participant, make_topic(participant, ECHO_REQUEST, Echo), qos.reader(ECHO_REQUEST))
     dispatcher = Dispatcher(participant, "bench-echo")
 
     def on_requests(samples: Sequence[tuple[bytes, Any]]) -> None:
@@ -115,9 +115,9 @@ class EchoClient:
 
     def __init__(self, participant: Any, qos: QosProfiles, request_size: int) -> None:
         self._writer = DataWriter(
-            participant, Topic(participant, ECHO_REQUEST, Echo), qos.writer(ECHO_REQUEST)
+            participant, make_topic(participant, ECHO_REQUEST, Echo), qos.writer(ECHO_REQUEST)
         )
-        reader = DataReader(participant, Topic(participant, ECHO_REPLY, Echo), qos.reader(ECHO_REPLY))
+        reader = DataReader(participant, make_topic(participant, ECHO_REPLY, Echo), qos.reader(ECHO_REPLY))
         self._request = echo_template(request_size)
         self._at = _ids_offset()
         self._ids = itertools.count(1)
@@ -162,9 +162,13 @@ class PollingClient:
 
     def __init__(self, participant: Any, qos: QosProfiles, period: float = 0.010) -> None:
         name = "GetParametersRequest"
-        self._writer = DataWriter(participant, Topic(participant, name, wire.TOPICS[name]), qos.writer(name))
+        self._writer = DataWriter(
+            participant, make_topic(participant, name, wire.TOPICS[name]), qos.writer(name)
+        )
         name = "GetParametersResponse"
-        self._reader = DataReader(participant, Topic(participant, name, wire.TOPICS[name]), qos.reader(name))
+        self._reader = DataReader(
+            participant, make_topic(participant, name, wire.TOPICS[name]), qos.reader(name)
+        )
         self._ids = itertools.count(1)
         self.client_id = 0x5EED
         self.period = period
@@ -271,15 +275,15 @@ class RosLayoutServer:
         node = table.node_id
         dp, qos = self._dp, self._qos
         events = DataWriter(
-            dp, Topic(dp, EVENTS_TOPIC, wire.ParameterEvent), qos.writer("SetParametersResponse")
+            dp, make_topic(dp, EVENTS_TOPIC, wire.ParameterEvent), qos.writer("SetParametersResponse")
         )
         self._entities.append(events)
         for service in SERVICES:
             req_type, rep_type = _SERVICE_TYPES[service]
             rq = request_topic(node, service)
-            reader = DataReader(dp, Topic(dp, rq, wire.TOPICS[req_type]), qos.reader(req_type))
+            reader = DataReader(dp, make_topic(dp, rq, wire.TOPICS[req_type]), qos.reader(req_type))
             writer = DataWriter(
-                dp, Topic(dp, reply_topic(node, service), wire.TOPICS[rep_type]), qos.writer(rep_type)
+                dp, make_topic(dp, reply_topic(node, service), wire.TOPICS[rep_type]), qos.writer(rep_type)
             )
             condition = ReadCondition(reader, ANY_STATE)
             self._entities += [reader, writer, condition]
@@ -449,10 +453,10 @@ class RosLayoutMonitor:
             for call in self.CALLS:
                 req_type, rep_type = _SERVICE_TYPES[call]
                 w = DataWriter(
-                    dp, Topic(dp, request_topic(node, call), wire.TOPICS[req_type]), qos.writer(req_type)
+                    dp, make_topic(dp, request_topic(node, call), wire.TOPICS[req_type]), qos.writer(req_type)
                 )
                 r = DataReader(
-                    dp, Topic(dp, reply_topic(node, call), wire.TOPICS[rep_type]), qos.reader(rep_type)
+                    dp, make_topic(dp, reply_topic(node, call), wire.TOPICS[rep_type]), qos.reader(rep_type)
                 )
                 w.set_status_mask(DDSStatus.PublicationMatched)
                 r.set_status_mask(DDSStatus.SubscriptionMatched)

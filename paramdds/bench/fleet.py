@@ -269,12 +269,12 @@ def _request_writer(dp: Any, qos: Any, partitions: list[str] | None = None) -> A
     """A GetParametersRequest writer with our QoS, in ``partitions`` if given (its own publisher)."""
     from cyclonedds.pub import DataWriter, Publisher
     from cyclonedds.qos import Policy, Qos
-    from cyclonedds.topic import Topic
 
+    from ..dds.topics import make_topic
     from ..dds.wire import types as wire
 
     owner = dp if partitions is None else Publisher(dp, qos=Qos(Policy.Partition(partitions=partitions)))
-    topic = Topic(dp, "GetParametersRequest", wire.GetParametersRequest)
+    topic = make_topic(dp, "GetParametersRequest", wire.GetParametersRequest)
     return DataWriter(owner, topic, qos.writer("GetParametersRequest"))
 
 

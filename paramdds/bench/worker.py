@@ -200,10 +200,10 @@ def role_partition(args: argparse.Namespace) -> None:
     partitions are the node ids hosted, so requests for other nodes never reach this process."""
     from cyclonedds.qos import Policy, Qos
     from cyclonedds.sub import DataReader, Subscriber
-    from cyclonedds.topic import Topic
 
     from ..dds.dispatch import Dispatcher
     from ..dds.qos import QosProfiles
+    from ..dds.topics import make_topic
     from ..dds.wire import types as wire
     from ._common import NODE_PREFIX, node_names
 
@@ -213,7 +213,7 @@ def role_partition(args: argparse.Namespace) -> None:
     # crashed with 10,000 partition names on one subscriber (1,000 work)
     names = [f"{NODE_PREFIX}*"] if args.wildcard else node_names(args.offset + args.nodes)[args.offset :]
     subscriber = Subscriber(dp, qos=Qos(Policy.Partition(partitions=names)))
-    topic = Topic(dp, "GetParametersRequest", wire.GetParametersRequest)
+    topic = make_topic(dp, "GetParametersRequest", wire.GetParametersRequest)
     reader = DataReader(subscriber, topic, qos.reader("GetParametersRequest"))
     dispatcher = Dispatcher(dp, "bench-partition")
     dispatcher.add_raw(reader, lambda data, _info: data, lambda _samples: None)

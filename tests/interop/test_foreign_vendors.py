@@ -372,9 +372,9 @@ def test_a_foreign_node_stamps_each_change_with_the_askers_claim(
     nothing carries "" (no last change); its get with descriptors and its own monitor say the
     same, and its client's set says who and via "api"."""
     from cyclonedds.sub import DataReader
-    from cyclonedds.topic import Topic
 
     from paramdds.dds.qos import QosProfiles
+    from paramdds.dds.topics import make_topic
     from paramdds.dds.wire import types as wire
 
     from ..reliability.rawwire import RawPeer
@@ -389,7 +389,7 @@ def test_a_foreign_node_stamps_each_change_with_the_askers_claim(
             peer = RawPeer(dp)
             state_reader = DataReader(
                 dp,
-                Topic(dp, "ParameterEvents", wire.ParameterEvent),
+                make_topic(dp, "ParameterEvents", wire.ParameterEvent),
                 QosProfiles.load().reader("ParameterEvents"),
             )
             state: dict[str, Any] = {}

@@ -14,11 +14,11 @@ from cyclonedds.core import Policy
 from cyclonedds.pub import DataWriter
 from cyclonedds.qos import Qos
 from cyclonedds.sub import DataReader
-from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
 from paramdds.dds._binding import write_serialized
 from paramdds.dds.qos import QosProfiles
+from paramdds.dds.topics import make_topic
 from paramdds.dds.wire import types as wire
 
 REQUESTS = ("SetParametersRequest", "GetParametersRequest", "ListParametersRequest")
@@ -36,15 +36,17 @@ class RawPeer:
     def __init__(self, participant: Any, *, count_events: bool = False) -> None:
         qos = QosProfiles.load()
         self.writers = {
-            name: DataWriter(participant, Topic(participant, name, wire.TOPICS[name]), qos.writer(name))
+            name: DataWriter(participant, make_topic(participant, name, wire.TOPICS[name]), qos.writer(name))
             for name in REQUESTS
         }
         self.readers = {
-            name: DataReader(participant, Topic(participant, name, wire.TOPICS[name]), qos.reader(name))
+            name: DataReader(participant, make_topic(participant, name, wire.TOPICS[name]), qos.reader(name))
             for name in REPLIES
         }
         self.events = (
-            DataReader(participant, Topic(participant, "ParameterEvents", wire.ParameterEvent), EVERY_EVENT)
+            DataReader(
+                participant, make_topic(participant, "ParameterEvents", wire.ParameterEvent), EVERY_EVENT
+            )
             if count_events
             else None
         )

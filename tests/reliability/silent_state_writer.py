@@ -19,12 +19,12 @@ import time
 def main() -> int:
     from cyclonedds.pub import DataWriter
     from cyclonedds.qos import Policy, Qos
-    from cyclonedds.topic import Topic
     from cyclonedds.util import duration
 
     from paramdds.dds._binding import assert_liveliness
     from paramdds.dds.participant import make_participant
     from paramdds.dds.qos import QosProfiles
+    from paramdds.dds.topics import make_topic
     from paramdds.dds.wire import types as wire
 
     participant = make_participant(int(os.environ["PARAMDDS_DOMAIN"]), localhost=True, app_name="silent")
@@ -35,7 +35,7 @@ def main() -> int:
     qos = QosProfiles.load().writer("ParameterEvents") + Qos(
         Policy.Liveliness.ManualByTopic(duration(seconds=1))
     )
-    writer = DataWriter(participant, Topic(participant, "ParameterEvents", wire.ParameterEvent), qos)
+    writer = DataWriter(participant, make_topic(participant, "ParameterEvents", wire.ParameterEvent), qos)
     print("ready", flush=True)
     while True:
         assert_liveliness(writer)

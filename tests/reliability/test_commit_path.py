@@ -20,13 +20,13 @@ from collections.abc import Sequence
 import pytest
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
-from cyclonedds.topic import Topic
 
 from paramdds.core.results import ChangeSet, SetOutcome
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import Parameter
 from paramdds.dds.assign import Assigner
 from paramdds.dds.qos import QosProfiles
+from paramdds.dds.topics import make_topic
 from paramdds.dds.wire import types as wire
 from paramdds.errors import ErrorCode, RemoteError
 
@@ -113,17 +113,19 @@ def test_a_code_this_client_does_not_know_is_a_generic_error_carrying_it(domain_
     participant = dds.participant(domain_id)
     qos = QosProfiles.load()
     state = DataWriter(
-        participant, Topic(participant, "ParameterEvents", wire.ParameterEvent), qos.writer("ParameterEvents")
+        participant,
+        make_topic(participant, "ParameterEvents", wire.ParameterEvent),
+        qos.writer("ParameterEvents"),
     )
     state.write(wire.ParameterEvent(node_id="future", name="", kind=wire.EVENT_PRESENCE, parameter_count=1))
     requests = DataReader(
         participant,
-        Topic(participant, "GetParametersRequest", wire.GetParametersRequest),
+        make_topic(participant, "GetParametersRequest", wire.GetParametersRequest),
         qos.reader("GetParametersRequest"),
     )
     replies = DataWriter(
         participant,
-        Topic(participant, "GetParametersResponse", wire.GetParametersResponse),
+        make_topic(participant, "GetParametersResponse", wire.GetParametersResponse),
         qos.writer("GetParametersResponse"),
     )
     stop = threading.Event()

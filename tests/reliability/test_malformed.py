@@ -16,7 +16,6 @@ from typing import Any
 
 import pytest
 from cyclonedds.pub import DataWriter
-from cyclonedds.topic import Topic
 
 from paramdds.core.descriptors import ParameterDescriptor
 from paramdds.core.limits import MAX_PARAMETERS_PER_REQUEST
@@ -24,6 +23,7 @@ from paramdds.core.table import ParameterTable
 from paramdds.core.values import ParameterType, ParameterValue
 from paramdds.dds._binding import write_serialized
 from paramdds.dds.qos import QosProfiles
+from paramdds.dds.topics import make_topic
 from paramdds.dds.wire import types as wire
 from paramdds.dds.wire.convert import value_to_wire
 
@@ -256,7 +256,7 @@ def test_a_monitor_drops_broken_state_samples_alone(
     participant = dds.participant(domain_id)
     writer = DataWriter(
         participant,
-        Topic(participant, "ParameterEvents", wire.ParameterEvent),
+        make_topic(participant, "ParameterEvents", wire.ParameterEvent),
         QosProfiles.load().writer("ParameterEvents"),
     )
     monitor = dds.monitor(domain_id)

@@ -17,11 +17,11 @@ import time
 
 import pytest
 from cyclonedds.pub import DataWriter
-from cyclonedds.topic import Topic
 
 from paramdds.core.table import ParameterTable
 from paramdds.dds.monitor import EventKind, MonitorEvent
 from paramdds.dds.qos import QosProfiles
+from paramdds.dds.topics import make_topic
 from paramdds.dds.wire import types as wire
 
 from .conftest import DDS, PARAMDDS, Proc, make_dds_env, paramdds_argv, start_server, wait
@@ -120,7 +120,7 @@ def test_watch_says_when_the_state_did_not_settle(domain_id: int, dds: DDS, proc
     participant = dds.participant(domain_id)
     writer = DataWriter(
         participant,
-        Topic(participant, "ParameterEvents", wire.ParameterEvent),
+        make_topic(participant, "ParameterEvents", wire.ParameterEvent),
         QosProfiles.load().writer("ParameterEvents"),
     )
     # a node that announces five parameters and never publishes them

@@ -248,17 +248,17 @@ def test_a_node_mirrored_from_ros2_is_marked(page: Page, console: Console, domai
     """A presence tagged origin=ros2 (the bridge's mirrored nodes) shows a mark in the list and
     the node's line, and "origin" in the API; so does its status (stale: a set waits on it)."""
     from cyclonedds.pub import DataWriter
-    from cyclonedds.topic import Topic
 
     from paramdds.dds.participant import close_participant, make_participant
     from paramdds.dds.qos import QosProfiles
+    from paramdds.dds.topics import make_topic
     from paramdds.dds.wire import types as wire
 
     dp = make_participant(domain, localhost=True)
     try:
         writer = DataWriter(
             dp,
-            Topic(dp, "ParameterEvents", wire.ParameterEvent),
+            make_topic(dp, "ParameterEvents", wire.ParameterEvent),
             QosProfiles.load().writer("ParameterEvents"),
         )
         tags = wire.ParameterValue(
