@@ -15,7 +15,6 @@ import threading
 from typing import Any
 
 from cyclonedds.pub import DataWriter
-from cyclonedds.topic import Topic
 
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import ParameterValue
@@ -23,6 +22,7 @@ from paramdds.dds.client import AsyncParameterClient, ParameterClient
 from paramdds.dds.participant import make_participant
 from paramdds.dds.qos import QosProfiles
 from paramdds.dds.server import ParameterServer
+from paramdds.dds.topics import make_topic
 from paramdds.dds.wire import types as wire
 
 NODES = [f"n{i}" for i in range(8)]
@@ -43,7 +43,9 @@ def main() -> dict[str, Any]:
     clients = [ParameterClient(dp, timeout=20.0) for _ in range(3)]
     qos = QosProfiles.load()
     writer = DataWriter(
-        dp, Topic(dp, "GetParametersRequest", wire.GetParametersRequest), qos.writer("GetParametersRequest")
+        dp,
+        make_topic(dp, "GetParametersRequest", wire.GetParametersRequest),
+        qos.writer("GetParametersRequest"),
     )
     errors: list[str] = []
     replies = [0]

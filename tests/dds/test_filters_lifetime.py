@@ -17,10 +17,10 @@ from typing import Any
 import pytest
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
-from cyclonedds.topic import Topic
 
 from paramdds.dds import filters
 from paramdds.dds.qos import QosProfiles
+from paramdds.dds.topics import make_topic
 from paramdds.dds.wire import types as wire
 
 from .helpers import DdsSession
@@ -55,7 +55,7 @@ def test_the_filter_outlives_every_reference_but_the_readers_and_then_goes(dds: 
     gc.collect()
     assert flt() is not None  # held by the topic the reader holds
 
-    topic = Topic(participant, "GetParametersRequest", wire.GetParametersRequest)
+    topic = make_topic(participant, "GetParametersRequest", wire.GetParametersRequest)
     writer = DataWriter(participant, topic, QosProfiles.load().writer("GetParametersRequest"))
     for i, node in enumerate(["other", "mine", "/mine", "other", "mine"] * 20):
         writer.write(wire.GetParametersRequest(node_id=node, client_id=1, request_id=i + 1, names=["x"]))

@@ -7,10 +7,10 @@ from collections.abc import Iterator
 
 import pytest
 from cyclonedds.sub import DataReader
-from cyclonedds.topic import Topic
 
 from paramdds.dds.assign import Assigner
 from paramdds.dds.qos import QosProfiles
+from paramdds.dds.topics import make_topic
 from paramdds.dds.wire import types as wire
 
 from .helpers import DdsSession, ServerProc, wait_until
@@ -93,7 +93,7 @@ def test_assignment_never_produces_replies_or_stale_replies(dds: DdsSession) -> 
         dp = dds.participant()
         history = DataReader(
             dp,
-            Topic(dp, "SetParametersResponse", wire.SetParametersResponse),
+            make_topic(dp, "SetParametersResponse", wire.SetParametersResponse),
             QosProfiles.load().assignment_reader(),  # asks for history: there must be none
         )
         second = dds.client(dp)

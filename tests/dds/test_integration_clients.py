@@ -26,7 +26,6 @@ from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsPublication
 from cyclonedds.pub import DataWriter
 from cyclonedds.qos import Policy
 from cyclonedds.sub import DataReader
-from cyclonedds.topic import Topic
 
 from paramdds.core.descriptors import ParameterDescriptor
 from paramdds.core.table import ParameterTable
@@ -35,6 +34,7 @@ from paramdds.dds._binding import matched_subscriptions
 from paramdds.dds.client import AsyncParameterClient, ParameterClient
 from paramdds.dds.qos import QosProfiles
 from paramdds.dds.server import ParameterServer
+from paramdds.dds.topics import make_topic
 from paramdds.dds.wire import types as wire
 from paramdds.errors import UnavailableError
 
@@ -247,7 +247,7 @@ def test_next_client_run_never_receives_a_stale_reply(dds: DdsSession) -> None:
     # TRANSIENT_LOCAL reply writer it would be handed the first run's 20 replies.
     dp = dds.participant()
     late_qos = QosProfiles.load().assignment_reader()  # RELIABLE, TRANSIENT_LOCAL
-    late = {name: DataReader(dp, Topic(dp, name, wire.TOPICS[name]), late_qos) for name in REPLY_TOPICS}
+    late = {name: DataReader(dp, make_topic(dp, name, wire.TOPICS[name]), late_qos) for name in REPLY_TOPICS}
     second = dds.client(dp)
     second.wait_for_node("replay", timeout=5.0)
     reply = second.set("replay", {"b": 42})  # request id 1 again
@@ -307,11 +307,13 @@ def test_raw_duplicate_request_is_applied_once(dds: DdsSession) -> None:
     dp = dds.participant()
     qos = QosProfiles.load()
     writer = DataWriter(
-        dp, Topic(dp, "SetParametersRequest", wire.SetParametersRequest), qos.writer("SetParametersRequest")
+        dp,
+        make_topic(dp, "SetParametersRequest", wire.SetParametersRequest),
+        qos.writer("SetParametersRequest"),
     )
     reader = DataReader(
         dp,
-        Topic(dp, "SetParametersResponse", wire.SetParametersResponse),
+        make_topic(dp, "SetParametersResponse", wire.SetParametersResponse),
         qos.reader("SetParametersResponse"),
     )
     assert client.list("dup").names == ("n",)  # the server is serving

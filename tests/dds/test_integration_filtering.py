@@ -21,12 +21,12 @@ from typing import Any
 
 import pytest
 from cyclonedds.pub import DataWriter
-from cyclonedds.topic import Topic
 
 from paramdds.core.table import ParameterTable
 from paramdds.core.values import ParameterValue
 from paramdds.dds import filters
 from paramdds.dds.qos import QosProfiles
+from paramdds.dds.topics import make_topic
 from paramdds.dds.wire import types as wire
 from paramdds.errors import ParamddsError
 
@@ -57,7 +57,7 @@ def table(node: str, **params: object) -> ParameterTable:
 
 
 def raw_get_writer(participant: Any) -> Any:
-    topic = Topic(participant, "GetParametersRequest", wire.GetParametersRequest)
+    topic = make_topic(participant, "GetParametersRequest", wire.GetParametersRequest)
     return DataWriter(participant, topic, QosProfiles.load().writer("GetParametersRequest"))
 
 

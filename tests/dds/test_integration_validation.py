@@ -10,7 +10,6 @@ from typing import Any
 import pytest
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
-from cyclonedds.topic import Topic
 
 from paramdds.core.descriptors import IntegerRange, ParameterDescriptor
 from paramdds.core.limits import MAX_PARAMETERS_PER_REQUEST, MAX_VALUE_BYTES
@@ -18,6 +17,7 @@ from paramdds.core.table import ParameterTable
 from paramdds.core.values import Parameter, ParameterValue
 from paramdds.dds.monitor import EventKind, MonitorEvent
 from paramdds.dds.qos import QosProfiles
+from paramdds.dds.topics import make_topic
 from paramdds.dds.wire import types as wire
 from paramdds.errors import ErrorCode, InvalidNameError, TooLargeError
 
@@ -280,11 +280,11 @@ def test_raw_garbage_requests_get_errors_and_the_server_keeps_serving(dds: DdsSe
     dp = dds.participant()
     qos = QosProfiles.load()
     writers = {
-        name: DataWriter(dp, Topic(dp, name, wire.TOPICS[name]), qos.writer(name))
+        name: DataWriter(dp, make_topic(dp, name, wire.TOPICS[name]), qos.writer(name))
         for name in ("SetParametersRequest", "GetParametersRequest", "ListParametersRequest")
     }
     readers = {
-        name: DataReader(dp, Topic(dp, name, wire.TOPICS[name]), qos.reader(name))
+        name: DataReader(dp, make_topic(dp, name, wire.TOPICS[name]), qos.reader(name))
         for name in ("SetParametersResponse", "GetParametersResponse", "ListParametersResponse")
     }
     me = 0xBAD

@@ -47,7 +47,6 @@ def test_localhost_keeps_its_interface_when_the_user_selects_none(monkeypatch: p
     assert config is not None and '<NetworkInterface address="127.0.0.1"/>' in config
 
 
-
 def test_every_participant_ignores_fast_dds_type_information_unless_the_user_says_otherwise(
     domain_id: int, monkeypatch: pytest.MonkeyPatch
 ) -> None:

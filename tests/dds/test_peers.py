@@ -17,11 +17,11 @@ from cyclonedds.domain import DomainParticipant
 from cyclonedds.pub import DataWriter
 from cyclonedds.qos import Policy, Qos
 from cyclonedds.sub import DataReader
-from cyclonedds.topic import Topic
 
 from paramdds.core.table import ParameterTable
 from paramdds.dds.participant import peer_mismatches
 from paramdds.dds.qos import QosProfiles
+from paramdds.dds.topics import make_topic
 from paramdds.dds.wire import types as wire
 from paramdds.errors import CallTimeoutError
 
@@ -39,7 +39,7 @@ from cyclonedds.idl import IdlStruct
 from cyclonedds.idl.annotations import appendable, key
 from cyclonedds.idl.types import bounded_str, uint64
 from cyclonedds.pub import DataWriter
-from cyclonedds.topic import Topic
+from paramdds.dds.topics import make_topic
 from paramdds.dds.participant import close_participant, make_participant
 from paramdds.dds.qos import QosProfiles
 
@@ -51,7 +51,7 @@ class OldGetRequest(IdlStruct, typename="paramdds.GetParametersRequest"):
     client_id: uint64 = 0
 
 dp = make_participant(int(sys.argv[1]), localhost=True, app_name="odd-peer")
-topic = Topic(dp, "GetParametersRequest", OldGetRequest)
+topic = make_topic(dp, "GetParametersRequest", OldGetRequest)
 writer = DataWriter(dp, topic, QosProfiles.load().writer("GetParametersRequest"))
 print(writer.guid, flush=True)
 sys.stdin.readline()
@@ -76,7 +76,7 @@ def test_a_peer_with_another_type_is_reported_with_its_process(
         session.server(_table(), participant=server_dp)
         # positive control: a writer of our type matches the server's reader, nothing is reported
         peer = session.participant("paramdds-test-peer")
-        topic = Topic(peer, "GetParametersRequest", wire.GetParametersRequest)
+        topic = make_topic(peer, "GetParametersRequest", wire.GetParametersRequest)
         good = DataWriter(peer, topic, QosProfiles.load().writer("GetParametersRequest"))
         assert wait_until(lambda: good.get_publication_matched_status().current_count == 1, 5)
         # nor does a client's set: its volatile writer is rightly not matched by the server's
@@ -130,7 +130,7 @@ def test_incompatible_qos_is_reported_on_both_sides(domain_id: int) -> None:
         monitor = session.monitor(participant=monitor_dp)
         assert monitor.wait_synced(timeout=5)
         peer = DomainParticipant(domain_id)
-        events = Topic(peer, "ParameterEvents", wire.ParameterEvent)
+        events = make_topic(peer, "ParameterEvents", wire.ParameterEvent)
         state = QosProfiles.load()
         # positive control: a reader with the State profile matches the server's writer
         good = DataReader(peer, events, state.reader("ParameterEvents"))
@@ -160,10 +160,10 @@ def test_a_call_that_times_out_names_the_mismatched_peer(domain_id: int) -> None
         peer = DomainParticipant(domain_id)
         qos = QosProfiles.load()
         presence = DataWriter(
-            peer, Topic(peer, "ParameterEvents", wire.ParameterEvent), qos.writer("ParameterEvents")
+            peer, make_topic(peer, "ParameterEvents", wire.ParameterEvent), qos.writer("ParameterEvents")
         )
         presence.write(wire.ParameterEvent(node_id="odd", kind=wire.EVENT_PRESENCE, parameter_count=1))
-        replies = Topic(peer, "GetParametersResponse", wire.GetParametersResponse)
+        replies = make_topic(peer, "GetParametersResponse", wire.GetParametersResponse)
         best_effort = DataWriter(peer, replies, Qos(Policy.Reliability.BestEffort))
         client.wait_for_node("odd")  # present: the call waits for a reply instead of UNAVAILABLE
         with pytest.raises(CallTimeoutError) as failure:

@@ -14,11 +14,11 @@ from cyclonedds.domain import DomainParticipant
 from cyclonedds.pub import DataWriter
 from cyclonedds.qos import Policy, Qos
 from cyclonedds.sub import DataReader
-from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
 from paramdds.dds.participant import close_participant, make_participant
 from paramdds.dds.qos import TOPIC_PROFILES, QosProfiles, default_path
+from paramdds.dds.topics import make_topic
 from paramdds.dds.wire import types
 from paramdds.errors import ErrorCode, FileFormatError
 
@@ -193,9 +193,9 @@ def _stop_writer_and_watch(domain_id: int, writer_qos: Qos, reader_qos: Qos) -> 
     writer_side = make_participant(domain_id, localhost=True, app_name="test_qos_writer")
     try:  # both closed at the end: a participant left open keeps its domain id configured
         reader = DataReader(
-            participant, Topic(participant, "ParameterEvents", types.ParameterEvent), qos=reader_qos
+            participant, make_topic(participant, "ParameterEvents", types.ParameterEvent), qos=reader_qos
         )
-        topic = Topic(writer_side, "ParameterEvents", types.ParameterEvent)
+        topic = make_topic(writer_side, "ParameterEvents", types.ParameterEvent)
         writer = DataWriter(writer_side, topic, qos=writer_qos)
         for name in ("a", "b", "c"):
             writer.write(types.ParameterEvent(node_id="n1", name=name, revision=1))

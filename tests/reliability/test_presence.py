@@ -17,11 +17,11 @@ from pathlib import Path
 import pytest
 from cyclonedds.core import Entity
 from cyclonedds.pub import DataWriter
-from cyclonedds.topic import Topic
 
 from paramdds.core.table import ParameterTable
 from paramdds.dds.discovery import PROBE_AFTER, Presence, is_quiet, is_settled
 from paramdds.dds.qos import QosProfiles
+from paramdds.dds.topics import make_topic
 from paramdds.dds.wire import types as wire
 from paramdds.errors import CallTimeoutError, UnavailableError
 
@@ -52,7 +52,9 @@ def test_a_state_writer_that_has_not_delivered_keeps_a_ghost_unknown(dds: DDS, d
     dds.server(domain_id, ParameterTable("present"))
     dp = dds.participant(domain_id)
     silent = DataWriter(
-        dp, Topic(dp, "ParameterEvents", wire.ParameterEvent), QosProfiles.load().writer("ParameterEvents")
+        dp,
+        make_topic(dp, "ParameterEvents", wire.ParameterEvent),
+        QosProfiles.load().writer("ParameterEvents"),
     )
     client = dds.client(domain_id)
     assert client.wait_for_node("present", timeout=5.0).online  # positive control

@@ -86,13 +86,13 @@ from paramdds.dds.participant import make_participant, close_participant
 from paramdds.secure.identity import load_identity
 from paramdds.dds.wire import types as wire
 from cyclonedds.pub import DataWriter
-from cyclonedds.topic import Topic
+from paramdds.dds.topics import make_topic
 from paramdds.dds.qos import QosProfiles
 
 dp = make_participant(int(sys.argv[2]), localhost=True, identity=load_identity(sys.argv[1]))
 qos = QosProfiles.load()
 # robot1 is granted: a writer in its partition is allowed, and it names other nodes
-topic = Topic(dp, "ParameterEvents", wire.ParameterEvent)
+topic = make_topic(dp, "ParameterEvents", wire.ParameterEvent)
 writer = DataWriter(dp.transport.publisher(["robot1"]), topic, qos.writer("ParameterEvents"))
 value = wire.ParameterValue(type=4, string_value="rogue-value")
 for _ in range(20):
