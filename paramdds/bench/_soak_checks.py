@@ -6,7 +6,7 @@ No DDS, no processes: the bench gathers the facts and these functions judge them
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -77,6 +77,18 @@ def verify_writes(
                 if held is None or int(held) != newest or (acked and newest < max(acked)):
                     v.wrong_final.append(f"{node} {name}: holds {held}, newest applied {newest}")
     return v
+
+
+def traced(lost: Iterable[str], acks: Mapping[str, Mapping[str, Sequence[object]]]) -> list[str]:
+    """Each lost ``node param value`` with the acknowledgement its client kept (``acks``:
+    node -> value -> [revision, incarnation, wall time]): which server life said it applied
+    it, at which revision, when: where to look in that server's history and logs."""
+    out = []
+    for entry in lost:
+        node, _name, value = entry.split()
+        ack = acks.get(node, {}).get(value)
+        out.append(f"{entry}: r{ack[0]} incarnation {ack[1]} at {ack[2]}" if ack else f"{entry}: no ack kept")
+    return out
 
 
 def wrong_presence(shown: Mapping[str, bool], expected: Mapping[str, bool]) -> dict[str, list[str]]:

@@ -76,10 +76,10 @@ def _stop_on_line(word: str) -> threading.Event:
     return stop
 
 
-def _write_once(client: Any, kind: str, node: str, values: dict[str, float]) -> dict[str, str]:
+def _write_once(client: Any, kind: str, node: str, values: dict[str, float]) -> tuple[dict[str, str], Any]:
     """One write; each parameter's outcome: ``applied``, ``failed:CODE`` (not applied, and
     never will be, by the client's rules) or ``unknown:CODE``; {} when a compare-and-set's
-    get failed (nothing was written)."""
+    get failed (nothing was written). With the node's reply, when it answered."""
     from ..errors import CallTimeoutError, OutcomeUnknownError, ParamddsError, UnavailableError
 
     try:
@@ -88,20 +88,20 @@ def _write_once(client: Any, kind: str, node: str, values: dict[str, float]) -> 
             try:
                 reply = client.set(node, values, atomic=True, if_revision=at)
             except (UnavailableError, CallTimeoutError) as exc:
-                return dict.fromkeys(values, f"failed:{exc.code.value}")
+                return dict.fromkeys(values, f"failed:{exc.code.value}"), None
         else:
             reply = client.set(node, values, atomic=kind == "atomic")
     except OutcomeUnknownError as exc:
-        return dict.fromkeys(values, f"unknown:{exc.code.value}")
+        return dict.fromkeys(values, f"unknown:{exc.code.value}"), None
     except (UnavailableError, CallTimeoutError) as exc:
         # a get that failed wrote nothing; a set told UNAVAILABLE or TIMEOUT was not applied
-        return {} if kind == "cas" else dict.fromkeys(values, f"failed:{exc.code.value}")
+        return ({} if kind == "cas" else dict.fromkeys(values, f"failed:{exc.code.value}")), None
     except ParamddsError as exc:  # an error this bench does not expect: it may have landed
-        return dict.fromkeys(values, f"unknown:{exc.code.value}")
+        return dict.fromkeys(values, f"unknown:{exc.code.value}"), None
     out: dict[str, str] = {}
     for r in reply.results:
         out[r.name] = "applied" if r.successful else f"failed:{r.code.value if r.code else 'REFUSED'}"
-    return out
+    return out, reply
 
 
 def role_client(args: argparse.Namespace) -> None:
@@ -115,6 +115,9 @@ def role_client(args: argparse.Namespace) -> None:
     # node -> param -> {"applied": [...], "failed": [...], "unknown": [...]} (the values written)
     ledger: dict[str, dict[str, dict[str, list[int]]]] = {}
     counts: dict[str, int] = {}
+    # node -> seq -> [revision, incarnation, wall time] of each acknowledged write: which
+    # server life said it applied it, and when (what a write found lost is traced with)
+    acks: dict[str, dict[int, list[object]]] = {}
     _say("READY", pid=os.getpid())
     if sys.stdin.readline().strip() != "go":
         return
@@ -128,7 +131,10 @@ def role_client(args: argparse.Namespace) -> None:
             seq += 1
             node = rng.choice(nodes)
             kind = kinds[seq % len(kinds)]
-            outcome = _write_once(client, kind, node, {a: float(seq), b: float(seq)})
+            outcome, reply = _write_once(client, kind, node, {a: float(seq), b: float(seq)})
+            if "applied" in outcome.values():
+                ack = [reply.revision, f"{reply.incarnation:016x}", round(time.time(), 3)]
+                acks.setdefault(node, {})[seq] = ack
             for name, said in outcome.items():
                 cls = said.split(":", 1)[0]
                 ledger.setdefault(node, {}).setdefault(name, {}).setdefault(cls, []).append(seq)
@@ -138,7 +144,7 @@ def role_client(args: argparse.Namespace) -> None:
             next_at += period
             stop.wait(max(0.0, next_at - time.monotonic()))
             next_at = max(next_at, time.monotonic() - period)  # no burst to catch up after a stall
-        _say("RESULT", writes=seq, counts=counts, ledger=ledger)
+        _say("RESULT", writes=seq, counts=counts, ledger=ledger, acks=acks)
     finally:
         client.close()
 

@@ -36,7 +36,7 @@ from typing import Any
 
 from ..exits import Terminated
 from ._common import RESULT, Worker, emit, median, note, render, worker_env
-from ._soak_checks import growth, stale_values, verify_writes, wrong_presence
+from ._soak_checks import growth, stale_values, traced, verify_writes, wrong_presence
 from ._soak_procs import HEAP_DIR_ENV, LiveStream, Proc, c_heap_mb, proc_stats
 from ._soak_worker import client_params
 
@@ -367,6 +367,7 @@ class Soak:
         end = t_start + seconds
         warm: dict[str, Any] | None = None
         series: list[dict[str, Any]] = []
+        restarts: list[list[object]] = []  # [server, "kill" or "stop", wall time stopped, started]
         next_sample = t_start
         i = 0
         while time.monotonic() < end:
@@ -374,6 +375,7 @@ class Soak:
             k = i % SERVERS
             kill = i % 2 == 1  # SERVERS is odd: each server is killed in every other of its turns
             ros = "ros2" not in self.skipped and i % ROS_EVERY == ROS_EVERY - 1
+            restarts.append([k, "kill" if kill else "stop", round(time.time(), 3)])
             self.stop_server(k, kill)
             if ros:
                 self.stop_ros_host()
@@ -381,6 +383,7 @@ class Soak:
                 f"server{k} {'killed' if kill else 'stopped'}" + (", ROS 2 host stopped" if ros else "")
             )
             self.start_server(k)
+            restarts[-1].append(round(time.time(), 3))
             if ros:
                 self.start_ros_host()
             self.check(f"server{k} started" + (", ROS 2 host started" if ros else ""))
@@ -402,7 +405,7 @@ class Soak:
         if warm is None:  # a run shorter than one turn of the churn
             warm = final
         return {"turns": i, "seconds": round(time.monotonic() - t_start, 1), "warm": warm, "end": final,
-                "series": series}  # fmt: skip
+                "series": series, "restarts": restarts}  # fmt: skip
 
     def finish(self) -> dict[str, Any]:
         """Stop the clients and the prober, then judge what they were told and what is shown."""
@@ -421,8 +424,12 @@ class Soak:
             [results[f"client{k}"]["ledger"] for k in range(len(CLIENTS))], finals, applied, compacted
         )
         stale = self._stale(finals)
+        acks: dict[str, dict[str, list[object]]] = {}
+        for k in range(len(CLIENTS)):
+            for node, seqs in results[f"client{k}"].get("acks", {}).items():
+                acks.setdefault(node, {}).update(seqs)
         return {
-            "writes": verdict.to_json(),
+            "writes": {**verdict.to_json(), "lost_acknowledged_as": traced(verdict.lost, acks)},
             "writes_ok": verdict.ok,
             "clients": {
                 f"client{k} ({kind})": results[f"client{k}"]["counts"] for k, kind in enumerate(CLIENTS)
@@ -552,7 +559,7 @@ def _data(
         "ros_nodes": 0 if "ros2" in skipped else ROS_NODES,
         "ros_domain": soak.ros_domain,
         "skipped": skipped,
-        "churn": {**{k: v for k, v in run.items() if k in ("turns", "seconds")}, **soak.events},
+        "churn": {**{k: v for k, v in run.items() if k in ("turns", "seconds", "restarts")}, **soak.events},
         "warm_at_s": run["warm"]["at_s"],
         "end_at_s": run["end"]["at_s"],
         "processes": processes,
@@ -608,6 +615,9 @@ def table(data: dict[str, Any]) -> str:
         f"{wr['unknown']} outcome unknown "
         f"({wr['unknown_landed']} of them applied); lost {len(wr['lost'])}, failed but landed "
         f"{len(wr['failed_but_landed'])}, wrong final value {len(wr['wrong_final'])}",
+        *(f"  lost: {x}" for x in wr["lost_acknowledged_as"]),
+        *(f"  failed but landed: {x}" for x in wr["failed_but_landed"]),
+        *(f"  wrong final value: {x}" for x in wr["wrong_final"]),
         f"presence: {pr['checks']} checks, viewers agreed in {pr['agreed_p50_s']} s at the median, "
         f"{pr['agreed_max_s']} s at most; wrong after the settle time: {len(pr['wrong'])}",
         f"viewers' values unlike the nodes' at the end: {sum(len(v) for v in data['stale_values'].values())}",

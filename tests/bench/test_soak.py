@@ -20,7 +20,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from paramdds.bench._soak_checks import growth, stale_values, verify_writes, wrong_presence
+from paramdds.bench._soak_checks import growth, stale_values, traced, verify_writes, wrong_presence
 from paramdds.bench.soak import _skipped
 
 
@@ -38,6 +38,15 @@ def test_a_correct_node_passes_and_each_kind_of_wrong_is_named() -> None:
     assert stale.wrong_final and not stale.ok
     missing = verify_writes([ledger], {}, {"n1": {"p": {1, 3}}})
     assert missing.wrong_final and not missing.ok
+
+
+def test_a_lost_write_is_traced_to_the_server_life_that_acknowledged_it() -> None:
+    acks = {"n1": {"1": [7, "00000000000000ab", 1796052349.7]}}  # as the client's JSON result has it
+    assert traced(["n1 p 1", "n1 q 2", "n2 p 1"], acks) == [
+        "n1 p 1: r7 incarnation 00000000000000ab at 1796052349.7",
+        "n1 q 2: no ack kept",
+        "n2 p 1: no ack kept",
+    ]
 
 
 def test_history_dropped_by_retention_is_judged_by_the_final_value() -> None:
