@@ -6,8 +6,10 @@ No DDS, no processes: the bench gathers the facts and these functions judge them
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping, Sequence
+import contextlib
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 # a client's ledger: node -> parameter -> outcome class ("applied", "failed", "unknown") -> values
@@ -79,16 +81,22 @@ def verify_writes(
     return v
 
 
-def traced(lost: Iterable[str], acks: Mapping[str, Mapping[str, Sequence[object]]]) -> list[str]:
-    """Each lost ``node param value`` with the acknowledgement its client kept (``acks``:
-    node -> value -> [revision, incarnation, wall time]): which server life said it applied
-    it, at which revision, when: where to look in that server's history and logs."""
-    out = []
-    for entry in lost:
-        node, _name, value = entry.split()
-        ack = acks.get(node, {}).get(value)
-        out.append(f"{entry}: r{ack[0]} incarnation {ack[1]} at {ack[2]}" if ack else f"{entry}: no ack kept")
-    return out
+def traced(lost: Iterable[str], acks: Iterable[Path]) -> list[str]:
+    """Each lost ``node param value`` with its acknowledgement as its client wrote it down
+    (``acks``: files of ``node value revision incarnation time`` lines): which server life
+    said it applied it, at which revision, when: where to look in that server's history."""
+    lost = list(lost)
+    if not lost:
+        return []
+    wanted = {tuple(entry.split()[::2]) for entry in lost}  # (node, value)
+    found: dict[tuple[str, ...], str] = {}
+    for path in acks:
+        with contextlib.suppress(FileNotFoundError), open(path) as f:
+            for line in f:
+                node, value, revision, incarnation, at = line.split()
+                if (node, value) in wanted:
+                    found[node, value] = f"r{revision} incarnation {incarnation} at {at}"
+    return [f"{e}: {found.get(tuple(e.split()[::2]), 'no acknowledgement written down')}" for e in lost]
 
 
 def wrong_presence(shown: Mapping[str, bool], expected: Mapping[str, bool]) -> dict[str, list[str]]:

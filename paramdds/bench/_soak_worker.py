@@ -115,9 +115,11 @@ def role_client(args: argparse.Namespace) -> None:
     # node -> param -> {"applied": [...], "failed": [...], "unknown": [...]} (the values written)
     ledger: dict[str, dict[str, dict[str, list[int]]]] = {}
     counts: dict[str, int] = {}
-    # node -> seq -> [revision, incarnation, wall time] of each acknowledged write: which
-    # server life said it applied it, and when (what a write found lost is traced with)
-    acks: dict[str, dict[int, list[object]]] = {}
+    # each acknowledged write's "node value revision incarnation time" (which server life said
+    # it applied it, and when: what a write found lost is traced with), to a file: a ledger
+    # this detailed in memory would grow the client by several % an hour; line by line, so a
+    # client killed leaves what it was told
+    acks = open(args.acks, "a", buffering=1) if args.acks else None  # noqa: SIM115
     _say("READY", pid=os.getpid())
     if sys.stdin.readline().strip() != "go":
         return
@@ -132,9 +134,8 @@ def role_client(args: argparse.Namespace) -> None:
             node = rng.choice(nodes)
             kind = kinds[seq % len(kinds)]
             outcome, reply = _write_once(client, kind, node, {a: float(seq), b: float(seq)})
-            if "applied" in outcome.values():
-                ack = [reply.revision, f"{reply.incarnation:016x}", round(time.time(), 3)]
-                acks.setdefault(node, {})[seq] = ack
+            if acks is not None and "applied" in outcome.values():
+                acks.write(f"{node} {seq} {reply.revision} {reply.incarnation:016x} {time.time():.3f}\n")
             for name, said in outcome.items():
                 cls = said.split(":", 1)[0]
                 ledger.setdefault(node, {}).setdefault(name, {}).setdefault(cls, []).append(seq)
@@ -144,7 +145,9 @@ def role_client(args: argparse.Namespace) -> None:
             next_at += period
             stop.wait(max(0.0, next_at - time.monotonic()))
             next_at = max(next_at, time.monotonic() - period)  # no burst to catch up after a stall
-        _say("RESULT", writes=seq, counts=counts, ledger=ledger, acks=acks)
+        if acks is not None:
+            acks.close()  # before the result: the bench reads the file once it has that
+        _say("RESULT", writes=seq, counts=counts, ledger=ledger)
     finally:
         client.close()
 
@@ -237,6 +240,7 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--rate", type=float, default=4.0, help="client: writes per second")
     p.add_argument("--interval", type=float, default=0.1, help="prober: seconds between gets")
     p.add_argument("--timeout", type=float, default=3.0, help="a call's timeout")
+    p.add_argument("--acks", default="", help="client: append each acknowledged write to this file")
     p.add_argument("--zenoh", default="", help="viewer: a remote monitor through this router")
     p.add_argument("--site", default="site0", help="viewer --zenoh: the site it holds")
     args = p.parse_args(argv)

@@ -195,7 +195,9 @@ class Soak:
         self._worker("prober", "prober", *nodes)
         for k, kind in enumerate(CLIENTS):
             rate = str(CLIENT_RATE)
-            self._worker(f"client{k}", "client", "--index", str(k), "--kind", kind, "--rate", rate, *nodes)
+            acks = str(self.tmp / f"client{k}.acks")
+            self._worker(f"client{k}", "client", "--index", str(k), "--kind", kind, "--rate", rate,
+                         "--acks", acks, *nodes)  # fmt: skip
         if "web" not in self.skipped:
             self._start_web()
         if "zenoh" not in self.skipped:
@@ -424,10 +426,7 @@ class Soak:
             [results[f"client{k}"]["ledger"] for k in range(len(CLIENTS))], finals, applied, compacted
         )
         stale = self._stale(finals)
-        acks: dict[str, dict[str, list[object]]] = {}
-        for k in range(len(CLIENTS)):
-            for node, seqs in results[f"client{k}"].get("acks", {}).items():
-                acks.setdefault(node, {}).update(seqs)
+        acks = [self.tmp / f"client{k}.acks" for k in range(len(CLIENTS))]
         return {
             "writes": {**verdict.to_json(), "lost_acknowledged_as": traced(verdict.lost, acks)},
             "writes_ok": verdict.ok,

@@ -40,12 +40,14 @@ def test_a_correct_node_passes_and_each_kind_of_wrong_is_named() -> None:
     assert missing.wrong_final and not missing.ok
 
 
-def test_a_lost_write_is_traced_to_the_server_life_that_acknowledged_it() -> None:
-    acks = {"n1": {"1": [7, "00000000000000ab", 1796052349.7]}}  # as the client's JSON result has it
-    assert traced(["n1 p 1", "n1 q 2", "n2 p 1"], acks) == [
-        "n1 p 1: r7 incarnation 00000000000000ab at 1796052349.7",
-        "n1 q 2: no ack kept",
-        "n2 p 1: no ack kept",
+def test_a_lost_write_is_traced_to_the_server_life_that_acknowledged_it(tmp_path: Path) -> None:
+    acks = tmp_path / "client0.acks"  # as a soak client writes it down
+    acks.write_text("n1 1 7 00000000000000ab 1796052349.700\nn1 2 8 00000000000000ab 1796052349.950\n")
+    assert traced([], [tmp_path / "absent"]) == []
+    assert traced(["n1 p 1", "n1 q 3", "n2 p 1"], [acks, tmp_path / "absent"]) == [
+        "n1 p 1: r7 incarnation 00000000000000ab at 1796052349.700",
+        "n1 q 3: no acknowledgement written down",
+        "n2 p 1: no acknowledgement written down",
     ]
 
 
