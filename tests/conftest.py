@@ -19,6 +19,7 @@ tags (Fast DDS) builds its environment without it (:func:`untagged_env`).
 from __future__ import annotations
 
 import os
+import signal
 import threading
 from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING
@@ -29,6 +30,11 @@ if TYPE_CHECKING:
     from .zenoh.conftest import Fleet
 
 os.environ["PARAMDDS_LOCALHOST"] = "1"
+# A shell starts a background job (`&`, nohup) with SIGINT ignored, and an ignored signal
+# stays ignored across exec: every program a test starts would then ignore the Ctrl-C the
+# test sends it. A handler of ours is reset to the default in each child instead.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 TEST_TAG = f"paramdds-test-{os.getpid()}"
 TEST_URI = f'<CycloneDDS><Domain id="any"><Discovery><Tag>{TEST_TAG}</Tag></Discovery></Domain></CycloneDDS>'
 os.environ["CYCLONEDDS_URI"] = TEST_URI
