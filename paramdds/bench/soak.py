@@ -170,6 +170,10 @@ class Soak:
         self.up[k], self.changed[k] = False, time.monotonic()
         self.events["server_kills" if kill else "server_stops"] += 1
 
+    def _acks(self, k: int) -> Path:
+        """Where client ``k`` writes down the writes it was told applied (see ``traced``)."""
+        return self.tmp / f"client{k}.acks"
+
     def _worker(self, tag: str, role: str, *argv: str) -> SoakWorker:
         w = SoakWorker(
             role,
@@ -195,9 +199,8 @@ class Soak:
         self._worker("prober", "prober", *nodes)
         for k, kind in enumerate(CLIENTS):
             rate = str(CLIENT_RATE)
-            acks = str(self.tmp / f"client{k}.acks")
             self._worker(f"client{k}", "client", "--index", str(k), "--kind", kind, "--rate", rate,
-                         "--acks", acks, *nodes)  # fmt: skip
+                         "--acks", str(self._acks(k)), *nodes)  # fmt: skip
         if "web" not in self.skipped:
             self._start_web()
         if "zenoh" not in self.skipped:
@@ -426,7 +429,7 @@ class Soak:
             [results[f"client{k}"]["ledger"] for k in range(len(CLIENTS))], finals, applied, compacted
         )
         stale = self._stale(finals)
-        acks = [self.tmp / f"client{k}.acks" for k in range(len(CLIENTS))]
+        acks = [self._acks(k) for k in range(len(CLIENTS))]
         return {
             "writes": {**verdict.to_json(), "lost_acknowledged_as": traced(verdict.lost, acks)},
             "writes_ok": verdict.ok,
