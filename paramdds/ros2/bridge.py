@@ -1,7 +1,9 @@
 """``paramdds ros2``: the long-lived bridge between a ROS 2 graph and a paramdds domain.
 
-One loop, every :data:`POLL` seconds, reads the ROS 2 graph (node names and enclaves,
-``/parameter_events`` writers) and the paramdds presence, and decides:
+One loop, every :data:`POLL` seconds (:data:`POLL_SEEKING` while a ROS 2 process does not
+answer or a node that left stalled is looked for, and at once when a stalled process
+answers), reads the ROS 2 graph (node names and enclaves, ``/parameter_events`` writers)
+and the paramdds presence, and decides:
 
 * **mirrored**: a ROS 2 node matching the mirror globs, not of the bridge enclave
   (the bridge itself, the nodes any bridge exposes) and not already on paramdds from
@@ -50,6 +52,10 @@ SECURE_REFUSED = (
 log = logging.getLogger(__name__)
 
 POLL = 0.5  # seconds between looks at the ROS 2 graph and the paramdds presence
+# ... while a ROS 2 process is shown stalled or a node that left stalled is looked for: what
+# a starved bridge must run for, from a process's resuming to its nodes mirrored, is mostly
+# looks (docs/ros2.md: the stall figures)
+POLL_SEEKING = 0.25
 START_WAIT = 3.0  # seconds at most a start waits to learn what paramdds already holds
 ORIGIN = "ros2"
 
@@ -99,7 +105,9 @@ class Bridge:
             show_unreachable=self._show_unreachable,
             hide_unreachable=self._hide_unreachable,
         )
-        self.liveness = Liveness()
+        self._wake = threading.Event()  # the loop looks now: a stalled process answered, or close()
+        self.liveness = Liveness(on_answer=self._wake.set)
+        self._seeking = False  # a process is shown stalled, or a node that left stalled is looked for
         self._unsaid: dict[str, MirrorTable] = {}  # node id -> back to ok, presence not written yet
         self._last_step: float | None = None
         self.exposer: Any = None
@@ -166,7 +174,8 @@ class Bridge:
                 self.step()
             except Exception:
                 log.exception("the bridge loop failed; trying again")
-            self._stop.wait(POLL)
+            self._wake.wait(POLL_SEEKING if self._seeking else POLL)
+            self._wake.clear()
 
     def step(self) -> None:
         """One look at both graphs (the loop's body)."""
@@ -237,6 +246,7 @@ class Bridge:
         groups = self.mirror.by_process()
         stalled = self.liveness.update({p: {m.fqn: m.link.ros for m in ms} for p, ms in groups.items()}, now)
         self.mirror.stalls(stalled, now)
+        self._seeking = bool(stalled) or self.mirror.looking()
         hosted = self.server.nodes
         for prefix, mirrors in groups.items():
             status = STALE if prefix in stalled else None
@@ -255,6 +265,7 @@ class Bridge:
 
     def close(self) -> None:
         self._stop.set()
+        self._wake.set()
         if self._thread is not None:
             self._thread.join(timeout=5.0)
         self.liveness.close()

@@ -5,8 +5,10 @@ storm) until Fast DDS's participant lease runs out (20 s by default). So the bri
 every :data:`PROBE_EVERY` seconds it calls ``get_parameter_types`` with no names on one
 mirrored node of each process (the cheapest parameter service: an empty answer), and a
 call unanswered for :data:`STALE_AFTER` seconds shows the process stalled, until it
-answers. A process is a DDS participant (the first 12 bytes of its writers' GIDs, the
-GUID prefix): an rclpy process stopped, or starved, answers for none of its nodes.
+answers. A stalled process is asked every :data:`PROBE_STALLED` seconds, and its answer
+wakes the bridge's loop (``on_answer``): it is shown running again as soon as it answers.
+A process is a DDS participant (the first 12 bytes of its writers' GIDs, the GUID
+prefix): an rclpy process stopped, or starved, answers for none of its nodes.
 
 One call per process, not per node, and one client per process in the bridge, made by the
 participant its node is mirrored through (the bridge's own, or one that found the process
@@ -18,7 +20,7 @@ wait set from every node's entities on each wake-up): docs/ros2.md has the figur
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -27,6 +29,7 @@ from .rosside import RosSide
 log = logging.getLogger(__name__)
 
 PROBE_EVERY = 1.0  # seconds between two probes of one process
+PROBE_STALLED = 0.25  # seconds between two probes of a process shown stalled
 STALE_AFTER = 1.0  # seconds a probe may go unanswered before its process shows stalled
 RESEND_AFTER = 5.0  # seconds after which an unanswered probe is no longer waited for
 PREFIX = 12  # bytes of a GID that name its participant (the RTPS GUID prefix)
@@ -57,11 +60,13 @@ class Liveness:
     A probe is sent every :data:`PROBE_EVERY` seconds whether or not the one before was
     answered: a request that reached a stopped process is not always answered when it
     resumes (seen: not until the 5 s after which it is dropped), a new one is at once. Any
-    answer shows the process answering; it shows stalled once its oldest call out, sent
-    after the last one answered, is :data:`STALE_AFTER` old, until one is answered."""
+    answer shows the process answering; it shows stalled once a call out, sent after the
+    last one answered (or out when that answer was seen: timed from then), is
+    :data:`STALE_AFTER` old, until one is answered."""
 
-    def __init__(self) -> None:
+    def __init__(self, on_answer: Callable[[], None] | None = None) -> None:
         self._probes: dict[bytes, _Probe] = {}
+        self._on_answer = on_answer  # called (on the executor's thread) when a stalled process answers
         self.sent = 0  # probes sent (for the figures)
 
     def update(self, processes: Mapping[bytes, Mapping[str, RosSide]], now: float) -> dict[bytes, float]:
@@ -99,6 +104,10 @@ class Liveness:
                     probe.client.remove_pending_request(f)
             else:
                 keep.append((t, f))
+        if answered is not None:
+            # it answers now: a call still out is late from now on, not from when it was sent
+            # (those sent while it was stopped would show it stalled again at its first answer)
+            keep = [(now, f) for _, f in keep]
         probe.out = keep
         late = now - keep[0][0] if keep else 0.0
         if late >= STALE_AFTER and not probe.stalled:
@@ -122,10 +131,14 @@ class Liveness:
     def _send(self, probe: _Probe, now: float) -> None:
         from rcl_interfaces import srv
 
-        probe.next_at = now + PROBE_EVERY
+        probe.next_at = now + (PROBE_STALLED if probe.stalled else PROBE_EVERY)
         if not probe.client.service_is_ready():  # not matched (yet): a call would say nothing
             return
-        probe.out.append((now, probe.client.call_async(srv.GetParameterTypes.Request(names=[]))))
+        future = probe.client.call_async(srv.GetParameterTypes.Request(names=[]))
+        if probe.stalled and self._on_answer is not None:
+            wake = self._on_answer
+            future.add_done_callback(lambda _f: wake())
+        probe.out.append((now, future))
         self.sent += 1
 
     def _drop(self, prefix: bytes) -> None:

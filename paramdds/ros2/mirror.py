@@ -861,6 +861,10 @@ class Mirror:
                 self._found[fqn] = newer
         return out
 
+    def looking(self) -> bool:
+        """Whether a node that left the graph stalled is looked for (see :meth:`found_again`)."""
+        return bool(self._gone)
+
     def stalls(self, stalled: Mapping[bytes, float], now: float) -> None:
         """The ROS 2 processes that do not answer now (participant -> since when, from
         :mod:`.liveness`). Each of their nodes keeps since when, and the rescue participants
