@@ -11,6 +11,9 @@ TRANSIENT_LOCAL data lives as long as its writer, so the assigner stays up.
 A server answers each assignment it applies (when it starts, or when the assignment
 changes) with a ``SetParametersResponse`` to the assigner's client id: an assigner made
 with ``on_reply`` hears every outcome as it happens, each refusal with the node's reason.
+The answers go through a TRANSIENT_LOCAL writer and reader of their own
+(:meth:`~paramdds.dds.qos.QosProfiles.answer_writer`): a node may answer before the
+assigner's reader has matched its writer, and a volatile answer would then be lost.
 """
 
 from __future__ import annotations
@@ -65,7 +68,7 @@ class Assigner:
             flt = NativeFilter("client")
             flt.set_client_id(self.client_id)
             replies = filtered_topic(participant, name, wire.TOPICS[name], flt)
-            reader = transport.reader(replies, profiles.reader(name))
+            reader = transport.reader(replies, profiles.answer_reader())
             self._dispatcher = Dispatcher(participant, "paramdds-assign")
             self._dispatcher.add(reader, transport.guard(reader, self._on_replies))
             self._dispatcher.start()

@@ -23,7 +23,8 @@ Who polls: a server and a monitor from their dispatch loop's tick; a client when
 call fails (its TIMEOUT or UNAVAILABLE names the peers). No Cyclone listener is
 installed: a listener's callbacks run on Cyclone's own receive and discovery
 threads and must take the GIL, so every event (and a client's volatile set writer
-meets a server's transient-local assignment reader, by design, at every start)
+meets a server's transient-local assignment reader, by design, at every start; an
+assigner's transient-local answer reader meets every server's volatile set replies)
 made discovery wait for whatever Python was doing; at 30 % packet loss that turned
 a few fresh ``paramdds`` processes in a hundred into a 10 s TIMEOUT.
 """
@@ -107,19 +108,25 @@ def _durability(qos: Any) -> Any:
     return Policy.Durability.Volatile
 
 
-def _by_design(ours: Any, endpoint: Any) -> bool:
-    """A volatile request writer and a transient-local assignment reader, which do not match.
+_ASSIGNED = frozenset({"SetParametersRequest", "SetParametersResponse"})
+"""The topics that carry assignments and their answers beside the interactive sets."""
 
-    By design: a server reads SetParametersRequest twice, interactive requests
-    (volatile) and retained assignments (transient-local). A client's volatile
-    writer matches the first, and the second correctly ignores it; each side
-    sees the other as incompatible in DURABILITY.
+
+def _by_design(ours: Any, endpoint: Any) -> bool:
+    """A volatile writer and a transient-local reader of an assignment topic, which do not match.
+
+    By design: assignments and their answers ride the set topics beside interactive
+    sets, with transient-local endpoints of their own. A server reads
+    SetParametersRequest twice, interactive requests (volatile) and retained
+    assignments (transient-local); an assigner reads its answers on
+    SetParametersResponse through a transient-local reader, which every server's
+    volatile reply writer meets. Each side sees the other as incompatible in DURABILITY.
     """
     from cyclonedds.qos import Policy
 
     mine, theirs = _durability(ours.get_qos()), _durability(endpoint.qos)
     return bool(
-        ours.topic.name == "SetParametersRequest"
+        ours.topic.name in _ASSIGNED
         and {mine, theirs} == {Policy.Durability.Volatile, Policy.Durability.TransientLocal}
     )
 
@@ -150,7 +157,7 @@ def _meets_by_design(ours: Any) -> bool:
     """
     from cyclonedds.qos import Policy
 
-    if ours.topic.name != "SetParametersRequest":
+    if ours.topic.name not in _ASSIGNED:
         return False
     wanted = Policy.Durability.TransientLocal if isinstance(ours, DataReader) else Policy.Durability.Volatile
     return bool(_durability(ours.get_qos()) == wanted)

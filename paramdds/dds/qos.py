@@ -10,7 +10,10 @@ rejects the vendor ``topic_filter`` attribute that would otherwise carry it::
     *Response        -> paramdds::Reply
 
 ``paramdds::Assignment`` has no topic of its own: it is the QoS of the retained
-(TRANSIENT_LOCAL) writer and reader on ``SetParametersRequest``.
+(TRANSIENT_LOCAL) writer and reader on ``SetParametersRequest``. The answers to
+assignments go through a writer and reader of their own on ``SetParametersResponse``:
+the Reply profile made TRANSIENT_LOCAL here (:meth:`QosProfiles.answer_writer`),
+so a file written for the four profiles still loads.
 
 Loading costs well under a millisecond once ``cyclonedds`` is imported (the
 import itself is deferred to :meth:`QosProfiles.load`). Every profile is read
@@ -39,6 +42,7 @@ __all__ = ["ASSIGNMENT", "LIBRARY", "PROFILES", "TOPIC_PROFILES", "QosProfiles",
 LIBRARY = "paramdds"
 ASSIGNMENT = "Assignment"
 PROFILES = ("State", "Request", "Reply", ASSIGNMENT)
+ANSWERS_KEPT = 16  # answers to assignments a server keeps per node, for assigners that match late
 
 TOPIC_PROFILES: tuple[tuple[str, str], ...] = (
     ("ParameterEvents", "State"),
@@ -137,6 +141,29 @@ class QosProfiles:
     def assignment_reader(self) -> Qos:
         """QoS of the retained (TRANSIENT_LOCAL) reader on ``SetParametersRequest``."""
         return self._profiles[ASSIGNMENT].reader
+
+    def answer_writer(self) -> Qos:
+        """QoS of a server's writer of the answers to assignments on ``SetParametersResponse``:
+        the Reply profile, TRANSIENT_LOCAL keeping the newest :data:`ANSWERS_KEPT` per node.
+
+        An assigner's reader may match after the node answered (each side discovers the other's
+        endpoints on its own): a volatile answer written before both matched never reaches it.
+        An assigner draws a new client id each run, so no answer meant for another run reaches it.
+        """
+        from cyclonedds.qos import Policy, Qos
+
+        kept = Policy.History.KeepLast(ANSWERS_KEPT)
+        return self._profiles["Reply"].writer + Qos(
+            Policy.Durability.TransientLocal,
+            Policy.DurabilityService(0, kept, -1, -1, -1),
+        )
+
+    def answer_reader(self) -> Qos:
+        """QoS of an assigner's reader of its answers: the Reply profile, TRANSIENT_LOCAL (it
+        matches only :meth:`answer_writer`, never the volatile interactive reply writers)."""
+        from cyclonedds.qos import Policy, Qos
+
+        return self._profiles["Reply"].reader + Qos(Policy.Durability.TransientLocal)
 
 
 def _profile_name(topic: str) -> str:

@@ -180,6 +180,11 @@ class ParameterServer:
                 )
                 for name in replies
             }
+            # the answers to assignments: kept for an assigner whose reader matches after the answer
+            self._answers = DataWriter(
+                self._pub, make_topic(self._dp, "SetParametersResponse", wire.SetParametersResponse),
+                self._qos.answer_writer(),
+            )
         self._dispatcher = Dispatcher(participant, "paramdds-server", tick=self._tick, period=LEASE / 4)
 
     def _request_topic(self, name: str) -> Any:
@@ -542,10 +547,16 @@ class ParameterServer:
         """A set's second half, once its changes are persisted (``failure`` says what failed)."""
         if failure:
             response.results = [_not_persisted(r, changes[-1].revision, failure) for r in response.results]
-        if not reply and (not all(r.successful for r in response.results) or response.code):
+        if reply:
+            self._send_reply("SetParametersResponse", response)
+            return
+        if not all(r.successful for r in response.results) or response.code:
             log.warning("assignment for %s partly refused: %s", table.node_id, _summary(response))
         # an assignment is answered too: its assigner reports each refusal (paramdds.dds.assign)
-        self._send_reply("SetParametersResponse", response)
+        try:
+            self._answers.write(response)
+        except Exception as exc:
+            self._log_once("write:answers", "could not answer an assignment of %s: %s", table.node_id, exc)
 
     def _apply_set(self, table: HostedTable, request: Any) -> tuple[list[Any], int]:
         deadlines.check(request.deadline)  # after its wait in the worker's queue (again at the commit)

@@ -77,9 +77,13 @@ def test_assignment_reaches_a_node_started_later_validated(dds: DdsSession) -> N
         assert {n: v.value for n, v in got.values().items()} == {"speed": 5, "limit": 4, "label": "default"}
 
 
-def test_assignment_never_produces_replies_or_stale_replies(dds: DdsSession) -> None:
-    assigner = Assigner(dds.participant("paramdds-test-assigner"))
-    assigner.assign("late", {"speed": 6})
+def test_an_answer_is_kept_for_an_assigner_that_matches_late_never_a_reply(dds: DdsSession) -> None:
+    """Each side discovers the other's endpoints on its own, so a node may answer an assignment
+    before the assigner's reader has matched its writer: the answer is kept for that reader (a
+    volatile one was lost, and ``paramdds assign`` waited for an answer that never came).
+    Interactive replies are never kept: a client that reuses request ids gets no old reply."""
+    assigner = Assigner(dds.participant("paramdds-test-assigner"))  # no reader of answers
+    assigner.assign("late", {"speed": 6, "limit": 99})  # limit is out of range
     with ServerProc(dds.domain_id, [NODE]):
         first = dds.client()
         first.wait_for_node("late", timeout=5.0)
@@ -91,10 +95,10 @@ def test_assignment_never_produces_replies_or_stale_replies(dds: DdsSession) -> 
         first.close()
 
         dp = dds.participant()
-        history = DataReader(
+        answers = DataReader(
             dp,
             make_topic(dp, "SetParametersResponse", wire.SetParametersResponse),
-            QosProfiles.load().assignment_reader(),  # asks for history: there must be none
+            QosProfiles.load().answer_reader(),  # matches after the answer: gets it all the same
         )
         second = dds.client(dp)
         second.wait_for_node("late", timeout=5.0)
@@ -103,5 +107,14 @@ def test_assignment_never_produces_replies_or_stale_replies(dds: DdsSession) -> 
         got = second.get("late", ["speed", "limit", "label"])
         assert got.revision == reply.revision
         assert {n: v.value for n, v in got.values().items()} == {"speed": 6, "limit": 9, "label": "run1-5"}
-        assert [s.client_id for s in history.take(N=100) if s.sample_info.valid_data] == []
+        kept: list[object] = []
+        assert wait_until(lambda: bool(kept.extend(answers.take(N=100))) or kept != [], timeout=5.0)
+        wait_until(lambda: False, 0.3)  # and nothing more
+        kept.extend(answers.take(N=100))
+        outcomes = [
+            (s.client_id, [(r.name, r.successful) for r in s.results])  # type: ignore[attr-defined]
+            for s in kept
+            if s.sample_info.valid_data  # type: ignore[attr-defined]
+        ]
+        assert outcomes == [(assigner.client_id, [("speed", True), ("limit", False)])]
         assert assigner.client_id not in {first.client_id, second.client_id}

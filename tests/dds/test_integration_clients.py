@@ -264,17 +264,30 @@ def test_next_client_run_never_receives_a_stale_reply(dds: DdsSession) -> None:
     # and the reason, as discovery shows it: request/reply writers are VOLATILE (and keep a
     # deep KEEP_LAST history, so a dead reader that never acks cannot block them)
     publications = BuiltinDataReader(dp, BuiltinTopicDcpsPublication)
-    seen: dict[str, Any] = {}
+    seen: dict[str, list[Any]] = {}
 
     def all_seen() -> bool:
-        seen.update((p.topic_name, p.qos) for p in publications.take(N=100) if p.sample_info.valid_data)
-        return all(name in seen for name in (*REPLY_TOPICS, *REQUEST_TOPICS))
+        for p in publications.take(N=100):
+            if p.sample_info.valid_data:
+                seen.setdefault(p.topic_name, []).append(p.qos)
+        # SetParametersResponse twice: the replies, and the answers to assignments
+        return all(name in seen for name in (*REPLY_TOPICS, *REQUEST_TOPICS)) and (
+            len(seen["SetParametersResponse"]) == 2
+        )
 
     assert wait_until(all_seen, timeout=5.0), sorted(seen)
     for name in (*REPLY_TOPICS, *REQUEST_TOPICS):
-        assert seen[name][Policy.Durability] == Policy.Durability.Volatile, name
-        assert seen[name][Policy.History] == Policy.History.KeepLast(4096), name
-        assert isinstance(seen[name][Policy.Reliability], Policy.Reliability.Reliable), name
+        volatile = [q for q in seen[name] if q[Policy.Durability] == Policy.Durability.Volatile]
+        assert volatile, name
+        for qos in volatile:
+            assert qos[Policy.History] == Policy.History.KeepLast(4096), name
+            assert isinstance(qos[Policy.Reliability], Policy.Reliability.Reliable), name
+    # the answers to assignments alone are kept, for an assigner that matches late (the newest
+    # 16 per node); interactive clients never read them (a transient-local reader of its own)
+    (kept,) = [q for q in seen["SetParametersResponse"] if q[Policy.Durability] != Policy.Durability.Volatile]
+    assert kept[Policy.Durability] == Policy.Durability.TransientLocal
+    assert kept[Policy.DurabilityService].history == Policy.History.KeepLast(16)
+    assert kept[Policy.History] == Policy.History.KeepLast(4096)
 
 
 def test_same_client_id_in_a_new_run_gets_its_own_replies(dds: DdsSession) -> None:

@@ -19,6 +19,8 @@ from cyclonedds.qos import Policy, Qos
 from cyclonedds.sub import DataReader
 
 from paramdds.core.table import ParameterTable
+from paramdds.dds.assign import Assigner
+from paramdds.dds.client import SetReply
 from paramdds.dds.participant import peer_mismatches
 from paramdds.dds.qos import QosProfiles
 from paramdds.dds.topics import make_topic
@@ -85,8 +87,19 @@ def test_a_peer_with_another_type_is_reported_with_its_process(
         client = session.client(participant=client_dp)
         client.wait_for_node("robot1")
         assert client.set("robot1", {"speed": 2.0}).successful
+        # nor does an assigner: its transient-local answer reader meets the server's volatile replies
+        assigner_dp = session.participant("paramdds-test-assigner")
+        answers: list[SetReply] = []
+        assigner = Assigner(assigner_dp, on_reply=lambda reply, _error: answers.append(reply))
+        try:
+            assigner.assign("robot1", {"speed": 3.0})
+            assert wait_until(lambda: answers != [], 5)
+            assert [(r.name, r.successful) for r in answers[0].results] == [("speed", True)]
+        finally:
+            assigner.close()
         wait_until(lambda: False, 0.3)
         assert peer_mismatches(server_dp) == [] and peer_mismatches(client_dp) == []
+        assert peer_mismatches(assigner_dp) == []
         with (
             caplog.at_level(logging.WARNING, logger="paramdds.peers"),
             subprocess.Popen(
