@@ -7,6 +7,8 @@ test_shared_domain.py uses; it needs no ROS 2.
 
 from __future__ import annotations
 
+import pytest
+
 from tests.support.ros2_shared import CRASH_CHARS, crash_report, ok, spread, table
 
 DUMP = """paramdds: INFO: paramdds.ros2.bridge: the ROS 2 graph has 101 nodes
@@ -98,6 +100,7 @@ def test_the_table_says_how_long_the_starved_bridge_ran_of_each_recovery() -> No
     )
 
 
+@pytest.mark.slow  # watches a process starved for 6 s
 def test_the_starver_counts_the_seconds_its_process_ran() -> None:
     import subprocess
     import sys

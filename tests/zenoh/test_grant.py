@@ -99,6 +99,7 @@ def test_the_router_holds_a_granted_token_and_says_it_holds_none_of_a_refused_on
         session.close()
 
 
+@pytest.mark.slow  # waits out two probes that never answer, beside a stopped router
 def test_a_probe_that_reaches_no_router_never_concludes_refused(router: Router) -> None:
     """The router gone (stopped, its sockets still open) or a probe that cannot connect: the
     check gives up, unknown; a gateway then goes on serving."""
