@@ -28,10 +28,11 @@ __all__ = ["paramdds_side"]  # the fixture, used by name below
 
 NODES = [f"/stall/node_{i:02d}" for i in range(10)]
 # seconds from a resumed node hosted again to its values checked. The check waits for the
-# process to answer through the participant that found it: asked at once, then every second
-# once its process answers its probe (the fixture's bridge gives up on a call after 2 s). It
-# took 0.005-0.14 s in 80 runs here (2026-12-01, 50 of them beside 3 or 6 busy loops), and
-# over 4 s in one CI run, where the process answered neither the check nor the probe meanwhile.
+# process to answer through the participant that found it: asked at once, again a second
+# after a check that failed, or, while its process shows stale, once it answers its probe
+# (the fixture's bridge gives up on a call after 2 s). It took 0.005-0.14 s in 80 runs here
+# (2026-12-01, 50 of them beside 3 or 6 busy loops), and over 4 s in one CI run, where the
+# process answered neither the check nor the probe meanwhile.
 CHECKED_WITHIN = 15.0
 
 
