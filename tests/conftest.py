@@ -3,7 +3,9 @@
 Isolation: every test that asks for ``domain_id`` gets a DDS domain id of its
 own, from a counter whose start is derived from this pytest process's pid, so
 repeated and parallel runs on one host do not meet. Cyclone's default port
-mapping allows domain ids up to 232; we use 100..230 and wrap.
+mapping allows domain ids up to 232; we use 100..230 and wrap. Under pytest-xdist
+(``-n 2``, the fast loop) each worker takes every n-th id of that range, none
+another worker takes.
 
 ``PARAMDDS_LOCALHOST=1`` is set for the whole session (and so inherited by
 every subprocess): nothing a test starts talks to the LAN or depends on
@@ -41,25 +43,34 @@ os.environ["CYCLONEDDS_URI"] = TEST_URI
 
 DOMAIN_FIRST = 100
 DOMAIN_LAST = 230
-_SPAN = DOMAIN_LAST - DOMAIN_FIRST + 1
 
 
 class _DomainCounter:
-    """Hands out domain ids DOMAIN_FIRST..DOMAIN_LAST, starting at a pid-derived offset."""
+    """Hands out domain ids DOMAIN_FIRST..DOMAIN_LAST, starting at a pid-derived offset; under
+    pytest-xdist, worker ``k`` of ``n`` only the ids ``≡ k (mod n)``, so no two workers of a
+    run ever hold one id at once (peers without discovery tags, Fast DDS, rely on that)."""
 
-    def __init__(self, seed: int) -> None:
-        self._next = seed % _SPAN
+    def __init__(self, seed: int, worker: int = 0, workers: int = 1) -> None:
+        self._ids = range(DOMAIN_FIRST + worker, DOMAIN_LAST + 1, workers)
+        self._next = seed % len(self._ids)
         self._lock = threading.Lock()
 
     def take(self) -> int:
         with self._lock:
-            value = DOMAIN_FIRST + self._next
-            self._next = (self._next + 1) % _SPAN
+            value = self._ids[self._next]
+            self._next = (self._next + 1) % len(self._ids)
         return value
 
 
+def _xdist_worker() -> tuple[int, int]:
+    """(this worker's index, the number of workers); (0, 1) outside pytest-xdist."""
+    name = os.environ.get("PYTEST_XDIST_WORKER", "")  # "gw0", "gw1", ...
+    count = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+    return (int(name[2:]), count) if name.startswith("gw") and count > 1 else (0, 1)
+
+
 # Multiplying the pid by a number coprime to the span spreads neighbouring pids apart.
-_domains = _DomainCounter(os.getpid() * 37)
+_domains = _DomainCounter(os.getpid() * 37, *_xdist_worker())
 
 
 def next_domain_id() -> int:

@@ -55,6 +55,7 @@ def test_watchers_see_a_node_loaded_from_a_ros_2_file_at_revision_1(domain: int)
         server.stop()
 
 
+@pytest.mark.slow  # four servers and eight commands: 6-7 s
 def test_list_and_dump_without_a_node_cover_every_node(domain: int, tmp_path: Path) -> None:
     robot_params = str(ROOT / "examples" / "robot_params.yaml")
     servers = [

@@ -26,7 +26,8 @@ from .examples import parse, run_page, unmarked_sessions
 ROOT = Path(__file__).resolve().parents[2]
 PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
 WITH_EXAMPLES = [p for p in PAGES if any(ex.skip is None for ex in parse(p))]
-LONG_PAGES = {"docs/cli.md", "docs/history.md", "docs/schema.md"}  # sessions of many servers and commands
+# sessions of many servers and commands
+LONG_PAGES = {"docs/cli.md", "docs/foxglove.md", "docs/history.md", "docs/schema.md"}
 
 
 def _marked(page: Path) -> Any:
