@@ -136,10 +136,12 @@ _CACHED_BYTES_MAX = 1_024
 _PLAIN_MAX = 65_536  # (name, type) pairs: small entries
 # Scalar values by their bytes: a fleet's nodes mostly hold the same few values, and sharing
 # them spares the allocations (and garbage-collector passes) of 200,000 new objects at once.
-# ~170 B an entry: 8,192 hold a fleet's common values in ~1.4 MB (a bound of 65,536, 11 MB,
-# was a long-lived reader's memory growing for half an hour under a stream of new values)
+# ~170 B an entry. 1,024 hold a fleet's common values (the 29 real parameter files of
+# shared/realworld hold 363 distinct scalars in all) in ~0.17 MB. A bound of 8,192
+# (~1.4 MB) was a long-lived monitor's memory growing for half an hour under the soak's stream
+# of new values, +4.2 % after a warm-up where 1,024 grew +0.6 % (docs/decisions.md).
 _values: dict[bytes, ParameterValue] = {}
-_VALUES_MAX = 8_192
+_VALUES_MAX = 1_024
 _VALUE_KEY_MAX = 96  # bytes: a scalar's 28 and a short string
 _VALUE_AT = 16  # from the revision to the value: revision (8), Time (8)
 # The tail after the descriptor (host pid parameter_count incarnation who verified via), read
