@@ -200,7 +200,7 @@ def role_viewer(args: argparse.Namespace) -> None:
 def role_prober(args: argparse.Namespace) -> None:
     from ..dds.client import ParameterClient
     from ..errors import ParamddsError
-    from ._common import percentile
+    from ._common import Latencies
 
     client = ParameterClient(_participant(args.domain, args.localhost, "prober"), timeout=args.timeout)
     name = client_params(0)[0]
@@ -209,7 +209,7 @@ def role_prober(args: argparse.Namespace) -> None:
         return
     stop = _stop_on_line("stop")
     rng = random.Random(7)
-    times: list[float] = []
+    times = Latencies()  # fixed memory: this process's RSS is measured
     failed: dict[str, int] = {}
     try:
         while not stop.is_set():
@@ -217,14 +217,14 @@ def role_prober(args: argparse.Namespace) -> None:
             t0 = time.perf_counter()
             try:
                 client.get(node, [name])
-                times.append((time.perf_counter() - t0) * 1e3)
+                times.add((time.perf_counter() - t0) * 1e3)
             except ParamddsError as exc:
                 failed[exc.code.value] = failed.get(exc.code.value, 0) + 1
             stop.wait(args.interval)
         stats = (
-            {"p50": percentile(times, 50), "p99": percentile(times, 99), "max": max(times)} if times else {}
+            {"p50": times.percentile(50), "p99": times.percentile(99), "max": times.max} if times.n else {}
         )
-        _say("RESULT", gets=len(times), ms=stats, failed=failed)
+        _say("RESULT", gets=times.n, ms=stats, failed=failed)
     finally:
         client.close()
 
