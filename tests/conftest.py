@@ -47,7 +47,7 @@ DOMAIN_LAST = 230
 
 class _DomainCounter:
     """Hands out domain ids DOMAIN_FIRST..DOMAIN_LAST, starting at a pid-derived offset; under
-    pytest-xdist, worker ``k`` of ``n`` only the ids ``≡ k (mod n)``, so no two workers of a
+    pytest-xdist, worker ``k`` of ``n`` only DOMAIN_FIRST + k, + k + n, …, so no two workers of a
     run ever hold one id at once (peers without discovery tags, Fast DDS, rely on that)."""
 
     def __init__(self, seed: int, worker: int = 0, workers: int = 1) -> None:
