@@ -323,3 +323,27 @@ def test_records_told_to_the_store_wait_for_their_changes_and_a_refusal_alone_is
     store.write_history()
     assert _store(tmp_path / "s.yaml").history("n").records[-1].via == "start"
     store.close()
+
+
+def test_a_compaction_takes_the_records_of_the_changes_its_snapshot_holds(tmp_path: Path) -> None:
+    """A compaction run by another node's append snapshots every table; a change committed
+    there whose record still waits for its own node's append is in that snapshot. Killed
+    before that append, the restarted server must hold the change and its record, or
+    neither (a retry then finds the value set, changes nothing and records nothing)."""
+    from functools import partial
+
+    table = ParameterTable("n")
+    table.declare("x", 0)
+    history = NodeHistory("n")
+    store = _store(tmp_path / "s.yaml")
+    store.attach({"n": table})
+    history.add_listener(partial(store.recorded, "n"))
+    table.add_change_listener(history.applied)  # type: ignore[arg-type]  # as the node's worker does
+    with acting(Origin("ann", Via.CLI)):
+        table.set([Parameter("x", ParameterValue.from_python(1))])
+    store.write()  # another node's append reached the compaction threshold
+    # killed here: the node's own append never ran
+    reopened = _store(tmp_path / "s.yaml")
+    assert {name: value.value for name, value, _ in reopened.read("n")} == {"x": 1}
+    assert [(r.who, r.new and r.new.value) for r in reopened.history("n").records] == [("ann", 1)]
+    store.close()

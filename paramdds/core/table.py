@@ -288,6 +288,13 @@ class ParameterTable:
             if got:
                 self._lock.release()
 
+    @contextmanager
+    def locked(self) -> Iterator[None]:
+        """Hold the table's lock: no commit, nor the change listeners it calls, runs meanwhile
+        (a store that snapshots the table and takes what its listeners queued, as one)."""
+        with self._lock:
+            yield
+
     def has(self, name: str) -> bool:
         with self._lock:
             return isinstance(name, str) and name in self._params

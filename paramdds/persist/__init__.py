@@ -24,7 +24,9 @@ Three files, all ours:
   carries any: a group of sets and the records saying who made them are one line.
 
 * ``FILE.history``, the nodes' **history** (:mod:`paramdds.persist.history`): every
-  compaction moves the journal's records there before it truncates the journal, and
+  compaction moves the journal's records there before it truncates the journal, with
+  the records of every change its snapshot holds (a node's change committed while
+  another node's append compacts, its records still waiting for its own append), and
   retention (count and age per node) bounds it.
 
 Guarantees:
@@ -400,6 +402,10 @@ class PersistStore:
         if idle and records and not any(r.applied for r in records):
             self.write_history(node_id)
 
+    def _take_waiting(self, node_id: str) -> list[HistoryRecord]:
+        with self._waiting_lock:
+            return self._waiting.pop(node_id, [])
+
     def write_history(self, node_id: str | None = None) -> None:
         """Write the records waiting (of ``node_id``, or of every node) now, durably."""
         with self._waiting_lock:
@@ -505,9 +511,17 @@ class PersistStore:
 
     def _compact(self) -> None:
         assert self._journal is not None
+        state = {}
+        for node, table in self._tables.items():
+            # the records of the changes the snapshot holds go with it: one still waiting for its
+            # node's append (another node's append compacts) would be lost with a crash before it
+            with table.locked():  # the change listeners that queue records run under this lock
+                state[node] = table.snapshot()
+                waiting = self._take_waiting(node)
+            if waiting:
+                self.history_file.add(node, waiting)
         self.history_file.checkpoint()  # the journal's records first: it is truncated below
         epoch = secrets.token_hex(8)
-        state = {node: table.snapshot() for node, table in self._tables.items()}
         records = [
             DELETED_PREFIX + json.dumps({"node": node, "names": sorted(names)}) + "\n"
             for node, names in sorted(self._deleted.items())
@@ -536,12 +550,10 @@ class PersistStore:
     ) -> int:
         """Append the node's line; with ``wait``, return once it is on disk. The append's
         number (0: nothing to wait for)."""
-        with self._waiting_lock:
-            waiting = self._waiting.pop(node_id, [])
-        records = [*waiting, *records]
-        if not changes and not records:
-            return 0
-        with self._lock:
+        with self._lock:  # taken before the records: a compaction takes them under it too
+            records = [*self._take_waiting(node_id), *records]
+            if not changes and not records:
+                return 0
             if self._journal is None:
                 raise PersistError("the persistence store is closed", file=str(self.path))
             if records:
