@@ -8,6 +8,7 @@ records with their seq, who, via, old and new, and every parameter's last change
 
 from __future__ import annotations
 
+from functools import partial
 from pathlib import Path
 from unittest.mock import patch
 
@@ -297,20 +298,25 @@ def test_a_torn_journal_line_drops_the_changes_and_their_records_together(tmp_pa
     assert [r.new.value for r in store.history("n").records] == [1]  # type: ignore[union-attr]
 
 
-def test_records_told_to_the_store_wait_for_their_changes_and_a_refusal_alone_is_written_at_once(
-    tmp_path: Path,
-) -> None:
-    from functools import partial
-
+def _wired(path: Path) -> tuple[ParameterTable, NodeHistory, PersistStore, list[ChangeSet]]:
+    """A table whose history tells the store its records, as a server wires them; the
+    change sets committed go to the list returned (what the worker's persist call takes)."""
     table = ParameterTable("n")
     table.declare("x", 0)
     history = NodeHistory("n")
-    store = _store(tmp_path / "s.yaml")
+    store = _store(path)
     store.attach({"n": table})
     history.add_listener(partial(store.recorded, "n"))
     changes: list[ChangeSet] = []
     table.add_change_listener(changes.append)
     table.add_change_listener(history.applied)  # type: ignore[arg-type]  # as the node's worker does
+    return table, history, store, changes
+
+
+def test_records_told_to_the_store_wait_for_their_changes_and_a_refusal_alone_is_written_at_once(
+    tmp_path: Path,
+) -> None:
+    table, history, store, changes = _wired(tmp_path / "s.yaml")
     with acting(Origin("ann", Via.CLI)):
         table.set([Parameter("x", ParameterValue.from_python(1))])
     assert _store(tmp_path / "s.yaml").history("n").records == ()  # waiting for its change's line
@@ -330,15 +336,7 @@ def test_a_compaction_takes_the_records_of_the_changes_its_snapshot_holds(tmp_pa
     there whose record still waits for its own node's append is in that snapshot. Killed
     before that append, the restarted server must hold the change and its record, or
     neither (a retry then finds the value set, changes nothing and records nothing)."""
-    from functools import partial
-
-    table = ParameterTable("n")
-    table.declare("x", 0)
-    history = NodeHistory("n")
-    store = _store(tmp_path / "s.yaml")
-    store.attach({"n": table})
-    history.add_listener(partial(store.recorded, "n"))
-    table.add_change_listener(history.applied)  # type: ignore[arg-type]  # as the node's worker does
+    table, _, store, _ = _wired(tmp_path / "s.yaml")
     with acting(Origin("ann", Via.CLI)):
         table.set([Parameter("x", ParameterValue.from_python(1))])
     store.write()  # another node's append reached the compaction threshold
