@@ -28,6 +28,7 @@ import os
 import threading
 import time
 from collections.abc import Callable, Sequence
+from concurrent.futures import InvalidStateError
 from functools import partial
 from typing import Any
 
@@ -264,7 +265,7 @@ class DdsClientTransport:
             reached = bool(before or writer.get_publication_matched_status().current_count)
             call.sent(reached, time.monotonic())
             if reached and call.copies == 1 and pending.message.expected_incarnation:
-                pending.serving_life = self._serving_life(call.node, since_first_copy=False)
+                pending.serving_life = self._serving_life(call.node, since_first_copy=False) or 0
         except Exception as exc:
             raise ParamddsError(f"could not send the request to {call.node!r}: {exc}") from exc
 
@@ -334,10 +335,31 @@ class DdsClientTransport:
                 continue
             pending = self._pending.pop(reply.request_id, None)
             if pending is not None and not pending.future.done():
-                if _refused_by_a_later_life(pending, reply, partial(self._serving_life, pending.node)):
-                    pending.future.set_exception(_later_life(pending, reply))
+                later = _refused_by_a_later_life(pending, reply, partial(self._serving_life, pending.node))
+                if later is None:  # rare: only the node's presence, not held yet, can say
+                    threading.Thread(
+                        target=self._answer_once_present,
+                        args=(pending, reply),
+                        name="paramdds-late-presence",
+                        daemon=True,
+                    ).start()
                 else:
-                    pending.future.set_result(reply)
+                    _answer(pending, reply, later)
+
+    def _answer_once_present(self, pending: PendingCall, reply: Any) -> None:
+        """Answer a refusal that only the node's presence can judge once this client holds it
+        (a one-shot client makes its presence reader with the first copy, and a server's reply
+        may come before its presence: CI's Fast DDS peer), waiting at most half the call's
+        remaining time (the other half leaves this answer ahead of the call's own deadline),
+        in a thread of its own so that no other reply waits. Without it then, the refusal is
+        not believed."""
+        node, now = pending.node, time.monotonic()
+        until = now + (pending.call.deadline - now) / 2
+        while self._presence_sample(node) is None and not pending.future.done():
+            if time.monotonic() >= until or self._closing.wait(PRESENCE_POLL):
+                break
+        later = _refused_by_a_later_life(pending, reply, lambda: self._serving_life(node) or 0)
+        _answer(pending, reply, bool(later))
 
     def _not_seen(self, node: str, waited: float, held: str = "") -> ParamddsError:
         """The error for a node not (or no longer) online after ``waited`` seconds."""
@@ -439,13 +461,16 @@ class DdsClientTransport:
         samples = self._believed(samples)
         return samples[-1] if samples else None
 
-    def _serving_life(self, node: str, since_first_copy: bool = True) -> int:
+    def _serving_life(self, node: str, since_first_copy: bool = True) -> int | None:
         """The server life (incarnation) serving ``node`` now, as its presence says (0: none
-        online). ``since_first_copy``: asked when a reply came, about a call whose first copy
-        found no presence; then only a life that is the one this client ever saw of the node
-        (no gap in its presence: not alive, then alive again) counts, else 0."""
+        online; None: this client holds no presence of it yet). ``since_first_copy``: asked
+        when a reply came, about a call whose first copy found no presence; then only a life
+        that is the one this client ever saw of the node (no gap in its presence: not alive,
+        then alive again) counts, else 0."""
         sample = self._presence_sample(canonical_node_id(node))
-        if sample is None or _node_info(sample) is None:
+        if sample is None:
+            return None
+        if _node_info(sample) is None:
             return 0
         info = sample.sample_info
         if info.instance_state != InstanceState.Alive:
@@ -532,11 +557,14 @@ def _node_info(sample: Any) -> NodeInfo | None:
     )
 
 
-def _refused_by_a_later_life(pending: PendingCall, reply: Any, serving_life: Callable[[], int]) -> bool:
+def _refused_by_a_later_life(
+    pending: PendingCall, reply: Any, serving_life: Callable[[], int | None]
+) -> bool | None:
     """Whether ``reply`` refuses a write from a server life other than the one it expected,
     after more than one copy went out (:meth:`~paramdds.core.call.Call.refused_by_a_later_life`).
     The life serving the node is the one seen when the first copy went out, else
-    ``serving_life()`` (the one life this client has seen, asked only in this rare case)."""
+    ``serving_life()`` (the one life this client has seen, asked only in this rare case;
+    None: no presence of the node held yet, and then neither is the answer)."""
     call = pending.call
     if not call.write or call.copies < 2:  # the common case, before reading the reply
         return False
@@ -544,7 +572,22 @@ def _refused_by_a_later_life(pending: PendingCall, reply: Any, serving_life: Cal
     expected, answering = pending.message.expected_incarnation, reply.incarnation
     if not call.refused_by_a_later_life(expected, answering, refused, pending.serving_life):
         return False
-    return pending.serving_life != 0 or serving_life() != answering
+    if pending.serving_life != 0:
+        return True
+    life = serving_life()
+    return None if life is None else life != answering
+
+
+def _answer(pending: PendingCall, reply: Any, later: bool) -> None:
+    """Set ``reply`` on its call, or the error of a refusal by a later life (``later``); a call
+    already ended (cancelled by an asyncio caller) is left as it is."""
+    try:
+        if later:
+            pending.future.set_exception(_later_life(pending, reply))
+        else:
+            pending.future.set_result(reply)
+    except InvalidStateError:
+        pass
 
 
 def _later_life(pending: PendingCall, reply: Any) -> OutcomeUnknownError:
