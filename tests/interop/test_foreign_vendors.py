@@ -245,8 +245,8 @@ def test_a_foreign_node_is_served_by_the_paramdds_tools(
         assert listed[0]["at"] == f"{incarnation}:1" and int(incarnation, 16) != 0
         got = _run([PARAMDDS, "get", "fnode", f"{p}speed", f"{p}count", "-o", "json"], cli_env)
         assert (got.returncode, json.loads(got.stdout)) == (0, {f"{p}speed": 1.5, f"{p}count": 3}), got.stderr
-        listed = _run([PARAMDDS, "list", "fnode", "-o", "json"], cli_env)
-        assert json.loads(listed.stdout) == sorted(f"{p}{n}" for n in ("speed", "count", "label", "enabled"))
+        names = _run([PARAMDDS, "list", "fnode", "-o", "json"], cli_env)
+        assert json.loads(names.stdout) == sorted(f"{p}{n}" for n in ("speed", "count", "label", "enabled"))
         done = _run([PARAMDDS, "set", "fnode", f"{p}speed=2.5", f"{p}label=on-ice", "-o", "json"], cli_env)
         assert done.returncode == 0, done.stdout + done.stderr
         result: dict[str, Any] = json.loads(done.stdout)
@@ -289,8 +289,8 @@ def test_a_foreign_node_is_served_by_the_paramdds_tools(
 
         with DdsSession(domain_id) as session:
             monitor = session.monitor()
-            assert wait_until(lambda: monitor.snapshot().get("fnode", None) is not None, 10)
-            assert monitor.snapshot()["fnode"].online
+            # the node's parameters may arrive before its presence: wait for both
+            assert wait_until(lambda: getattr(monitor.snapshot().get("fnode"), "online", False), 10)
             offline: list[str] = []
             monitor.add_callback(lambda e: offline.append(e.node) if e.event is EventKind.OFFLINE else None)
             node.kill()
@@ -474,9 +474,9 @@ def test_a_foreign_node_stamps_each_change_with_the_askers_claim(
             assert becomes("speed", ("peer-client", False, "api", 4)), blame("speed")
 
         # the vendor's own monitor prints each state's blame; "" prints none
-        seen = _run([str(program), "monitor", "5"], envs[0])
-        assert seen.returncode == 0, seen.stderr
-        assert {rest[1]: rest for rest in _lines(seen.stdout, "BLAME", 6)} == {
+        printed = _run([str(program), "monitor", "5"], envs[0])
+        assert printed.returncode == 0, printed.stderr
+        assert {rest[1]: rest for rest in _lines(printed.stdout, "BLAME", 6)} == {
             f"{p}speed": ["fnode", f"{p}speed", "api", "claimed", "4", "peer-client"],
             f"{p}count": ["fnode", f"{p}count", "api", "claimed", "2", "alice@lab"],
             f"{p}enabled": ["fnode", f"{p}enabled", "start", "verified", "1", "peer-node"],
