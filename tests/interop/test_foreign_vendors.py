@@ -255,20 +255,17 @@ def test_a_foreign_node_is_served_by_the_paramdds_tools(
         # compare-and-set on the foreign node's (incarnation, revision): a wrong incarnation is
         # refused although the revision matches, the right one applies
         # (the node's value is what is checked; `nodes` may show the revision before the last set)
-        def count() -> object:
-            got = _run([PARAMDDS, "get", "fnode", f"{p}count", "-o", "json"], cli_env)
-            return json.loads(got.stdout)[f"{p}count"]
-
         for _ in range(3):
             at = _state_of("fnode", cli_env)
             assert at.startswith(incarnation + ":")  # the same start: the incarnation holds
             other = f"{int(incarnation, 16) ^ 1:016x}:{at.partition(':')[2]}"
             stale = _run([PARAMDDS, "set", "fnode", f"{p}count=5", "--if-revision", other], cli_env)
-            assert stale.returncode == 1 and count() == 3  # the revision matches, the start does not
+            # the revision matches, the start does not: refused, nothing applied
+            assert (stale.returncode, _count_of(p, cli_env)) == (1, 3), stale.stdout + stale.stderr
             _run([PARAMDDS, "set", "fnode", f"{p}count=4", "--if-revision", at], cli_env)
-            if count() == 4:
+            if _count_of(p, cli_env) == 4:
                 break
-        assert count() == 4  # applied on the right (incarnation, revision)
+        assert _count_of(p, cli_env) == 4  # applied on the right (incarnation, revision)
         refused = _run([PARAMDDS, "set", "fnode", f"{p}speed=true"], cli_env)  # the node checks types
         assert refused.returncode == 1 and "TYPE" in refused.stdout + refused.stderr.upper()
 
@@ -298,6 +295,13 @@ def test_a_foreign_node_is_served_by_the_paramdds_tools(
             assert monitor.snapshot()["fnode"].parameters[f"{p}speed"][0].value == 2.5  # last values kept
     finally:
         node.kill()
+
+
+def _count_of(prefix: str, cli_env: dict[str, str]) -> object:
+    """The foreign node's ``count``, read by ``paramdds get`` (its error shown if it fails)."""
+    got = _run([PARAMDDS, "get", "fnode", f"{prefix}count", "-o", "json"], cli_env)
+    assert got.returncode == 0, got.stderr
+    return json.loads(got.stdout)[f"{prefix}count"]
 
 
 def _count_set(prefix: str, client_id: int, request_id: int, value: int, deadline: int = 0) -> Any:
@@ -339,12 +343,10 @@ def test_a_foreign_node_refuses_a_set_past_its_deadline(
     with _node_and_peer(vendor, envs, domain_id) as (p, _node, peer):
         late = peer.first_answer(_count_set(p, 99, 1, 7, time.time_ns() - 1_000_000_000))
         assert late.code == "EXPIRED" and "after its deadline" in late.reason, late
-        got = _run([PARAMDDS, "get", "fnode", f"{p}count", "-o", "json"], cli_env)
-        assert json.loads(got.stdout) == {f"{p}count": 3}  # nothing applied
+        assert _count_of(p, cli_env) == 3  # nothing applied
         in_time = peer.first_answer(_count_set(p, 99, 2, 7, time.time_ns() + 10_000_000_000))
         assert in_time.code == "" and in_time.results[0].successful, in_time
-        got = _run([PARAMDDS, "get", "fnode", f"{p}count", "-o", "json"], cli_env)
-        assert json.loads(got.stdout) == {f"{p}count": 7}
+        assert _count_of(p, cli_env) == 7
 
 
 def test_a_foreign_node_applies_a_resent_set_once(
