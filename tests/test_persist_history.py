@@ -16,6 +16,7 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
+from paramdds.core.descriptors import ParameterDescriptor
 from paramdds.core.history import HistoryQuery, HistoryRecord, NodeHistory, Retention
 from paramdds.core.origin import Origin, Via, acting
 from paramdds.core.results import ChangeSet
@@ -344,4 +345,25 @@ def test_a_compaction_takes_the_records_of_the_changes_its_snapshot_holds(tmp_pa
     reopened = _store(tmp_path / "s.yaml")
     assert {name: value.value for name, value, _ in reopened.read("n")} == {"x": 1}
     assert [(r.who, r.new and r.new.value) for r in reopened.history("n").records] == [("ann", 1)]
+    store.close()
+
+
+def test_a_compaction_keeps_the_deletions_its_snapshot_holds(tmp_path: Path) -> None:
+    """The same for a deletion: a snapshot without the name keeps its deletion record, or a
+    restart brings the name back from the parameter files while its history says deleted; a
+    name deleted, then declared again before the compaction, stays."""
+    table, _, store, _ = _wired(tmp_path / "s.yaml")
+    for name in ("y", "z"):
+        table.declare(name, 2, ParameterDescriptor("", dynamic_typing=True))
+    store.write()
+    with acting(Origin("ann", Via.CLI)):
+        table.undeclare("y")
+        table.undeclare("z")
+        table.declare("z", 3, ParameterDescriptor("", dynamic_typing=True))
+    store.write()  # another node's append compacts; killed before this node's own append
+    reopened = _store(tmp_path / "s.yaml")
+    assert reopened.deleted("n") == ["y"]
+    assert {name: value.value for name, value, _ in reopened.read("n")} == {"x": 0, "z": 3}
+    deletions = [r.name for r in reopened.history("n").records if r.applied and r.new is None]
+    assert deletions == ["y", "z"]
     store.close()

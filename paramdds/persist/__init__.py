@@ -75,7 +75,7 @@ import secrets
 import socket
 import threading
 import weakref
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 
 from ..core.descriptors import ParameterDescriptor
@@ -520,6 +520,9 @@ class PersistStore:
                 waiting = self._take_waiting(node)
             if waiting:
                 self.history_file.add(node, waiting)
+                # and so do its deletions: without their records the snapshot drops a deleted
+                # name while a restart brings it back from the parameter files or the spec
+                self._note_deleted(node, ((r.name, r.new is None) for r in waiting if r.applied))
         self.history_file.checkpoint()  # the journal's records first: it is truncated below
         epoch = secrets.token_hex(8)
         records = [
@@ -532,6 +535,16 @@ class PersistStore:
         self._lines = 0
         self._broken = False
         self._flushed = self._appended  # the snapshot holds every table's state
+
+    def _note_deleted(self, node_id: str, changed: Iterable[tuple[str, bool]]) -> None:
+        """Keep the node's deletion records in step with ``changed`` ((name, deleted), in
+        the order applied): a name declared again is no longer deleted."""
+        deleted = self._deleted.setdefault(node_id, set())
+        for name, gone in changed:
+            if gone:
+                deleted.add(name)
+            else:
+                deleted.discard(name)
 
     def record(
         self, table: HostedTable, changes: Sequence[ChangeSet], records: Sequence[HistoryRecord] = ()
@@ -562,13 +575,8 @@ class PersistStore:
                 data = encode_group(node_id, revision, changes, rows)
             else:
                 data = b"".join(encode_record(c) for c in changes)
-            deleted = self._deleted.setdefault(node_id, set())
-            for change in changes:
-                for c in change.changes:
-                    if c.kind is ChangeKind.DELETED:
-                        deleted.add(c.name)
-                    else:
-                        deleted.discard(c.name)  # declared again
+            changed = (c for change in changes for c in change.changes)
+            self._note_deleted(node_id, ((c.name, c.kind is ChangeKind.DELETED) for c in changed))
             if self._broken:
                 self._compact()  # the last append failed: the snapshot covers everything
                 return 0
