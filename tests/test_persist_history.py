@@ -367,3 +367,21 @@ def test_a_compaction_keeps_the_deletions_its_snapshot_holds(tmp_path: Path) -> 
     deletions = [r.name for r in reopened.history("n").records if r.applied and r.new is None]
     assert deletions == ["y", "z"]
     store.close()
+
+
+def test_a_name_deleted_and_declared_again_is_not_deleted_in_a_compaction_between(tmp_path: Path) -> None:
+    """The deletion's append ran (it takes every record waiting, the re-declaration's too),
+    the re-declaration's not yet, when another node's append compacts: the snapshot holds the
+    name, so no deletion record may say it is gone (a restart leaves a deleted name out
+    whatever the snapshot and the files hold)."""
+    table, _, store, changes = _wired(tmp_path / "s.yaml")
+    table.declare("y", 2, ParameterDescriptor("", dynamic_typing=True))
+    table.undeclare("y")
+    table.declare("y", 3, ParameterDescriptor("", dynamic_typing=True))
+    # the deletion's append, which takes every record waiting (the re-declaration's too)
+    store.record(table, changes[-2:-1])
+    store.write()  # another node's append compacts; killed before the re-declaration's append
+    reopened = _store(tmp_path / "s.yaml")
+    assert reopened.deleted("n") == []
+    assert {name: value.value for name, value, _ in reopened.read("n")} == {"x": 0, "y": 3}
+    store.close()

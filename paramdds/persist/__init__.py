@@ -523,6 +523,9 @@ class PersistStore:
                 # and so do its deletions: without their records the snapshot drops a deleted
                 # name while a restart brings it back from the parameter files or the spec
                 self._note_deleted(node, ((r.name, r.new is None) for r in waiting if r.applied))
+            # a name the snapshot holds is not deleted, though an append that took the record of
+            # its re-declaration noted only its own changes' deletion: a restart would leave it out
+            self._note_deleted(node, ((name, False) for name, _, _ in state[node]))
         self.history_file.checkpoint()  # the journal's records first: it is truncated below
         epoch = secrets.token_hex(8)
         records = [
