@@ -525,7 +525,7 @@ class PersistStore:
                 self._note_deleted(node, ((r.name, r.new is None) for r in waiting if r.applied))
             # a name the snapshot holds is not deleted, though an append that took the record of
             # its re-declaration noted only its own changes' deletion: a restart would leave it out
-            self._note_deleted(node, ((name, False) for name, _, _ in state[node]))
+            self._deleted.get(node, set()).difference_update(name for name, _, _ in state[node])
         self.history_file.checkpoint()  # the journal's records first: it is truncated below
         epoch = secrets.token_hex(8)
         records = [
