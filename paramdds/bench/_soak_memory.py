@@ -184,6 +184,7 @@ class Churn:
         self.nodes = [[f"memory_n{k}_{j}" for j in range(args.nodes)] for k in range(args.servers)]
         self.servers: list[Proc | None] = [None] * args.servers
         self.lives = 0
+        self.unclean_stops = 0  # clean stops SIGTERM did not end (the group killed after the grace)
         self.writes = {"applied": 0, "failed": 0}
         self._stop = threading.Event()
         self._writer: threading.Thread | None = None
@@ -205,6 +206,7 @@ class Churn:
         proc = self.servers[k]
         if proc is not None:
             proc.stop(kill=kill)
+            self.unclean_stops += not kill and proc.proc.returncode != 0
         self.servers[k] = None
 
     def start_writing(self, domain: int, localhost: bool, rate: float) -> None:
@@ -334,6 +336,7 @@ def _data(
         "warm_at_s": warm["at_s"],
         "end_at_s": end["at_s"],
         "writes": churn.writes,
+        "unclean_stops": churn.unclean_stops,
         "watchers": growth,
         "heap_grown_kib": top,
         "series": series,
@@ -354,7 +357,8 @@ def _table(data: dict[str, Any]) -> str:
     lines = [
         f"soak memory: {data['servers']} servers x {data['nodes_per_server']} nodes, {data['lives']} server "
         f"lives in {data['end_at_s']} s ({data['lives_after_warm_up']} after the warm-up look at "
-        f"{data['warm_at_s']} s); writes {data['writes']}",
+        f"{data['warm_at_s']} s); writes {data['writes']}; "
+        f"stops that needed SIGKILL: {data['unclean_stops']}",
         render(HEADS, rows),
     ]
     if data["heap_grown_kib"]:

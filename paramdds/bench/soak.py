@@ -140,9 +140,8 @@ class Soak:
         self.ros_env: dict[str, str] = {}
         self.ros_domain: int | None = None
         self.checks: list[dict[str, Any]] = []
-        self.events = dict.fromkeys(
-            ("server_stops", "server_kills", "ros_host_restarts", "ros_host_unclean_stops"), 0
-        )
+        counted = ("server_stops", "server_kills", "server_unclean_stops", "ros_host_restarts")
+        self.events = dict.fromkeys((*counted, "ros_host_unclean_stops"), 0)
 
     # -- starting --------------------------------------------------------------------------
 
@@ -167,6 +166,8 @@ class Soak:
         proc = self.servers[k]
         if proc is not None:
             proc.stop(kill=kill)
+            if not kill and proc.proc.returncode != 0:  # SIGTERM did not end it: the group was killed
+                self.events["server_unclean_stops"] += 1
         self.up[k], self.changed[k] = False, time.monotonic()
         self.events["server_kills" if kill else "server_stops"] += 1
 
@@ -552,7 +553,12 @@ def _data(
     wrong = [c for c in soak.checks if c["wrong"]]
     streams_ok = all(s["reconnects"] == 0 and s["quiet_s"] < 30.0 for s in judged["streams"])
     passed = (
-        judged["writes_ok"] and not wrong and not judged["stale_values"] and not judged["died"] and streams_ok
+        judged["writes_ok"]
+        and not wrong
+        and not judged["stale_values"]
+        and not judged["died"]
+        and streams_ok
+        and not soak.events["server_unclean_stops"]  # a server SIGTERM did not end
     )
     return {
         "minutes": minutes,
@@ -612,7 +618,8 @@ def table(data: dict[str, Any]) -> str:
         f"end at {data['end_at_s']} s",
         render(heads, rows),
         f"churn: {c['turns']} server restarts ({c['server_stops']} clean, {c['server_kills']} SIGKILL), "
-        f"{c['ros_host_restarts']} ROS 2 host restarts",
+        f"{c['ros_host_restarts']} ROS 2 host restarts; stops that needed SIGKILL: "
+        f"{c['server_unclean_stops']} servers, {c['ros_host_unclean_stops']} ROS 2 hosts",
         f"writes: {wr['acknowledged']} acknowledged, {wr['failed']} reported failed, "
         f"{wr['unknown']} outcome unknown "
         f"({wr['unknown_landed']} of them applied); lost {len(wr['lost'])}, failed but landed "

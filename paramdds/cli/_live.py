@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+import select
+import signal
 import threading
 import time
 from typing import TYPE_CHECKING
@@ -14,12 +17,26 @@ CURRENT_SETTLE = 2.0  # seconds current_states waits at most for the monitor to 
 
 
 def wait_until_interrupted(broken: threading.Event | None = None) -> None:
-    """Block the main thread until Ctrl-C (KeyboardInterrupt) or SIGTERM (Terminated)."""
-    while True:
-        if broken is not None and broken.wait(1.0):
-            raise BrokenPipeError("stdout was closed")
-        if broken is None:
-            time.sleep(3600)
+    """Block the main thread until Ctrl-C (KeyboardInterrupt) or SIGTERM (Terminated), or
+    until ``broken`` is set (BrokenPipeError).
+
+    The kernel hands a process's signal to any thread that does not block it, and Python runs
+    the handler in the main thread only when that thread next runs: asleep in ``time.sleep``
+    it would never see a signal a worker thread took. So the main thread waits on a wakeup fd,
+    which Python's C-level handler writes whichever thread the signal interrupted."""
+    read_end, write_end = os.pipe()
+    os.set_blocking(write_end, False)
+    previous = signal.set_wakeup_fd(write_end, warn_on_full_buffer=False)
+    try:
+        while True:  # a signal's handler runs (and raises) as soon as select returns
+            if select.select([read_end], [], [], None if broken is None else 1.0)[0]:
+                os.read(read_end, 512)
+            if broken is not None and broken.is_set():
+                raise BrokenPipeError("stdout was closed")
+    finally:
+        signal.set_wakeup_fd(previous)
+        os.close(read_end)
+        os.close(write_end)
 
 
 def current_states(session: Session, nodes: list[str] | None = None) -> dict[str, NodeState]:

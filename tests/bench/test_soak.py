@@ -111,6 +111,7 @@ def test_one_minute_soak_passes_its_checks(domain_id: int) -> None:
         assert data["skipped"] == {}  # CI installs every extra: the whole site runs there
     churn = data["churn"]
     assert churn["turns"] >= 5 and churn["server_kills"] >= 1 and churn["server_stops"] >= 1
+    assert churn["server_unclean_stops"] == 0, churn  # every server SIGTERM asked to stop did
     if "ros2" not in data["skipped"]:
         assert churn["ros_host_restarts"] >= 1 and data["ros_nodes"] == 20
     writes = data["writes"]
@@ -162,7 +163,10 @@ def test_the_memory_churn_counts_lives_and_its_decoder_keeps_one_entry_a_server_
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=240)
     assert done.returncode == 0 and done.stdout, done.stderr[-3000:]
     data = json.loads(done.stdout)
-    assert data["lives"] >= 4 and data["lives_after_warm_up"] >= 2
+    timeline = [(look["at_s"], look["lives"]) for look in data["series"]]
+    assert data["unclean_stops"] == 0, done.stderr[-3000:]  # a server SIGTERM did not end stalled the churn
+    looks = (data["warm_at_s"], data["end_at_s"], timeline)
+    assert data["lives"] >= 4 and data["lives_after_warm_up"] >= 2, looks
     assert set(data["watchers"]) == {"monitor", "traced", "bare"}
     assert data["watchers"]["traced"]["heap_mib_per_100_lives"] is not None and data["heap_grown_kib"]
     heap = data["watchers"]["bare"]["c_heap_mb"][1]  # glibc's count: a participant's C heap is MiBs

@@ -133,13 +133,17 @@ class Proc:
         """Send ``sig`` (if still running), wait, close the pipes; the exit code."""
         if self.popen.poll() is None:
             self.popen.send_signal(sig)
+        return self.wait(timeout, why=f"of signal {sig}")
+
+    def wait(self, timeout: float, why: str = "") -> int:
+        """The exit code once it ends by itself within ``timeout`` s (else killed, the test failed)."""
         try:
             code = self.popen.wait(timeout)
         except subprocess.TimeoutExpired:
             self.popen.kill()
             self.popen.wait()
             self._close()
-            raise AssertionError(f"{self.args} did not stop within {timeout} s of signal {sig}") from None
+            raise AssertionError(f"{self.args} did not stop within {timeout} s {why}".strip()) from None
         self._close()
         return code
 

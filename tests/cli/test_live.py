@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import ctypes
 import json
+import os
 import signal
 import time
+from pathlib import Path
 
 import pytest
 
@@ -72,6 +75,30 @@ def test_server_assign_and_client_end_with_130_on_ctrl_c(params_file: object) ->
     assert codes == [130, 130, 130]
     for p in (client, server, assign):
         assert "Traceback" not in p.stderr()
+
+
+@pytest.mark.parametrize(("sig", "code"), [(signal.SIGTERM, 0), (signal.SIGINT, 130)])
+def test_a_server_stops_when_its_signal_lands_on_a_worker_thread(sig: int, code: int) -> None:
+    """The kernel hands a process's signal to any thread that does not block it, and Python
+    runs the handler only once the main thread runs again: a server whose main thread slept
+    ignored one SIGTERM in ~30 of a busy soak's restarts. Here the signal goes to a Python
+    worker thread (tgkill); the server must still stop at once, with its exit code."""
+    server = start_server(next_domain(), "-n", "robot1")
+    pid = server.popen.pid
+    workers = [int(t.name) for t in Path(f"/proc/{pid}/task").iterdir() if int(t.name) != pid]
+    unblocked = [t for t in workers if _sig_blocked(pid, t) & (1 << (sig - 1)) == 0]
+    assert unblocked, "no worker thread that takes the signal"  # the dispatcher is one
+    libc = ctypes.CDLL(None, use_errno=True)
+    assert libc.tgkill(pid, unblocked[0], sig) == 0, os.strerror(ctypes.get_errno())
+    assert server.wait(5.0, why=f"of signal {sig} to thread {unblocked[0]}") == code
+    assert "Traceback" not in server.stderr()
+
+
+def _sig_blocked(pid: int, tid: int) -> int:
+    for line in Path(f"/proc/{pid}/task/{tid}/status").read_text().splitlines():
+        if line.startswith("SigBlk:"):
+            return int(line.split()[1], 16)
+    raise AssertionError(f"no SigBlk for thread {tid}")
 
 
 def wait_for_value(domain: int, node: str, name: str, value: object, limit: float = 10.0) -> bool:
