@@ -16,11 +16,11 @@ For each N of ``--nodes`` (default 10, 100, 300), both systems' hosts run side b
   get``), median of ``--rounds``;
 * ``warm get / set``: p50 and p99 over ``--requests`` calls to one node from one process;
 * ``graph``: topics (+ services for ROS 2), endpoints, DDS participants;
-* ``kill -9``: a host killed 0.3 s after a fresh state process started: how long that
-  process takes and how many nodes it got (with two hosts or more). The rclpy process cannot know a host died:
-  it waits until no new node appeared for 2 s, then for each node in its graph (the
-  dead host's stay there for Fast DDS's 20 s lease) up to its 5 s timeout; paramdds
-  sees the dead host's nodes offline within its 1 s lease, or never sees them;
+* ``kill -9`` (with two hosts or more): a host killed 0.3 s after a fresh state process
+  started: how long that process takes and how many nodes it got. The rclpy process cannot
+  know a host died: it waits until no new node appeared for 2 s, then for each node in its
+  graph (the dead host's stay there for Fast DDS's 20 s lease) up to its 5 s timeout;
+  paramdds sees the dead host's nodes offline within its 1 s lease, or never sees them;
 * ``bridge``: ``paramdds ros2`` started beside the rclpy system: time from its start
   until a fresh paramdds process holds all N mirrored nodes; then warm gets and sets of
   one mirrored node through it (``--requests``), beside rclpy's own warm calls.

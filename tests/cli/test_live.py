@@ -81,8 +81,8 @@ def test_server_assign_and_client_end_with_130_on_ctrl_c(params_file: object) ->
 def test_a_server_stops_when_its_signal_lands_on_a_worker_thread(sig: int, code: int) -> None:
     """The kernel hands a process's signal to any thread that does not block it, and Python
     runs the handler only once the main thread runs again: a server whose main thread slept
-    ignored one SIGTERM in ~30 of a busy soak's restarts. Here the signal goes to a Python
-    worker thread (tgkill); the server must still stop at once, with its exit code."""
+    ignored about 3 in 100 SIGTERMs when busy. Here the signal goes to a Python worker thread
+    (tgkill); the server must still stop at once, with its exit code."""
     server = start_server(next_domain(), "-n", "robot1")
     pid = server.popen.pid
     workers = [int(t.name) for t in Path(f"/proc/{pid}/task").iterdir() if int(t.name) != pid]
